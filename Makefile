@@ -1,0 +1,31 @@
+# Two entry points, both self-contained on a fresh machine:
+#   make paper   set up .venv, then run the paper's study into results/
+#   make test    set up .venv, then run the test suite (serial and mpiexec -n 2 cases)
+# PYTHON must be 3.12 (the DOLFINx wheel needs it); .python-version makes pyenv's python3 one.
+PYTHON ?= python3
+VENV   ?= .venv
+EXTRAS ?= dolfinx,test
+BIN     = $(VENV)/bin
+
+.PHONY: setup paper test bench clean
+
+setup: $(VENV)/.installed
+
+$(VENV)/.installed: pyproject.toml
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] >= (3, 12) else "tissuebench needs Python >= 3.12, got " + sys.version.split()[0] + " (set PYTHON=python3.12)")'
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade --quiet pip
+	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
+	touch $@
+
+paper: setup
+	$(BIN)/tissuebench paper --out results
+
+test: setup
+	$(BIN)/pytest
+
+bench: setup
+	$(BIN)/tissuebench bench --quick
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache
