@@ -1,0 +1,47 @@
+"""What a benchmark is: a tagged mesh, the constrained boundary with its prescribed motion,
+the body force, and the SPEC's defaults."""
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass
+class Constraint:
+    """Every component of the nodes on `entities` (of dimension `dim`, local indices) follows
+    `motion(t) -> (u, v, a)`, each an array of gdim components in m, m/s and m/s^2."""
+
+    name: str
+    dim: int
+    entities: np.ndarray
+    motion: Callable
+
+
+@dataclass
+class Benchmark:
+    name: str
+    tagged: object  # meshes.gmshio.TaggedMesh
+    constraints: list
+    gravity: tuple  # m/s^2, constant for t >= 0
+    material: str  # default material name
+    dt: float  # default time step h, s
+    end_time: float  # default end time T, s
+    extent: float  # largest extent of the undeformed domain, m (divergence threshold x 100)
+    mesh_size: int
+    probe: tuple | None = None  # a point whose displacement is reported (the rod's tip), m
+    options: dict = field(default_factory=dict)
+
+    @property
+    def mesh(self):
+        return self.tagged.mesh
+
+    @property
+    def gdim(self):
+        return self.tagged.mesh.geometry.dim
+
+
+def fixed(gdim):
+    """The motion of a clamped node: u = v = a = 0."""
+    zero = np.zeros(gdim)
+    return lambda t: (zero, zero, zero)

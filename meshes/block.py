@@ -1,0 +1,87 @@
+"""The 2D block of benchmark A (SPEC section 4): [0, 1] x [0, 1] m, N x N quadrilaterals.
+
+The right edge is split at the needle node (1, 0.5), so that N must be even. Physical groups:
+"left", "right", "bottom", "top" (edges) and "needle" (the node at (1, 0.5)).
+"""
+
+from mpi4py import MPI
+
+import dolfinx.mesh
+import gmsh
+import numpy as np
+
+from tissuebench.meshes.benchmark import Benchmark, Constraint, fixed
+from tissuebench.meshes.gmshio import MeshError, check_positive_int, start_gmsh, to_dolfinx
+
+LENGTH = 1.0  # m, both sides
+NEEDLE = (1.0, 0.5)  # m
+
+
+def gmsh_block(N):
+    """Build the structured N x N quadrilateral block in the current gmsh model."""
+    geo = gmsh.model.geo
+    p = [geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (1, 0), NEEDLE, (1, 1), (0, 1)]]
+    bottom = geo.addLine(p[0], p[1])
+    right_low = geo.addLine(p[1], p[2])
+    right_high = geo.addLine(p[2], p[3])
+    top = geo.addLine(p[3], p[4])
+    left = geo.addLine(p[4], p[0])
+    loop = geo.addCurveLoop([bottom, right_low, right_high, top, left])
+    surface = geo.addPlaneSurface([loop])
+    geo.synchronize()
+    for curve, cells in [(bottom, N), (top, N), (left, N), (right_low, N // 2), (right_high, N // 2)]:
+        gmsh.model.mesh.setTransfiniteCurve(curve, cells + 1)
+    gmsh.model.mesh.setTransfiniteSurface(surface, cornerTags=[p[0], p[1], p[3], p[4]])
+    gmsh.model.mesh.setRecombine(2, surface)
+    gmsh.model.addPhysicalGroup(2, [surface], 1, name="block")
+    gmsh.model.addPhysicalGroup(1, [left], 1, name="left")
+    gmsh.model.addPhysicalGroup(1, [right_low, right_high], 2, name="right")
+    gmsh.model.addPhysicalGroup(1, [bottom], 3, name="bottom")
+    gmsh.model.addPhysicalGroup(1, [top], 4, name="top")
+    gmsh.model.addPhysicalGroup(0, [p[2]], 5, name="needle")
+    gmsh.model.mesh.generate(2)
+
+
+def block_mesh(N=20, comm=MPI.COMM_WORLD, msh_path=None):
+    """The N x N block as a TaggedMesh distributed over `comm` (N even, cell size 1/N m)."""
+    check_positive_int("mesh size N", N)
+    if N % 2:
+        raise MeshError(f"mesh size N must be even so that the needle (1, 0.5) sits on a node, got {N}")
+    if comm.rank == 0:
+        start_gmsh()
+        gmsh.model.add(f"block-{N}")
+        gmsh_block(N)
+    return to_dolfinx(comm, gdim=2, msh_path=msh_path)
+
+
+def needle_motion(t):
+    """The needle's prescribed (u, v, a) at time t (s): u = (-0.08 min(t, 2), 0) m,
+    v = (-0.08, 0) m/s for 0 <= t < 2 and 0 after (right derivative), a = 0."""
+    speed = -0.08  # m/s
+    u = np.array([speed * min(t, 2.0), 0.0])
+    v = np.array([speed if t < 2.0 else 0.0, 0.0])
+    return u, v, np.zeros(2)
+
+
+def benchmark(mesh_size=20, needle_width=0.0, comm=MPI.COMM_WORLD, msh_path=None):
+    """Benchmark A: the block fixed on its left, bottom and top edges, pushed by the needle at
+    (1, 0.5). With needle_width w > 0 (m) every right-edge node with |y - 0.5| <= w/2 moves."""
+    if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):
+        raise MeshError(f"needle width must satisfy 0 <= w < 1 m, got {needle_width!r}")
+    tagged = block_mesh(mesh_size, comm, msh_path)
+    mesh = tagged.mesh
+    if needle_width > 0:
+        half = needle_width / 2 + 1e-10
+        needle = (0, dolfinx.mesh.locate_entities_boundary(
+            mesh, 0, lambda x: np.isclose(x[0], 1.0) & (np.abs(x[1] - 0.5) <= half)))
+    else:
+        needle = tagged.entities("needle")
+    constraints = [
+        Constraint("needle", *needle, needle_motion),
+        *(Constraint(edge, *tagged.entities(edge), fixed(2)) for edge in ("left", "bottom", "top")),
+    ]
+    return Benchmark(
+        name="block", tagged=tagged, constraints=constraints, gravity=(0.0, 0.0), material="MP1",
+        dt=1 / 30, end_time=10.0, extent=LENGTH, mesh_size=mesh_size,
+        options={"needle_width": needle_width},
+    )

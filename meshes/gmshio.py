@@ -1,0 +1,66 @@
+"""From a gmsh model to a distributed DOLFINx mesh with its boundary tags.
+
+The gmsh model is built on rank 0 only; `dolfinx.io.gmsh.model_to_mesh` distributes it.
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from mpi4py import MPI
+
+import gmsh
+import dolfinx.io.gmsh
+
+
+class MeshError(ValueError):
+    """A mesh that cannot be built from the arguments given (bad size, bad file)."""
+
+
+@dataclass
+class TaggedMesh:
+    """A DOLFINx mesh and its physical groups.
+
+    `tags[name]` is (dim, MeshTags) for every physical group of the gmsh script; `groups`
+    maps name to gmsh physical tag. Lengths are in metres.
+    """
+
+    mesh: object
+    tags: dict
+    groups: dict
+
+    def entities(self, name):
+        """(dim, local entity indices) of the physical group `name`."""
+        dim, mt = self.tags[name]
+        return dim, mt.find(self.groups[name])
+
+
+def start_gmsh():
+    if not gmsh.isInitialized():
+        gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.clear()
+
+
+def to_dolfinx(comm, gdim, msh_path=None):
+    """Turn the current gmsh model (on rank 0) into a TaggedMesh on `comm`; optionally save .msh."""
+    if comm.rank == 0 and msh_path is not None:
+        Path(msh_path).parent.mkdir(parents=True, exist_ok=True)
+        gmsh.write(str(msh_path))
+    data = dolfinx.io.gmsh.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=gdim)
+    if comm.rank == 0:
+        gmsh.clear()
+    tdim = data.mesh.topology.dim
+    by_codim = {0: data.cell_tags, 1: data.facet_tags, 2: data.ridge_tags, 3: data.peak_tags}
+    tags, groups = {}, {}
+    for name, group in data.physical_groups.items():
+        codim = tdim - group.dim
+        if codim == 0:
+            continue
+        tags[name] = (group.dim, by_codim[codim])
+        groups[name] = group.tag
+    return TaggedMesh(data.mesh, tags, groups)
+
+
+def check_positive_int(name, value):
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise MeshError(f"{name} must be a positive whole number, got {value!r}")

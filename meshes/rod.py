@@ -1,0 +1,59 @@
+"""The 3D rod of benchmark B (SPEC section 5): [0, 0.5] x [0, 0.25] x [0, 0.25] m,
+2n x n x n hexahedra. Physical group "clamped": the face x = 0; "free_end": the face x = 0.5.
+"""
+
+from mpi4py import MPI
+
+import gmsh
+
+from tissuebench.meshes.benchmark import Benchmark, Constraint, fixed
+from tissuebench.meshes.gmshio import check_positive_int, start_gmsh, to_dolfinx
+
+SIZE = (0.5, 0.25, 0.25)  # m: length (x), height (y), depth (z)
+TIP = (0.5, 0.25, 0.125)  # m: middle of the top edge of the free end
+
+
+def gmsh_rod(n):
+    """Build the structured 2n x n x n hexahedral rod in the current gmsh model."""
+    L, H, D = SIZE
+    geo = gmsh.model.geo
+    p = [geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (L, 0), (L, H), (0, H)]]
+    lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
+    rect = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+    for curve, cells in zip(lines, [2 * n, n, 2 * n, n]):
+        geo.mesh.setTransfiniteCurve(curve, cells + 1)
+    geo.mesh.setTransfiniteSurface(rect)
+    geo.mesh.setRecombine(2, rect)
+    out = geo.extrude([(2, rect)], 0, 0, D, numElements=[n], recombine=True)
+    geo.synchronize()
+    volume = [tag for dim, tag in out if dim == 3]
+    eps = 1e-9
+    clamped = gmsh.model.getEntitiesInBoundingBox(-eps, -eps, -eps, eps, H + eps, D + eps, 2)
+    free_end = gmsh.model.getEntitiesInBoundingBox(L - eps, -eps, -eps, L + eps, H + eps, D + eps, 2)
+    gmsh.model.addPhysicalGroup(3, volume, 1, name="rod")
+    gmsh.model.addPhysicalGroup(2, [t for _, t in clamped], 1, name="clamped")
+    gmsh.model.addPhysicalGroup(2, [t for _, t in free_end], 2, name="free_end")
+    gmsh.model.mesh.generate(3)
+
+
+def rod_mesh(n=3, comm=MPI.COMM_WORLD, msh_path=None):
+    """The 2n x n x n rod as a TaggedMesh distributed over `comm` (cell size 0.25/n m)."""
+    check_positive_int("mesh size n", n)
+    if comm.rank == 0:
+        start_gmsh()
+        gmsh.model.add(f"rod-{n}")
+        gmsh_rod(n)
+    return to_dolfinx(comm, gdim=3, msh_path=msh_path)
+
+
+GRAVITY = (0.0, -0.05, 0.0)  # m/s^2, switched on at t = 0
+
+
+def benchmark(mesh_size=3, comm=MPI.COMM_WORLD, msh_path=None):
+    """Benchmark B: the rod clamped at x = 0, bending under gravity 0.05 m/s^2 in -y."""
+    tagged = rod_mesh(mesh_size, comm, msh_path)
+    return Benchmark(
+        name="rod", tagged=tagged, constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(3))],
+        gravity=GRAVITY, material="MP3", dt=1 / 30, end_time=10.0, extent=max(SIZE),
+        mesh_size=mesh_size, probe=TIP,
+    )
