@@ -1,0 +1,105 @@
+"""Linear isotropic elastic materials with Rayleigh damping (SPEC section 1).
+
+Units: E in Pa, rho in kg/m^3, Rayleigh alpha in 1/s, Rayleigh beta in s.
+"""
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+
+class MaterialError(ValueError):
+    """A material that the SPEC does not allow, or a material file that cannot be read."""
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str
+    E: float  # Young's modulus, Pa
+    nu: float  # Poisson's ratio, -
+    rho: float  # density, kg/m^3
+    alpha: float = 0.0  # Rayleigh mass coefficient, 1/s
+    beta: float = 0.0  # Rayleigh stiffness coefficient, s
+
+    def __post_init__(self):
+        for field in ("E", "nu", "rho", "alpha", "beta"):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise MaterialError(f"material {self.name}: {field} must be a finite number, got {value!r}")
+        if self.E <= 0:
+            raise MaterialError(f"material {self.name}: E must be > 0 Pa, got {self.E}")
+        if not -1 < self.nu < 0.5:
+            raise MaterialError(f"material {self.name}: nu must satisfy -1 < nu < 0.5, got {self.nu}")
+        if self.rho <= 0:
+            raise MaterialError(f"material {self.name}: rho must be > 0 kg/m^3, got {self.rho}")
+        if self.alpha < 0:
+            raise MaterialError(f"material {self.name}: alpha must be >= 0 1/s, got {self.alpha}")
+        if self.beta < 0:
+            raise MaterialError(f"material {self.name}: beta must be >= 0 s, got {self.beta}")
+
+    @property
+    def mu(self):
+        """Shear modulus mu = E / (2(1 + nu)), Pa."""
+        return self.E / (2 * (1 + self.nu))
+
+    @property
+    def lmbda(self):
+        """Lame's first parameter lambda = E nu / ((1 + nu)(1 - 2 nu)), Pa."""
+        return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+
+    def lame(self, plane="strain"):
+        """(mu, lambda) in Pa; in 2D plane stress lambda* = 2 mu lambda / (lambda + 2 mu)."""
+        if plane == "strain":
+            return self.mu, self.lmbda
+        if plane == "stress":
+            return self.mu, 2 * self.mu * self.lmbda / (self.lmbda + 2 * self.mu)
+        raise MaterialError(f"plane must be 'strain' or 'stress', got {plane!r}")
+
+
+MATERIALS = {
+    "MP1": Material("MP1", E=200.0, nu=0.47, rho=2000.0, alpha=1.0, beta=0.1),
+    "MP2": Material("MP2", E=60_000.0, nu=0.495, rho=1140.0, alpha=1.0, beta=0.1),
+    "MP3": Material("MP3", E=7000.0, nu=0.2, rho=10_000.0, alpha=1.0, beta=0.1),
+}
+
+FIELDS = ("E", "nu", "rho", "alpha", "beta")
+
+
+def material_from_toml(path):
+    """Read a user material from a TOML file with keys name (optional), E, nu, rho, alpha, beta.
+
+    Example:
+        name = "liver"
+        E = 640.0      # Pa
+        nu = 0.45
+        rho = 1060.0   # kg/m^3
+        alpha = 1.0    # 1/s
+        beta = 0.1     # s
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MaterialError(f"material file {path} does not exist")
+    try:
+        data = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise MaterialError(f"material file {path} is not valid TOML: {err}") from None
+    unknown = set(data) - set(FIELDS) - {"name"}
+    if unknown:
+        raise MaterialError(f"material file {path}: unknown key(s) {', '.join(sorted(unknown))}")
+    missing = [f for f in ("E", "nu", "rho") if f not in data]
+    if missing:
+        raise MaterialError(f"material file {path}: missing {', '.join(missing)}")
+    return Material(name=str(data.get("name", path.stem)), **{f: data[f] for f in FIELDS if f in data})
+
+
+def get_material(spec):
+    """A Material from a name (MP1, MP2, MP3), a TOML file path, or a Material."""
+    if isinstance(spec, Material):
+        return spec
+    spec = str(spec)
+    if spec in MATERIALS:
+        return MATERIALS[spec]
+    if spec.endswith(".toml") or Path(spec).exists():
+        return material_from_toml(spec)
+    raise MaterialError(f"unknown material {spec!r}: use one of {', '.join(MATERIALS)} or a .toml file")

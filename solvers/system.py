@@ -1,0 +1,155 @@
+"""The assembled system of SPEC section 2: K, M, M_L and f in PETSc, and the constrained
+degrees of freedom with their prescribed motion.
+
+Units: K in N/m, M and M_L in kg, f in N (SI throughout).
+"""
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from dolfinx import fem
+
+from tissuebench.solvers.materials import get_material
+
+
+def epsilon(u):
+    """Small strain, sym(grad u)."""
+    return ufl.sym(ufl.grad(u))
+
+
+def sigma(u, mu, lmbda):
+    """Linear isotropic stress, 2 mu eps + lambda tr(eps) I."""
+    return 2 * mu * epsilon(u) + lmbda * ufl.tr(epsilon(u)) * ufl.Identity(len(u))
+
+
+class System:
+    """K, M, M_L and f of one benchmark and material, with the constrained dofs.
+
+    Vectors are PETSc Vecs over the owned dofs of V (vector Q1, block size gdim); a dof's
+    local index in a Vec is its local index in V. `constrained` holds the local indices of
+    the owned constrained dofs and `component` their displacement component.
+    """
+
+    def __init__(self, benchmark, material=None, plane="strain", matrix_type=None):
+        self.benchmark = benchmark
+        self.material = get_material(material or benchmark.material)
+        self.mesh = mesh = benchmark.mesh
+        self.comm = mesh.comm
+        self.gdim = gdim = mesh.geometry.dim
+        self.plane = plane
+        mu, lmbda = self.material.lame(plane) if gdim == 2 else (self.material.mu, self.material.lmbda)
+        self.V = V = fem.functionspace(mesh, ("Lagrange", 1, (gdim,)))
+
+        # Material data as Constants: one compiled form serves every material.
+        self.mu = fem.Constant(mesh, PETSc.ScalarType(mu))
+        self.lmbda = fem.Constant(mesh, PETSc.ScalarType(lmbda))
+        self.rho = fem.Constant(mesh, PETSc.ScalarType(self.material.rho))
+        self.g = fem.Constant(mesh, np.asarray(benchmark.gravity, dtype=PETSc.ScalarType))
+        u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+        self.k_form = fem.form(ufl.inner(sigma(u, self.mu, self.lmbda), epsilon(w)) * ufl.dx)
+        self.m_form = fem.form(self.rho * ufl.inner(u, w) * ufl.dx)
+        self.f_form = fem.form(self.rho * ufl.inner(self.g, w) * ufl.dx)
+
+        self.K = dolfinx.fem.petsc.assemble_matrix(self.k_form, kind=matrix_type)
+        self.K.assemble()
+        self.M = dolfinx.fem.petsc.assemble_matrix(self.m_form, kind=matrix_type)
+        self.M.assemble()
+        self.f = dolfinx.fem.petsc.assemble_vector(self.f_form)
+        self.f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.f = self.owned_copy(self.f)
+        # Lumped mass: row sums of M on the diagonal, M_L = M 1.
+        self.ML = self.K.createVecLeft()
+        ones = self.K.createVecRight()
+        ones.set(1.0)
+        self.M.mult(ones, self.ML)
+        self._constrain(benchmark.constraints)
+
+    def owned_copy(self, x):
+        """A plain (unghosted) Vec holding the owned entries of x."""
+        y = self.K.createVecLeft()
+        y.array[:] = x.array_r[: y.getLocalSize()]
+        return y
+
+    def _constrain(self, constraints):
+        V, bs = self.V, self.gdim
+        n_owned = V.dofmap.index_map.size_local
+        owner = {}
+        for k, c in enumerate(constraints):
+            self.mesh.topology.create_connectivity(c.dim, self.mesh.topology.dim)
+            nodes = fem.locate_dofs_topological(V, c.dim, c.entities)
+            for node in nodes[nodes < n_owned]:
+                owner[int(node)] = k  # a later constraint wins on a shared node
+        nodes = np.array(sorted(owner), dtype=np.int64)
+        which = np.array([owner[n] for n in nodes], dtype=np.int64)
+        self.constrained = (bs * nodes[:, None] + np.arange(bs)).ravel().astype(np.int32)
+        self.component = np.tile(np.arange(bs), len(nodes))
+        self._which = np.repeat(which, bs)
+        self._motions = [c.motion for c in constraints]
+        offset = V.dofmap.index_map.local_range[0] * bs
+        self.constrained_global = (self.constrained + offset).astype(PETSc.IntType)
+        self.free = np.setdiff1d(np.arange(n_owned * bs, dtype=np.int32), self.constrained)
+
+    def prescribed(self, t):
+        """(u, v, a) of the constrained dofs at time t (s), aligned with self.constrained."""
+        values = np.zeros((3, len(self.constrained)))
+        for k, motion in enumerate(self._motions):
+            sel = self._which == k
+            if sel.any():
+                for j, x in enumerate(motion(t)):
+                    values[j, sel] = np.asarray(x)[self.component[sel]]
+        return values
+
+    def num_dofs(self):
+        return self.V.dofmap.index_map.size_global * self.gdim
+
+    def function(self, values=None, name="displacement"):
+        """A Function on V holding the owned values `values` (ghosts updated)."""
+        fn = fem.Function(self.V, name=name)
+        if values is not None:
+            fn.x.array[: len(values)] = values
+            fn.x.scatter_forward()
+        return fn
+
+
+def gather_by_coordinates(V, values, comm=None):
+    """On rank 0: (coordinates, values) of all nodes of V in one order fixed by the node
+    coordinates, whatever the partition; None on other ranks. `values` are owned dof values."""
+    comm = comm or V.mesh.comm
+    bs = V.dofmap.bs
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    parts = comm.gather((x, np.asarray(values).reshape(n, bs)), root=0)
+    if comm.rank != 0:
+        return None
+    x = np.concatenate([p[0] for p in parts])
+    vals = np.concatenate([p[1] for p in parts])
+    order = np.lexsort(np.round(x, 10).T[::-1])
+    return x[order], vals[order]
+
+
+def probe(V, values, point):
+    """The finite-element field with owned dof values `values`, evaluated at `point` (m).
+    Collective; every rank returns the same vector."""
+    import dolfinx.geometry
+
+    mesh = V.mesh
+    fn = fem.Function(V)
+    fn.x.array[: len(values)] = values
+    fn.x.scatter_forward()
+    p = np.zeros((1, 3))
+    p[0, : len(point)] = point
+    tree = dolfinx.geometry.bb_tree(mesh, mesh.topology.dim)
+    candidates = dolfinx.geometry.compute_collisions_points(tree, p)
+    cells = dolfinx.geometry.compute_colliding_cells(mesh, candidates, p).links(0)
+    n_owned_cells = mesh.topology.index_map(mesh.topology.dim).size_local
+    cells = cells[cells < n_owned_cells]
+    found = len(cells) > 0
+    value = fn.eval(p, cells[:1]) if found else np.zeros(V.dofmap.bs)
+    # a point on a partition boundary may be found on several ranks: take the lowest rank's
+    owner = mesh.comm.allreduce(mesh.comm.rank if found else mesh.comm.size, op=MPI.MIN)
+    if owner == mesh.comm.size:
+        raise ValueError(f"point {point} is outside the mesh")
+    return mesh.comm.bcast(np.asarray(value), root=owner)
