@@ -1,0 +1,101 @@
+"""Linear solves for the integrators: a PETSc KSP set up and factorised once, or a diagonal.
+
+Solver choices are PETSc options under a prefix per integrator (for example `implicit_`);
+options already in the PETSc database (from the command line or `set_petsc_options`) win
+over the defaults below.
+"""
+
+from petsc4py import PETSc
+
+SOLVERS = {
+    # factor once (MUMPS LU), then one forward/backward substitution per step
+    "direct": {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
+    # conjugate gradients with algebraic multigrid, warm-started from the last solution
+    "cg": {"ksp_type": "cg", "pc_type": "gamg", "ksp_rtol": 1e-12, "ksp_atol": 1e-50,
+           "ksp_initial_guess_nonzero": True, "ksp_max_it": 1000},
+    # the paper's Gauss-Seidel: Richardson iteration preconditioned by SOR
+    "gauss-seidel": {"ksp_type": "richardson", "pc_type": "sor", "ksp_rtol": 1e-12,
+                     "ksp_atol": 1e-50, "ksp_initial_guess_nonzero": True, "ksp_max_it": 100000},
+}
+
+
+class SolveError(RuntimeError):
+    """A linear solve that did not converge (treated as divergence of the run)."""
+
+
+def set_petsc_options(text):
+    """Put options such as "-implicit_ksp_type cg -implicit_pc_type gamg" in PETSc's database."""
+    words = text.split()
+    opts = PETSc.Options()
+    i = 0
+    while i < len(words):
+        key = words[i].lstrip("-")
+        if i + 1 < len(words) and not words[i + 1].startswith("-"):
+            opts[key] = words[i + 1]
+            i += 2
+        else:
+            opts[key] = ""
+            i += 1
+
+
+def make_ksp(A, prefix, solver="direct"):
+    """A KSP for the constant matrix A, set up (and factorised) once."""
+    if solver not in SOLVERS:
+        raise ValueError(f"unknown solver {solver!r}: use one of {', '.join(SOLVERS)}")
+    opts = PETSc.Options()
+    for key, value in SOLVERS[solver].items():
+        if not opts.hasName(prefix + key):
+            opts[prefix + key] = value
+    ksp = PETSc.KSP().create(A.getComm())
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(A)
+    ksp.setFromOptions()
+    ksp.setUp()
+    return ksp
+
+
+class KSPSolve:
+    """x = A^-1 b with a KSP built once."""
+
+    def __init__(self, A, prefix, solver="direct"):
+        self.A = A
+        self.ksp = make_ksp(A, prefix, solver)
+
+    def __call__(self, b, x):
+        self.ksp.solve(b, x)
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise SolveError(f"KSP {self.ksp.getOptionsPrefix()} did not converge (reason {reason})")
+
+
+class DiagonalSolve:
+    """x = b / d, pointwise: a lumped mass needs no KSP."""
+
+    def __init__(self, d):
+        self.d = d
+
+    def __call__(self, b, x):
+        x.pointwiseDivide(b, self.d)
+
+
+def step_operator(system, mass_coef, stiffness_coef, lumped, prefix, solver="direct"):
+    """The solve with S = mass_coef (M or M_L) + stiffness_coef K, constrained rows and columns
+    replaced by the identity. A diagonal S (lumped mass, no K) is solved pointwise."""
+    if lumped and stiffness_coef == 0:
+        d = system.ML.copy()
+        d.scale(mass_coef)
+        d.array[system.constrained] = 1.0
+        return DiagonalSolve(d)
+    if lumped:
+        S = system.K.copy()
+        S.scale(stiffness_coef)
+        d = system.ML.copy()
+        d.scale(mass_coef)
+        S.setDiagonal(d, addv=PETSc.InsertMode.ADD_VALUES)
+    else:
+        S = system.M.copy()
+        S.scale(mass_coef)
+        if stiffness_coef != 0:
+            S.axpy(stiffness_coef, system.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+    S.zeroRowsColumns(system.constrained_global, diag=1.0)
+    return KSPSolve(S, prefix, solver)

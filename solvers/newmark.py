@@ -1,0 +1,109 @@
+"""Newmark time stepping in the paper's parameterisation (SPEC section 3):
+
+    u_{i+1} = u_i + h v_i + (1 - beta_N) h^2/2 a_i + beta_N h^2/2 a_{i+1}
+    v_{i+1} = v_i + (1 - gamma) h a_i + gamma h a_{i+1}
+    M a_{i+1} + C v_{i+1} + K u_{i+1} = f_{i+1},   C = alpha M + beta K
+
+Constrained dofs take their prescribed (u, v, a) at every t_i; the free ones solve the
+equation of motion with the constrained values moved to the right-hand side. With the
+prescribed values put into the predictors, the unknown is the free part delta of a_{i+1}:
+
+    S delta = f - M (a0 + alpha vbar) - K (ubar + beta vbar),
+    S = (1 + gamma h alpha) M + (gamma h beta + beta_N h^2/2) K.
+"""
+
+from dataclasses import dataclass
+
+from tissuebench.solvers.linear import step_operator
+
+
+@dataclass
+class State:
+    """(u, v, a) at step i, t = i h: PETSc Vecs in m, m/s, m/s^2."""
+
+    i: int
+    t: float
+    u: object
+    v: object
+    a: object
+
+
+class Newmark:
+    """One Newmark scheme: `start()` gives the initial state, `step(state)` the next one."""
+
+    name = "newmark"
+
+    def __init__(self, system, h, beta_N, gamma, lumped, stiffness_damping=True,
+                 solver="direct", prefix=None):
+        if not h > 0:
+            raise ValueError(f"time step h must be > 0 s, got {h}")
+        self.system, self.h = system, h
+        self.beta_N, self.gamma, self.lumped = beta_N, gamma, lumped
+        self.alpha = system.material.alpha
+        self.beta = system.material.beta if stiffness_damping else 0.0
+        prefix = prefix or self.name.replace("-", "_") + "_"
+        self.solve = step_operator(
+            system, 1 + gamma * h * self.alpha, gamma * h * self.beta + beta_N * h * h / 2,
+            lumped, prefix, solver)
+        self.mass_solve = step_operator(system, 1.0, 0.0, lumped, prefix + "mass_", solver)
+        K = system.K
+        self._r, self._w, self._delta = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
+
+    def mass_mult(self, x, y):
+        """y = M x (consistent) or M_L x (lumped)."""
+        if self.lumped:
+            y.pointwiseMult(self.system.ML, x)
+        else:
+            self.system.M.mult(x, y)
+
+    def residual(self, a0, vbar, ubar):
+        """r = f - M (a0 + alpha vbar) - K (ubar + beta vbar), zero on constrained dofs."""
+        r, w = self._r, self._w
+        w.waxpy(self.alpha, vbar, a0)
+        self.mass_mult(w, r)  # r = M (a0 + alpha vbar)
+        w.waxpy(self.beta, vbar, ubar)
+        self.system.K.multAdd(w, r, r)  # r += K (ubar + beta vbar)
+        r.aypx(-1.0, self.system.f)  # r = f - r
+        r.array[self.system.constrained] = 0.0
+        return r
+
+    def start(self):
+        """Step 0: u = v = 0 on free dofs, constrained dofs prescribed, and M a = f - C v - K u."""
+        s, K = self.system, self.system.K
+        u, v, a = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
+        uc, vc, ac = s.prescribed(0.0)
+        for x, xc in ((u, uc), (v, vc), (a, ac)):
+            x.set(0.0)
+            x.array[s.constrained] = xc
+        r = self.residual(a, v, u)
+        self.mass_solve(r, self._delta)
+        self._delta.array[s.constrained] = 0.0
+        a.axpy(1.0, self._delta)
+        return State(0, 0.0, u, v, a)
+
+    def step(self, state):
+        """Advance (u, v, a) from t_i to t_{i+1} = (i + 1) h, in place."""
+        s, h = self.system, self.h
+        i = state.i + 1
+        t = i * h
+        u, v, a = state.u, state.v, state.a
+        uc, vc, ac = s.prescribed(t)
+        # predictors: the known part of the update, with a_{i+1} = a0 on constrained dofs
+        u.axpy(h, v)
+        u.axpy((1 - self.beta_N) * h * h / 2, a)  # u is now utilde
+        v.axpy((1 - self.gamma) * h, a)  # v is now vtilde
+        a.set(0.0)
+        a.array[s.constrained] = ac  # a is now a0
+        u.axpy(self.beta_N * h * h / 2, a)
+        v.axpy(self.gamma * h, a)
+        u.array[s.constrained] = uc  # ubar
+        v.array[s.constrained] = vc  # vbar
+        r = self.residual(a, v, u)
+        delta = self._delta
+        self.solve(r, delta)
+        delta.array[s.constrained] = 0.0
+        u.axpy(self.beta_N * h * h / 2, delta)
+        v.axpy(self.gamma * h, delta)
+        a.axpy(1.0, delta)
+        state.i, state.t = i, t
+        return state

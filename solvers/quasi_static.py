@@ -1,0 +1,46 @@
+"""`quasi-static`: K u_{i+1} = f_{i+1} at every step, no history; v and a are reported as 0.
+Step 0 is the initial state (u = 0, constrained dofs prescribed)."""
+
+from tissuebench.solvers.linear import step_operator
+from tissuebench.solvers.newmark import State
+
+
+class QuasiStatic:
+    name = "quasi-static"
+
+    def __init__(self, system, h, solver="direct"):
+        if not h > 0:
+            raise ValueError(f"time step h must be > 0 s, got {h}")
+        self.system, self.h = system, h
+        self.solve = step_operator(system, 0.0, 1.0, False, "quasi_static_", solver)
+        self._r, self._delta = system.K.createVecLeft(), system.K.createVecLeft()
+
+    def start(self):
+        s = self.system
+        u, v, a = (s.K.createVecLeft() for _ in range(3))
+        for x in (u, v, a):
+            x.set(0.0)
+        u.array[s.constrained] = s.prescribed(0.0)[0]
+        return State(0, 0.0, u, v, a)
+
+    def step(self, state):
+        """u_{i+1} = ubar + K_bc^-1 (f - K ubar), ubar = prescribed values on constrained dofs."""
+        s = self.system
+        i = state.i + 1
+        t = i * self.h
+        u = state.u
+        u.set(0.0)
+        u.array[s.constrained] = s.prescribed(t)[0]
+        r = self._r
+        s.K.mult(u, r)
+        r.aypx(-1.0, s.f)
+        r.array[s.constrained] = 0.0
+        self.solve(r, self._delta)
+        self._delta.array[s.constrained] = 0.0
+        u.axpy(1.0, self._delta)
+        state.i, state.t = i, t
+        return state
+
+
+def integrator(system, h, solver="direct"):
+    return QuasiStatic(system, h, solver)
