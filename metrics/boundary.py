@@ -1,0 +1,83 @@
+"""The boundary of a distributed Q1 mesh, gathered once to rank 0 for the surface error.
+
+In 2D the boundary is a set of edges (a, b) oriented with the domain on their left; in 3D a
+set of quadrilateral faces (a, b, c, d), a cycle around the face counter-clockwise seen from
+outside. Nodes are numbered by their position in `nodes`, the sorted global indices of the
+boundary nodes of V. Orientation is decided once, on the undeformed mesh.
+"""
+
+from mpi4py import MPI
+
+import basix
+import dolfinx.mesh
+import numpy as np
+
+
+def _oriented_facets(V):
+    """Local node indices of this rank's exterior facets, oriented outward, (facets, 2 or 4)."""
+    mesh = V.mesh
+    topology = mesh.topology
+    tdim, gdim = topology.dim, mesh.geometry.dim
+    topology.create_connectivity(tdim - 1, tdim)
+    topology.create_connectivity(tdim, tdim - 1)
+    facets = dolfinx.mesh.exterior_facet_indices(topology)
+    f2c = topology.connectivity(tdim - 1, tdim)
+    c2f = topology.connectivity(tdim, tdim - 1)
+    cells = f2c.array[f2c.offsets[facets]]
+    facets_per_cell = c2f.offsets[1] - c2f.offsets[0]
+    local_facet = np.argmax(c2f.array.reshape(-1, facets_per_cell)[cells] == facets[:, None], axis=1)
+
+    # Lagrange degree 1: the cell's i-th dof sits at the reference cell's i-th vertex.
+    reference = np.array(basix.topology(basix.CellType[topology.cell_name()])[tdim - 1])
+    cell_nodes = V.dofmap.list[cells]
+    nodes = np.take_along_axis(cell_nodes, reference[local_facet], axis=1)
+    X = V.tabulate_dof_coordinates()[:, :gdim]
+    inside = X[cell_nodes].mean(axis=1)  # a point inside each facet's cell
+
+    if tdim == 2:
+        a, b = X[nodes[:, 0]], X[nodes[:, 1]]
+        edge, to_inside = b - a, inside - a
+        left = edge[:, 0] * to_inside[:, 1] - edge[:, 1] * to_inside[:, 0] > 0
+        return np.where(left[:, None], nodes, nodes[:, ::-1])
+    cycle = nodes[:, [0, 1, 3, 2]]  # reference quadrilaterals are numbered in tensor order
+    p = X[cycle]
+    normal = np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+    outward = np.einsum("ij,ij->i", normal, p.mean(axis=1) - inside) > 0
+    return np.where(outward[:, None], cycle, cycle[:, ::-1])
+
+
+class Boundary:
+    """The exterior facets of V's mesh and their nodes, gathered to rank 0.
+
+    `gather(u)` (collective) returns on rank 0 the boundary node displacements (in `nodes`
+    order) from the owned dof values u of V, and None elsewhere. On rank 0 `facets` holds
+    the oriented facets as positions in `nodes` and `X` the undeformed node coordinates.
+    """
+
+    def __init__(self, V):
+        self.comm = comm = V.mesh.comm
+        self.dim = V.mesh.geometry.dim
+        index_map = V.dofmap.index_map
+        first, last = index_map.local_range
+        local = _oriented_facets(V)
+        global_facets = index_map.local_to_global(local.ravel().astype(np.int32)).reshape(local.shape)
+        gathered = comm.gather(global_facets, root=0)
+        nodes = np.unique(np.concatenate(gathered)) if comm.rank == 0 else None
+        nodes = comm.bcast(nodes, root=0)
+        # Owned nodes have the contiguous global indices first..last-1, so the owned boundary
+        # nodes of ranks 0, 1, ... concatenated are `nodes` in order.
+        owned = nodes[(nodes >= first) & (nodes < last)]
+        self._local = (owned - first).astype(np.int32)
+        X = V.tabulate_dof_coordinates()[: last - first, : self.dim]
+        self.X = self._gather_rows(X)
+        if comm.rank == 0:
+            self.nodes = nodes
+            self.facets = np.searchsorted(nodes, np.concatenate(gathered))
+
+    def _gather_rows(self, values):
+        rows = self.comm.gather(values[self._local], root=0)
+        return np.concatenate(rows) if self.comm.rank == 0 else None
+
+    def gather(self, u):
+        """Displacements of the boundary nodes on rank 0 (shape (nodes, d)); None elsewhere."""
+        return self._gather_rows(np.asarray(u).reshape(-1, self.dim))

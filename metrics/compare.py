@@ -1,0 +1,267 @@
+"""`compare`: the metrics of SPEC section 6 for two displacement time series on one mesh,
+read from files (how a user grades any simulator against our reference).
+
+Rank 0 reads and checks both series; the reference mesh is then distributed over `comm`
+and every step is measured in parallel. Only rank 0 writes, and only once everything has
+been checked and computed: metrics.csv and metrics.png go to temporary names first and are
+renamed into place.
+"""
+
+import csv
+import itertools
+import os
+from pathlib import Path
+
+from mpi4py import MPI
+
+import basix.ufl
+import dolfinx.mesh
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.io.utils import cell_perm_vtk
+
+from tissuebench.metrics.errors import NAMES, Metrics
+from tissuebench.metrics.series import InputError, read_series
+
+COLUMNS = ("algorithm", "step", "time", *NAMES)
+POINT_TOLERANCE = 1e-6  # node coordinates match within this fraction of the mesh's extent
+TIME_RTOL, TIME_ATOL = 1e-6, 1e-9  # time stamps match within rtol |t| + atol (s)
+LABELS = {
+    "relative_error": "relative error E\u2099",  # Unicode subscripts: mathtext is slow to load
+    "surface_error": "surface error E\u209b",
+    "interior_error": "interior error E\u1d62",
+    "interior_error_nodal": "interior error, nodal form",
+}
+
+
+def summarize(curve):
+    """(max, time-mean) of a metric curve over steps 1..N, ignoring NaN; NaN if none."""
+    values = np.asarray(curve, dtype=np.float64)[1:]
+    values = values[~np.isnan(values)]
+    if len(values) == 0:
+        return np.nan, np.nan
+    return float(values.max()), float(values.mean())
+
+
+# --- checks ---------------------------------------------------------------------------------
+
+
+def match_points(a, b, tol):
+    """match[i] = the index of the point of b within tol of a[i] (in every coordinate); -1
+    where there is none. Points are hashed on a grid of spacing tol, so a match lies in the
+    same or a neighbouring grid cell."""
+    low = np.minimum(a.min(axis=0), b.min(axis=0))
+    ka = np.floor((a - low) / tol).astype(np.int64) + 1
+    kb = np.floor((b - low) / tol).astype(np.int64) + 1
+    span = int(max(ka.max(), kb.max())) + 2
+
+    def encode(k):
+        return sum(k[:, j] * span**j for j in range(k.shape[1]))
+
+    keys_b = encode(kb)
+    order = np.argsort(keys_b, kind="stable")
+    sorted_b = keys_b[order]
+    match = np.full(len(a), -1, dtype=np.int64)
+    offsets = sorted(itertools.product((-1, 0, 1), repeat=a.shape[1]), key=lambda o: np.abs(o).sum())
+    for offset in offsets:
+        todo = np.flatnonzero(match < 0)
+        if len(todo) == 0:
+            break
+        keys = encode(ka[todo] + np.array(offset))
+        pos = np.minimum(np.searchsorted(sorted_b, keys), len(sorted_b) - 1)
+        found = order[pos]
+        ok = (sorted_b[pos] == keys) & (np.abs(a[todo] - b[found]).max(axis=1) <= tol)
+        match[todo[ok]] = found[ok]
+    return match
+
+
+def check_meshes(ref, cand):
+    """For each reference node, the index of the candidate node at its coordinates."""
+    where = f"{cand.path}: mesh differs from {ref.path}"
+    if ref.cell_type != cand.cell_type or ref.dim != cand.dim:
+        raise InputError(f"{where}: {cand.dim}D {cand.cell_type} cells vs {ref.dim}D {ref.cell_type} cells")
+    if len(ref.points) != len(cand.points) or len(ref.cells) != len(cand.cells):
+        raise InputError(f"{where}: {len(cand.points)} nodes and {len(cand.cells)} cells "
+                         f"vs {len(ref.points)} nodes and {len(ref.cells)} cells")
+    extent = np.ptp(ref.points, axis=0).max()
+    tol = POINT_TOLERANCE * extent
+    for bound in (np.min, np.max):
+        if np.abs(bound(ref.points, axis=0) - bound(cand.points, axis=0)).max() > tol:
+            raise InputError(f"{where}: the bounding boxes of the nodes differ by more than {tol:.3g}")
+    match = match_points(ref.points, cand.points, tol)
+    if np.any(match < 0):
+        missing = np.flatnonzero(match < 0)
+        node = ", ".join(f"{x:.9g}" for x in ref.points[missing[0]])
+        raise InputError(f"{where}: {len(missing)} reference node(s) have no candidate node within {tol:.3g}, "
+                         f"e.g. the node at ({node})")
+    if len(np.unique(match)) != len(match):
+        raise InputError(f"{where}: nodes closer than {tol:.3g} to each other cannot be matched one to one")
+    in_ref = np.empty_like(match)
+    in_ref[match] = np.arange(len(match))
+
+    def canonical(cells):
+        cells = np.sort(cells, axis=1)
+        return cells[np.lexsort(cells.T[::-1])]
+
+    if not np.array_equal(canonical(ref.cells), canonical(in_ref[cand.cells])):
+        raise InputError(f"{where}: same nodes but different cells")
+    return match
+
+
+def check_times(ref, cand):
+    """The candidate's times are the reference's, or a prefix of them (a run that stopped)."""
+    if len(cand.times) > len(ref.times):
+        raise InputError(f"{cand.path}: {len(cand.times)} time steps, more than the {len(ref.times)} of {ref.path}")
+    t_ref = ref.times[: len(cand.times)]
+    bad = np.flatnonzero(~np.isclose(cand.times, t_ref, rtol=TIME_RTOL, atol=TIME_ATOL))
+    if len(bad):
+        k = bad[0]
+        raise InputError(f"{cand.path}: time stamps do not match {ref.path}: step {k} is at "
+                         f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s")
+
+
+def check_output(out_dir):
+    """The output directory exists or can be created, and can be written."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: exists and is not a directory")
+    existing = next(p for p in [out, *out.parents] if p.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"{out}: cannot write there ({existing} is not writable)")
+
+
+# --- parallel evaluation --------------------------------------------------------------------
+
+
+def function_space(comm, series):
+    """The vector Q1 space on the series' mesh, read on rank 0 and distributed over comm, and
+    for each owned node of the space the index of its point in the series."""
+    cell_type, dim, per_cell = comm.bcast(
+        (series.cell_type, series.dim, series.cells.shape[1]) if comm.rank == 0 else None, root=0)
+    if comm.rank == 0:
+        cells = series.cells[:, cell_perm_vtk(dolfinx.mesh.CellType[cell_type], per_cell)]
+        x = series.points
+    else:
+        cells, x = np.empty((0, per_cell), dtype=np.int64), np.empty((0, dim))
+    element = basix.ufl.element("Lagrange", cell_type, 1, shape=(dim,))
+    mesh = dolfinx.mesh.create_mesh(comm, cells, ufl.Mesh(element), x)
+    V = fem.functionspace(mesh, ("Lagrange", 1, (dim,)))
+    # Cell by cell the P1 dofs sit at the geometry nodes, which know their input index.
+    index_map = V.dofmap.index_map
+    point = np.empty(index_map.size_local + index_map.num_ghosts, dtype=np.int64)
+    point[V.dofmap.list.ravel()] = mesh.geometry.input_global_indices[mesh.geometry.dofmaps[0].ravel()]
+    return V, point[: index_map.size_local]
+
+
+def _curves(comm, V, points, ref, cand, steps, match):
+    metrics = Metrics(V)
+    curves = {name: np.full(steps, np.nan) for name in NAMES}
+    n_cand = comm.bcast(len(cand.displacements) if comm.rank == 0 else None, root=0)
+    for i in range(min(steps, n_cand)):
+        u_ref, u_cand = comm.bcast((ref.displacements[i], cand.displacements[i][match])
+                                   if comm.rank == 0 else None, root=0)
+        for name, value in metrics.evaluate(u_ref[points].ravel(), u_cand[points].ravel()).items():
+            curves[name][i] = value
+    return curves
+
+
+# --- output ---------------------------------------------------------------------------------
+
+
+def write_csv(path, algorithm, times, curves):
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(COLUMNS)
+        for i, t in enumerate(times):
+            writer.writerow([algorithm, i, repr(float(t)), *(repr(float(curves[n][i])) for n in NAMES)])
+
+
+def spans_decades(values):
+    values = np.asarray(values)
+    positive = values[np.isfinite(values) & (values > 0)]
+    return len(positive) > 1 and positive.max() >= 10 * positive.min()
+
+
+def plot(path, title, times, curves):
+    """Three panels against time: E_n, E_s, E_i (quadrature solid, nodal form dashed)."""
+    from matplotlib.figure import Figure  # no pyplot: no global backend state
+
+    fig = Figure(figsize=(7, 8), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
+    panels = [["relative_error"], ["surface_error"], ["interior_error", "interior_error_nodal"]]
+    for ax, names in zip(axes, panels):
+        for name, style in zip(names, ["-", "--"]):
+            ax.plot(times, curves[name], style, label=LABELS[name])
+        if spans_decades(np.concatenate([curves[n] for n in names])):
+            ax.set_yscale("log")
+        ax.set_ylabel(LABELS[names[0]])
+        ax.grid(True, alpha=0.3)
+        if len(names) > 1:
+            ax.legend()
+    axes[-1].set_xlabel("time (s)")
+    axes[0].set_title(title)
+    fig.savefig(path, format="png", dpi=120)
+
+
+def _write(out_dir, algorithm, title, times, curves):
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    final = [out / "metrics.csv", out / "metrics.png"]
+    temporary = [p.with_name(f".{p.name}.{os.getpid()}.tmp") for p in final]
+    try:
+        write_csv(temporary[0], algorithm, times, curves)
+        plot(temporary[1], title, times, curves)
+        for tmp, path in zip(temporary, final):
+            os.replace(tmp, path)
+    finally:
+        for tmp in temporary:
+            tmp.unlink(missing_ok=True)
+
+
+def compare(reference, candidate, out_dir, field="displacement", comm=MPI.COMM_WORLD):
+    """Measure the candidate series against the reference series (XDMF or PVD files), write
+    out_dir/metrics.csv and out_dir/metrics.png, and return {metric: one-line summary}.
+
+    Collective over comm. Raises InputError (on every rank, before anything is written) for
+    unreadable files, meshes or time stamps that do not match, a missing field, or an output
+    directory that cannot be written.
+    """
+    ref = cand = match = None
+    error = None
+    if comm.rank == 0:
+        reading = reference
+        try:
+            check_output(out_dir)
+            ref = read_series(reference, field)
+            reading = candidate
+            cand = read_series(candidate, field)
+            match = check_meshes(ref, cand)
+            check_times(ref, cand)
+        except InputError as exc:
+            error = str(exc)
+        except Exception as exc:  # never leave the other ranks waiting
+            error = f"{reading}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise InputError(error)
+
+    times = comm.bcast(ref.times if comm.rank == 0 else None, root=0)
+    V, points = function_space(comm, ref)
+    curves = _curves(comm, V, points, ref, cand, len(times), match)
+
+    algorithm = Path(candidate).stem
+    if comm.rank == 0:
+        try:
+            _write(out_dir, algorithm, f"{algorithm} against {Path(reference).stem}", times, curves)
+        except OSError as exc:
+            error = f"{out_dir}: cannot write the results ({exc.strerror or exc})"
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise InputError(error)
+
+    summaries = {}
+    for name in NAMES:
+        peak, mean = summarize(curves[name])
+        summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} (steps 1..{len(times) - 1}, {algorithm})"
+    return summaries

@@ -1,0 +1,69 @@
+"""The three metrics of SPEC section 6 on one vector Q1 function space, for one pair of
+displacement fields or for whole histories.
+
+Displacements are numpy arrays of the owned dofs of V, unrolled with block size d (the first
+`V.dofmap.index_map.size_local * d` entries of a Function's x.array). Every method is
+collective and returns the same numbers on every rank.
+"""
+
+import numpy as np
+
+from tissuebench.metrics.boundary import Boundary
+from tissuebench.metrics.interior import InteriorError
+from tissuebench.metrics.relative import relative_error
+from tissuebench.metrics.surface import domain, surface_error
+
+NAMES = ("relative_error", "surface_error", "interior_error", "interior_error_nodal")
+
+
+class Metrics:
+    """E_n, E_s, E_i and E_i's nodal variant on V (vector Q1 on quadrilaterals or hexahedra).
+
+    Built once per V: the interior forms and nodal weights (`interior`), |Ω_0| (`volume`),
+    d (`dim`), and the boundary gathered to rank 0 (`boundary`, with `domain` its Polygon or
+    Solid on rank 0).
+    """
+
+    def __init__(self, V, points=3):
+        self.comm = V.mesh.comm
+        self.dim = V.mesh.geometry.dim
+        self.size = V.dofmap.index_map.size_local * self.dim
+        self.interior = InteriorError(V, points)
+        self.volume = self.interior.volume
+        self.boundary = Boundary(V)
+        self.domain = domain(self.boundary.X, self.boundary.facets) if self.comm.rank == 0 else None
+
+    def _check(self, u):
+        u = np.asarray(u, dtype=np.float64)
+        if u.shape != (self.size,):
+            raise ValueError(f"expected the {self.size} owned dof values of V, got shape {u.shape}")
+        return u
+
+    def surface(self, u_ref, u_cand):
+        """E_s, computed on rank 0 from the gathered deformed boundaries and broadcast."""
+        x_ref, x_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
+        value = None
+        if self.comm.rank == 0:
+            X = self.boundary.X
+            value = surface_error(self.domain, X + x_ref, X + x_cand)
+        return self.comm.bcast(value, root=0)
+
+    def evaluate(self, u_ref, u_cand):
+        """The metrics of candidate u_cand against reference u_ref, as a dict keyed by NAMES."""
+        u_ref, u_cand = self._check(u_ref), self._check(u_cand)
+        values = {
+            "relative_error": relative_error(u_ref, u_cand, self.comm),
+            "surface_error": self.surface(u_ref, u_cand),
+            "interior_error": self.interior.quadrature(u_ref, u_cand),
+            "interior_error_nodal": self.interior.nodal(u_ref, u_cand),
+        }
+        return {name: float(value) for name, value in values.items()}
+
+    def history(self, ref, cand):
+        """One value per reference step for each metric (numpy arrays keyed by NAMES); NaN
+        for the steps a shorter candidate (a diverged run) does not have."""
+        curves = {name: np.full(len(ref), np.nan) for name in NAMES}
+        for i in range(min(len(ref), len(cand))):
+            for name, value in self.evaluate(ref[i], cand[i]).items():
+                curves[name][i] = value
+        return curves

@@ -1,0 +1,108 @@
+"""The surface error E_s = |Ω_t ⊕ Ω'_t| / |Ω_t| (SPEC 6.2), on rank 0, from the deformed
+boundary nodes x = X + u of a `Boundary`.
+
+2D: the deformed domain is the polygon through the deformed boundary nodes, made valid by
+shapely (a boundary that crosses itself is split at its crossings, never dropped).
+3D: each deformed quadrilateral face is split into four triangles through its centre, and
+the closed triangle surface becomes a manifold3d solid (double precision, Mesh64);
+|A ⊕ B| = |A| + |B| - 2 |A ∩ B|.
+"""
+
+import manifold3d
+import numpy as np
+import shapely
+
+
+def signed_area(points):
+    """Shoelace area of a closed polygon, positive when counter-clockwise."""
+    x, y = points[:, 0], points[:, 1]
+    return 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
+
+
+def loops(edges):
+    """The closed loops (arrays of node positions) traced by oriented edges (a, b)."""
+    following = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist()))
+    if len(following) != len(edges):
+        raise ValueError("the boundary touches itself at a node: its loops are ambiguous")
+    result = []
+    while following:
+        start = min(following)
+        loop = [start]
+        while (node := following.pop(loop[-1])) != start:
+            loop.append(node)
+        result.append(np.array(loop))
+    return result
+
+
+class Polygon:
+    """The 2D deformed domain, bounded by the loops of oriented boundary edges.
+
+    Loops are counter-clockwise (shells) or clockwise (holes) on the undeformed mesh, since
+    the domain lies on the left of every edge; each hole belongs to the smallest shell
+    around it.
+    """
+
+    def __init__(self, X, edges):
+        all_loops = loops(edges)
+        shells = [loop for loop in all_loops if signed_area(X[loop]) > 0]
+        holes = [loop for loop in all_loops if signed_area(X[loop]) < 0]
+        areas = [signed_area(X[shell]) for shell in shells]
+        self.parts = [(shell, []) for shell in shells]
+        for hole in holes:
+            around = [i for i, shell in enumerate(shells)
+                      if shapely.Polygon(X[shell]).contains(shapely.Point(X[hole[0]]))]
+            self.parts[min(around, key=areas.__getitem__)][1].append(hole)
+
+    def region(self, x):
+        """The valid (multi)polygon bounded by the deformed loops through x."""
+        pieces = []
+        for shell, holes in self.parts:
+            valid = shapely.make_valid(shapely.Polygon(x[shell], [x[hole] for hole in holes]))
+            pieces += [p for p in shapely.get_parts(valid) if p.geom_type in ("Polygon", "MultiPolygon")]
+        return shapely.union_all(pieces)
+
+    def error(self, x_ref, x_cand):
+        """|A ⊕ B| / |A| for the regions through x_ref (A) and x_cand (B)."""
+        ref, cand = self.region(x_ref), self.region(x_cand)
+        return np.float64(shapely.symmetric_difference(ref, cand).area) / ref.area
+
+
+class Solid:
+    """The 3D deformed domain, bounded by outward quadrilateral faces (a, b, c, d), each split
+    into the triangles (a, b, m), (b, c, m), (c, d, m), (d, a, m) through its centre m."""
+
+    def __init__(self, X, quads):
+        self.quads = quads
+        a, b, c, d = quads.T
+        m = len(X) + np.arange(len(quads))
+        triangles = [np.stack(t, axis=1) for t in ((a, b, m), (b, c, m), (c, d, m), (d, a, m))]
+        self.triangles = np.ascontiguousarray(np.concatenate(triangles), dtype=np.uint64)
+
+    def region(self, x):
+        """The manifold3d solid bounded by the split faces through x."""
+        vertices = np.vstack([x, x[self.quads].mean(axis=1)])
+        solid = manifold3d.Manifold(manifold3d.Mesh64(
+            vert_properties=np.ascontiguousarray(vertices, dtype=np.float64), tri_verts=self.triangles))
+        if solid.status() != manifold3d.Error.NoError:
+            raise RuntimeError(f"the deformed boundary is not a closed oriented surface: {solid.status()}")
+        return solid
+
+    def error(self, x_ref, x_cand):
+        """|A ⊕ B| / |A| for the solids through x_ref (A) and x_cand (B)."""
+        ref, cand = self.region(x_ref), self.region(x_cand)
+        common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
+        return np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
+
+
+def domain(X, facets):
+    """Polygon (2D edges) or Solid (3D quadrilateral faces) for the undeformed boundary."""
+    return Polygon(X, facets) if facets.shape[1] == 2 else Solid(X, facets)
+
+
+def surface_error(shape, x_ref, x_cand):
+    """E_s of a Polygon or Solid for deformed boundary nodes x_ref, x_cand; NaN if either is
+    not finite or the reference domain is empty."""
+    if not (np.isfinite(x_ref).all() and np.isfinite(x_cand).all()):
+        return np.nan
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return float(shape.error(x_ref, x_cand))

@@ -1,0 +1,71 @@
+"""Run by tests/test_metrics.py and tests/test_compare.py, serially and under mpiexec: print
+(rank 0) one JSON line with the metrics of fixed deformations on block_mesh(8) and
+rod_mesh(2), or, given REFERENCE CANDIDATE OUT_DIR, the metrics.csv that compare() writes."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+from dolfinx import fem
+
+from tissuebench.meshes.block import block_mesh
+from tissuebench.meshes.rod import rod_mesh
+from tissuebench.metrics import Metrics, compare
+
+
+def reference(x):
+    return np.array([0.05 * x[1] * np.sin(np.pi * x[0]), -0.03 * x[0] ** 2, 0.02 * x[0] * x[2]])
+
+
+def candidate(x):
+    return reference(x) * (1 + 0.2 * x[1]) + np.array([0.004 * np.cos(3 * x[1]), 0.002 * x[0], -0.001 * x[2]])
+
+
+def owned(V, f):
+    u = fem.Function(V)
+    d = V.mesh.geometry.dim
+    u.interpolate(lambda x: f(x)[:d])
+    return u.x.array[: V.dofmap.index_map.size_local * d].copy()
+
+
+def main():
+    comm = MPI.COMM_WORLD
+    result = {}
+    if len(sys.argv) == 4:
+        compare(*sys.argv[1:4], comm=comm)
+        if comm.rank == 0:
+            result["compare"] = Path(sys.argv[3], "metrics.csv").read_text()
+    else:
+        for name, mesh in [("block", block_mesh(8, comm).mesh), ("rod", rod_mesh(2, comm).mesh)]:
+            V = fem.functionspace(mesh, ("Lagrange", 1, (mesh.geometry.dim,)))
+            result[name] = Metrics(V).evaluate(owned(V, reference), owned(V, candidate))
+    if comm.rank == 0:
+        print(json.dumps(result))
+
+
+def run(*args, ranks=None):
+    """Run this script in a fresh process (under mpiexec -n ranks if given; mpiexec is looked
+    for next to the Python executable) and return the JSON it prints."""
+    import pytest
+
+    python = Path(sys.executable)
+    command = [str(python), __file__, *map(str, args)]
+    if ranks:
+        mpiexec = python.parent / "mpiexec"
+        if not mpiexec.exists():
+            pytest.skip(f"no mpiexec next to {python}")
+        command = [str(mpiexec), "-n", str(ranks), *command]
+    # A fresh MPI job: drop the launcher variables of the calling (singleton MPI) process.
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))}
+    done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+if __name__ == "__main__":
+    main()
