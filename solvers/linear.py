@@ -43,13 +43,15 @@ def make_ksp(A, prefix, solver="direct"):
     if solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}: use one of {', '.join(SOLVERS)}")
     opts = PETSc.Options()
-    for key, value in SOLVERS[solver].items():
-        if not opts.hasName(prefix + key):
-            opts[prefix + key] = value
+    defaults = {prefix + k: v for k, v in SOLVERS[solver].items() if not opts.hasName(prefix + k)}
+    for key, value in defaults.items():
+        opts[key] = value
     ksp = PETSc.KSP().create(A.getComm())
     ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
     ksp.setFromOptions()
+    for key in defaults:  # this KSP's defaults must not leak into the next one
+        opts.delValue(key)
     ksp.setUp()
     return ksp
 
