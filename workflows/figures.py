@@ -88,7 +88,9 @@ def grid(series, step):
 
 def _plotter(series, shape=(1, 1), size=(900, 700)):
     import pyvista as pv
+    from vtkmodules.vtkCommonCore import vtkLogger
 
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)  # no display here: off-screen is intended
     pv.global_theme.font.color = "black"
     p = pv.Plotter(off_screen=True, shape=shape, window_size=size, border=False)
     p.set_background("white")

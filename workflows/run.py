@@ -79,7 +79,7 @@ def main(args):
     if args.benchmark == "block":
         options["needle_width"] = args.needle_width
     name = material.name if material else {"block": "MP1", "rod": "MP3"}.get(args.benchmark)
-    case = algorithm_case(args.out.name, args.benchmark, material or name, algorithms, **options)
+    case = algorithm_case(args.out.name, args.benchmark, args.material or name, algorithms, **options)
     request = {"command": "run", "benchmark": args.benchmark, "material": name, "algorithms": algorithms,
                "petsc": args.petsc, **options}
     if not args.force and same_request(args.out, request):

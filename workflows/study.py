@@ -75,7 +75,7 @@ def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print):
     """Run every run of the case, measure it against the reference and write the case
     directory (whole, or not at all). Returns the summary dict."""
     rank0 = comm.rank == 0
-    options = {"mesh_size": case.mesh_size} if case.mesh_size else {}
+    options = {"mesh_size": case.mesh_size} if case.mesh_size is not None else {}
     if case.benchmark == "block":
         options["needle_width"] = case.needle_width
     bench = get_benchmark(case.benchmark, comm=comm, **options)
@@ -114,14 +114,14 @@ def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print):
 
         summary = {
             "case": case.name, "description": case.description, "benchmark": case.benchmark,
-            "material": sorted(systems), "reference": case.reference,
+            "material": sorted({s.material.name for s in systems.values()}), "reference": case.reference,
             "mesh_size": bench.mesh_size, "num_dofs": next(iter(systems.values())).num_dofs(),
             "h": h, "end_time": n_steps * h, "steps": n_steps, "plane": case.plane,
             "needle_width": case.needle_width if case.benchmark == "block" else None,
             "solver": case.solver, "versions": versions(), "runs": {}, **case.extra,
         }
         for label, (run, material, algorithm) in results.items():
-            entry = {"algorithm": algorithm, "material": material, "status": run.status,
+            entry = {"algorithm": algorithm, "material": systems[material].material.name, "status": run.status,
                      "diverged_step": run.diverged_step, "diverged_time": run.diverged_time,
                      "steps": run.steps, "wall_time_s": run.wall_time_s}
             for name in NAMES:
