@@ -97,13 +97,14 @@ def _plotter(series, shape=(1, 1), size=(900, 700)):
     return p
 
 
-def _show(p, series, step, clim, title):
-    _show_grid(p, grid(series, step), series, clim, title)
+def _show(p, series, step, clim, title, bar=True):
+    _show_grid(p, grid(series, step), series, clim, title, bar)
 
 
-def _show_grid(p, g, series, clim, title):
-    p.add_mesh(g, scalars="|u| (m)", cmap="viridis", clim=clim, show_edges=True,
-               scalar_bar_args={"title": "|u| (m)", "n_labels": 3, "fmt": "%.3f"})
+def _show_grid(p, g, series, clim, title, bar=True):
+    p.add_mesh(g, scalars="|u| (m)", cmap="viridis", clim=clim, show_edges=True, show_scalar_bar=bar,
+               scalar_bar_args={"title": "displacement (m)", "n_labels": 3, "fmt": "%.3f", "vertical": True,
+                                "position_x": 0.8, "position_y": 0.15, "height": 0.7, "width": 0.08})
     if title:
         p.add_text(title, font_size=10, color="black")
     if series.dim == 2:
@@ -126,7 +127,7 @@ def deformed_shapes(out, case, summary, times_shown=(0.0, 1.0, 2.0, 10.0), frame
     p = _plotter(series, shape=(1, len(steps)), size=(380 * len(steps), 420))
     for k, step in enumerate(steps):
         p.subplot(0, k)
-        _show(p, series, step, clim, f"{case.reference}, t = {times[step]:.3g} s")
+        _show(p, series, step, clim, f"{case.reference}, t = {times[step]:.3g} s", bar=k == len(steps) - 1)
     p.screenshot(str(out / "deformed.png"))
     p.close()
 
