@@ -3,8 +3,6 @@
 rod_mesh(2), or, given REFERENCE CANDIDATE OUT_DIR, the metrics.csv that compare() writes."""
 
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -46,25 +44,6 @@ def main():
             result[name] = Metrics(V).evaluate(owned(V, reference), owned(V, candidate))
     if comm.rank == 0:
         print(json.dumps(result))
-
-
-def run(*args, ranks=None):
-    """Run this script in a fresh process (under mpiexec -n ranks if given; mpiexec is looked
-    for next to the Python executable) and return the JSON it prints."""
-    import pytest
-
-    python = Path(sys.executable)
-    command = [str(python), __file__, *map(str, args)]
-    if ranks:
-        mpiexec = python.parent / "mpiexec"
-        if not mpiexec.exists():
-            pytest.skip(f"no mpiexec next to {python}")
-        command = [str(mpiexec), "-n", str(ranks), *command]
-    # A fresh MPI job: drop the launcher variables of the calling (singleton MPI) process.
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))}
-    done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=300)
-    assert done.returncode == 0, done.stderr[-2000:]
-    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 if __name__ == "__main__":

@@ -3,7 +3,6 @@ and bad input is refused with one line and nothing written."""
 
 import contextlib
 import csv
-import importlib.util
 from pathlib import Path
 
 from mpi4py import MPI
@@ -14,17 +13,11 @@ import pytest
 from dolfinx import fem, io, mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
 
+from helpers import run_script
 from tissuebench.metrics import InputError, Metrics, compare, read_series
 from tissuebench.metrics.compare import COLUMNS
 
 TIMES = [0.0, 0.1, 0.2, 0.3]
-
-
-def _mpi_script():
-    spec = importlib.util.spec_from_file_location("mpi_metrics", Path(__file__).with_name("mpi_metrics.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def make_space(dim):
@@ -256,7 +249,7 @@ def test_compare_serial_and_two_ranks_agree(tmp_path):
     write_pvd(tmp_path / "cand.pvd", p, c, cell_type, values)
     compare(tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "serial")
     serial = (tmp_path / "serial" / "metrics.csv").read_text()
-    parallel = _mpi_script().run(tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "parallel",
+    parallel = run_script("mpi_metrics.py", tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "parallel",
                                  ranks=2)["compare"]
     tables = [np.array([row.split(",")[1:] for row in text.strip().splitlines()[1:]], dtype=float)
               for text in (serial, parallel)]

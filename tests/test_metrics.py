@@ -1,7 +1,5 @@
 """The metrics of SPEC section 6 against answers derived here, independently of the code."""
 
-import importlib.util
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -10,17 +8,10 @@ import pytest
 import ufl
 from dolfinx import fem, mesh as dmesh
 
+from helpers import run_script
 from tissuebench.meshes.block import block_mesh
 from tissuebench.meshes.rod import SIZE as ROD, rod_mesh
 from tissuebench.metrics import Metrics, summarize
-
-
-def mpi_script():
-    """tests/mpi_metrics.py as a module (it is not on sys.path under importlib mode)."""
-    spec = importlib.util.spec_from_file_location("mpi_metrics", Path(__file__).with_name("mpi_metrics.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def space(mesh):
@@ -204,7 +195,7 @@ def test_summarize_skips_step_zero_and_nan():
 
 
 def test_serial_and_two_ranks_agree():
-    serial, parallel = mpi_script().run(), mpi_script().run(ranks=2)
+    serial, parallel = run_script("mpi_metrics.py"), run_script("mpi_metrics.py", ranks=2)
     for case in ("block", "rod"):
         for name, value in serial[case].items():
             assert value > 0

@@ -3,10 +3,8 @@ eigenvalue solve, Newmark's closed-form stability limit, real runs on either sid
 predicted limit, the trapezoidal rule's order 2, and exact interpolation between nested meshes."""
 
 import argparse
-import importlib.util
 import json
 import math
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -15,6 +13,7 @@ import pytest
 from dolfinx import fem
 from petsc4py import PETSc
 
+from helpers import run_script
 from tissuebench.meshes import get_benchmark
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.materials import get_material
@@ -24,14 +23,6 @@ from tissuebench.workflows import convergence, stability
 from tissuebench.workflows.cli import UsageError
 
 serial_only = pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial")
-
-
-def mpi_script():
-    """tests/mpi_stability.py as a module (it is not on sys.path under importlib mode)."""
-    spec = importlib.util.spec_from_file_location("mpi_stability", Path(__file__).with_name("mpi_stability.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def system(bench, size, material):
@@ -162,7 +153,7 @@ def test_interpolation_between_nested_meshes_is_exact_for_a_multilinear_field(be
 
 @serial_only
 def test_serial_and_two_ranks_agree():
-    serial, parallel = mpi_script().run(), mpi_script().run(ranks=2)
+    serial, parallel = run_script("mpi_stability.py"), run_script("mpi_stability.py", ranks=2)
     for bench in ("block", "rod"):
         for name, values in serial[bench].items():
             assert parallel[bench][name] == pytest.approx(values, rel=1e-8), (bench, name)

@@ -4,9 +4,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-import ufl
 from dolfinx import fem
-import dolfinx.fem.petsc
 
 from helpers import run_script
 from tissuebench.meshes import MeshError, get_benchmark

@@ -54,8 +54,8 @@ def claims(out, s):
             ok_order &= ok
             rows.append(f"{SHORT[m]}: explicit {e:.3g} < implicit-lumped {il:.3g}, explicit-lumped {el:.3g} "
                         f"< quasi-static {qs:.3g} (quasi-static / worst lumped = {qs / max(il, el):.3g})")
-        lines.append(f"1. *Block, MP1: explicit (consistent mass) is the closest to the reference, then the lumped "
-                     f"schemes; quasi-static is the worst by far.* Time-means: " + "; ".join(rows) +
+        lines.append("1. *Block, MP1: explicit (consistent mass) is the closest to the reference, then the lumped "
+                     "schemes; quasi-static is the worst by far.* Time-means: " + "; ".join(rows) +
                      f". The ordering {verdict(ok_order)} for every metric; 'by far' is the last ratio.")
         e, il, el = (mean(b1, a) for a in ("explicit", "implicit-lumped", "explicit-lumped"))
         ratio = el / (e + il)

@@ -19,7 +19,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import numpy as np
 
 from tissuebench.meshes import get_benchmark
 from tissuebench.metrics import InputError

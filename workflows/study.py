@@ -8,9 +8,7 @@ import csv
 import json
 import math
 import platform
-import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -56,7 +54,6 @@ def versions():
     import dolfinx
     import petsc4py
     import gmsh
-    import manifold3d
     import shapely
 
     from importlib.metadata import version
