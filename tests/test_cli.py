@@ -164,3 +164,15 @@ def test_run_serial_equals_mpiexec(tmp_path, benchmark, size):
         assert np.allclose(a[label], b[label], rtol=1e-8, atol=1e-12, equal_nan=True), label
     assert json.loads((tmp_path / "parallel" / "summary.json").read_text())["versions"]["mpi_ranks"] == 2
     assert parallel.stdout.count("results in") == 1  # only rank 0 prints
+
+
+def test_mesh_command_saves_msh(tmp_path):
+    import meshio
+
+    r = tissuebench("mesh", "rod", "--mesh-size", 2, "--out", tmp_path / "rod.msh")
+    assert r.returncode == 0, r.stderr[-2000:]
+    m = meshio.read(tmp_path / "rod.msh")
+    assert len(m.points) == 5 * 3 * 3 and sum(len(c.data) for c in m.cells if c.type == "hexahedron") == 16
+    assert "clamped" in r.stdout
+    r = tissuebench("mesh", "block", "--mesh-size", 3, "--out", tmp_path / "b.msh")
+    assert r.returncode == 2 and "must be even" in r.stderr and not (tmp_path / "b.msh").exists()

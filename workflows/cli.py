@@ -13,6 +13,7 @@ COMMANDS = [
     "tissuebench.workflows.run",
     "tissuebench.workflows.paper",
     "tissuebench.workflows.compare",
+    "tissuebench.workflows.mesh",
     "tissuebench.workflows.stability",
     "tissuebench.workflows.convergence",
 ]
