@@ -195,3 +195,15 @@ def test_norms_serial_equal_parallel():
     assert serial.keys() == parallel.keys()
     for key in serial:
         assert parallel[key] == pytest.approx(serial[key], rel=1e-12, abs=1e-300), key
+
+
+def test_package_names_do_not_leak():
+    """The code folders are tissuebench.* only: no bare `metrics` or `solvers` on sys.path."""
+    import importlib.util
+
+    import tissuebench.metrics
+    import tissuebench.solvers
+
+    for bare in ("metrics", "solvers", "meshes", "workflows"):
+        assert importlib.util.find_spec(bare) is None, bare
+    assert tissuebench.metrics.Metrics.__module__ == "tissuebench.metrics.errors"
