@@ -8,6 +8,7 @@ USAGE_ERRORS and ends as one line on stderr with exit status 2.
 import argparse
 import importlib
 import sys
+import traceback
 
 COMMANDS = [
     "tissuebench.workflows.run",
@@ -44,14 +45,21 @@ def parser():
 
 def main(argv=None):
     args = parser().parse_args(argv)
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
     try:
         return args.func(args) or 0
     except usage_errors() as err:
-        from mpi4py import MPI
-
-        if MPI.COMM_WORLD.rank == 0:
+        if comm.rank == 0:
             print(f"tissuebench {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except BaseException:
+        if comm.size > 1:  # one rank failing alone would leave the others waiting forever
+            traceback.print_exc()
+            sys.stderr.flush()
+            comm.Abort(1)
+        raise
 
 
 if __name__ == "__main__":  # python -m: run the imported module, so its UsageError is the one raised
