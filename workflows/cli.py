@@ -17,6 +17,7 @@ COMMANDS = [
     "tissuebench.workflows.mesh",
     "tissuebench.workflows.stability",
     "tissuebench.workflows.convergence",
+    "tissuebench.workflows.bench",
 ]
 
 
