@@ -103,8 +103,8 @@ def _show(p, series, step, clim, title, bar=True):
 
 def _show_grid(p, g, series, clim, title, bar=True):
     p.add_mesh(g, scalars="|u| (m)", cmap="viridis", clim=clim, show_edges=True, show_scalar_bar=bar,
-               scalar_bar_args={"title": "displacement (m)", "n_labels": 3, "fmt": "%.3f", "vertical": True,
-                                "position_x": 0.8, "position_y": 0.15, "height": 0.7, "width": 0.08})
+               scalar_bar_args={"title": "|u| (m)", "n_labels": 3, "fmt": "%.3f", "vertical": True,
+                                "position_x": 0.78, "position_y": 0.15, "height": 0.7, "width": 0.08})
     if title:
         p.add_text(title, font_size=10, color="black")
     if series.dim == 2:
