@@ -14,8 +14,6 @@ prescribed values put into the predictors, the unknown is the free part delta of
 
 from dataclasses import dataclass
 
-from petsc4py import PETSc
-
 from tissuebench.solvers.linear import step_operator
 
 
@@ -51,20 +49,6 @@ class Newmark:
         self.mass_solve = step_operator(system, 1.0, 0.0, lumped, prefix + "mass_", "mass")
         K = system.K
         self._r, self._w, self._delta = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
-        # explicit-lumped (beta_N = 0, C = alpha M_L): the fused step below, same update
-        self._fused = lumped and beta_N == 0 and self.beta == 0
-        if self._fused:
-            self._alpha_ml = system.ML.copy()
-            self._alpha_ml.scale(self.alpha)
-            self._inv_s = system.ML.copy()  # 1 / ((1 + gamma h alpha) M_L), 0 on constrained dofs
-            self._inv_s.scale(1 + gamma * h * self.alpha)
-            self._inv_s.reciprocal()
-            self._inv_s.array[system.constrained] = 0.0
-            # K in symmetric block storage (SBAIJ: the upper triangle's 3x3 blocks), for the one
-            # product per step: it moves about half the bytes of BAIJ, the same K
-            self.K_product = system.K.copy()
-            self.K_product.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-            self.K_product.convert("sbaij")  # in place: our own copy
 
     def mass_mult(self, x, y):
         """y = M x (consistent) or M_L x (lumped)."""
@@ -100,8 +84,6 @@ class Newmark:
 
     def step(self, state):
         """Advance (u, v, a) from t_i to t_{i+1} = (i + 1) h, in place."""
-        if self._fused:
-            return self._step_fused(state)
         s, h = self.system, self.h
         i = state.i + 1
         t = i * h
@@ -125,29 +107,4 @@ class Newmark:
         v.axpy(self.gamma * h, delta)
         a.axpy(1.0, delta)
         state.i, state.t = i, t
-        return state
-
-    def _step_fused(self, state):
-        """step() for beta_N = 0 with a lumped mass and C = alpha M_L (explicit-lumped), in 8
-        Vec passes and one MatMult instead of 14 and one MatMultAdd: u = ubar needs no update
-        (beta_N = 0), M_L a0 only touches constrained rows (dropped), and 1 / S is applied with
-        zeros on the constrained dofs; K u from its SBAIJ copy. The same arithmetic up to round-off."""
-        s, h, c = self.system, self.h, self.system.constrained
-        i = state.i + 1
-        u, v, a = state.u, state.v, state.a
-        uc, vc, ac = s.prescribed(i * h)
-        u.maxpy([h, h * h / 2], [v, a])  # utilde
-        v.axpy((1 - self.gamma) * h, a)  # vtilde
-        u.array[c] = uc  # ubar
-        v.array[c] = vc  # vbar
-        r, w = self._r, self._w
-        self.K_product.mult(u, r)
-        r.aypx(-1.0, s.f)
-        w.pointwiseMult(self._alpha_ml, v)
-        r.axpy(-1.0, w)  # r = f - K ubar - alpha M_L vbar
-        a.pointwiseMult(self._inv_s, r)  # a = delta (0 on constrained dofs) ...
-        a.array[c] = ac  # ... + a0
-        v.axpy(self.gamma * h, a)
-        v.array[c] = vc
-        state.i, state.t = i, i * h
         return state
