@@ -25,6 +25,7 @@ test: setup
 	$(BIN)/pytest
 
 bench: setup
+	$(BIN)/python -m pip install --quiet -e ".[bench]"
 	$(BIN)/tissuebench bench --quick
 
 clean:
