@@ -23,14 +23,13 @@ def is_complete(out_dir):
 
 def check_writable(out_dir):
     """Raise PermissionError unless out_dir can be created and written (nothing is created)."""
-    out = Path(out_dir).absolute()
-    if out.exists() and not out.is_dir():
-        raise PermissionError(f"output {out} exists and is not a directory")
-    existing = next(p for p in [out, *out.parents] if p.exists())
-    import os
+    from tissuebench.metrics.compare import check_output
+    from tissuebench.metrics.series import InputError
 
-    if not (existing.is_dir() and os.access(existing, os.W_OK | os.X_OK)):
-        raise PermissionError(f"output {out} cannot be written ({existing} is not writable)")
+    try:
+        check_output(out_dir)
+    except InputError as err:
+        raise PermissionError(f"output cannot be written: {err}") from None
 
 
 @contextmanager
