@@ -1,17 +1,17 @@
 """`explicit-lumped`: central difference (beta_N = 0, gamma = 1/2) with the lumped mass M_L
 and C = alpha M_L (the paper's scheme). The step matrix (1 + h alpha / 2) M_L is diagonal: a
-custom loop of one MatMult with K and pointwise Vec operations per step, no KSP."""
-
-from petsc4py import PETSc
+custom loop per step: pointwise Vec updates, then one compiled pass over K that also
+updates a and v (solvers/blockcsr.py), no KSP."""
 
 from tissuebench.solvers.newmark import Newmark, State
 
 
 class ExplicitLumped(Newmark):
-    """Newmark.step for this scheme, in 8 Vec passes and one MatMult instead of 14 and a
-    MatMultAdd: u = ubar needs no correction (beta_N = 0), M_L a0 only touches constrained
-    rows (dropped), and 1 / S is applied with zeros on the constrained dofs. The same
-    arithmetic up to round-off (tests/test_integrators.py checks it against the general step)."""
+    """Newmark.step for this scheme as one pass of pointwise updates and one fused pass over K
+    (solvers/blockcsr.py): u = ubar needs no correction (beta_N = 0), M_L a0 only touches
+    constrained rows (dropped), and 1 / S is applied with zeros on the constrained dofs. The
+    same arithmetic up to round-off (tests/test_integrators.py checks it against the general
+    step)."""
 
     def __init__(self, system, h, solver="direct"):
         super().__init__(system, h, beta_N=0.0, gamma=0.5, lumped=True, stiffness_damping=False,
@@ -22,11 +22,7 @@ class ExplicitLumped(Newmark):
         self._inv_s.scale(1 + self.gamma * h * self.alpha)
         self._inv_s.reciprocal()
         self._inv_s.array[system.constrained] = 0.0
-        # K in symmetric block storage (SBAIJ: the upper triangle's blocks), for the one
-        # product per step: it moves about half the bytes of BAIJ, the same K
-        self.K_product = system.K.copy()
-        self.K_product.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-        self.K_product.convert("sbaij")  # in place: our own copy
+        self.K_product = system.K_csr  # the matrix that the one product per step reads
 
     def step(self, state):
         s, h, c = self.system, self.h, self.system.constrained
@@ -37,14 +33,9 @@ class ExplicitLumped(Newmark):
         v.axpy((1 - self.gamma) * h, a)  # vtilde
         u.array[c] = uc  # ubar
         v.array[c] = vc  # vbar
-        r, w = self._r, self._w
-        self.K_product.mult(u, r)
-        r.aypx(-1.0, s.f)
-        w.pointwiseMult(self._alpha_ml, v)
-        r.axpy(-1.0, w)  # r = f - K ubar - alpha M_L vbar
-        a.pointwiseMult(self._inv_s, r)  # a = delta (0 on constrained dofs) ...
+        # a = delta = (f - K ubar - alpha M_L vbar) / S (0 on constrained dofs), v += gamma h a
+        self.K_product.explicit_lumped(u, s.f, self._inv_s, self._alpha_ml, v, a, self.gamma * h)
         a.array[c] = ac  # ... + a0
-        v.axpy(self.gamma * h, a)
         v.array[c] = vc
         return State(i, i * h, u, v, a)
 

@@ -55,7 +55,7 @@ class Newmark:
         if self.lumped:
             y.pointwiseMult(self.system.ML, x)
         else:
-            self.system.M.mult(x, y)
+            self.system.M_csr.mult(x, y)
 
     def residual(self, a0, vbar, ubar):
         """r = f - M (a0 + alpha vbar) - K (ubar + beta vbar), zero on constrained dofs."""
@@ -63,7 +63,7 @@ class Newmark:
         w.waxpy(self.alpha, vbar, a0)
         self.mass_mult(w, r)  # r = M (a0 + alpha vbar)
         w.waxpy(self.beta, vbar, ubar)
-        self.system.K.multAdd(w, r, r)  # r += K (ubar + beta vbar)
+        self.system.K_csr.mult(w, r, add=True)  # r += K (ubar + beta vbar)
         r.aypx(-1.0, self.system.f)  # r = f - r
         r.array[self.system.constrained] = 0.0
         return r

@@ -32,7 +32,7 @@ class QuasiStatic:
         u.set(0.0)
         u.array[s.constrained] = s.prescribed(t)[0]
         r = self._r
-        s.K.mult(u, r)
+        s.K_csr.mult(u, r)
         r.aypx(-1.0, s.f)
         r.array[s.constrained] = 0.0
         self.solve(r, self._delta)

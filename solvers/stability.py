@@ -140,8 +140,7 @@ def reduced_matrices(system, lumped):
     if not lumped:
         return K, system.M.createSubMatrix(free, free)
     d = system.ML.getSubVector(free)
-    ML = K.duplicate()  # K's layout and pattern, all zero: the diagonal is set below
-    ML.zeroEntries()
+    ML = PETSc.Mat().createAIJ(K.getSizes(), nnz=(1, 0), comm=K.getComm())  # the diagonal only
     ML.setDiagonal(d)
     ML.assemble()
     system.ML.restoreSubVector(free, d)
@@ -150,7 +149,8 @@ def reduced_matrices(system, lumped):
 
 def _eps(K, M, smallest, tol):
     """A SLEPc solver for K x = lam M x (both symmetric, M positive definite), for the largest
-    eigenvalue or (shift-and-invert about 0) the smallest; linear solves by MUMPS LU."""
+    eigenvalue or (shift-and-invert about 0) the smallest; linear solves by MUMPS LU, or for the
+    largest with a diagonal M (the lumped mass) by Jacobi, which is exact there."""
     eps = SLEPc.EPS().create(K.getComm())
     eps.setOperators(K, M)
     eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
@@ -165,8 +165,12 @@ def _eps(K, M, smallest, tol):
         eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
     ksp = st.getKSP()
     ksp.setType(PETSc.KSP.Type.PREONLY)
-    ksp.getPC().setType(PETSc.PC.Type.LU)
-    ksp.getPC().setFactorSolverType("mumps")
+    diagonal = M.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"] <= M.getSize()[0]
+    if diagonal and not smallest:
+        ksp.getPC().setType(PETSc.PC.Type.JACOBI)
+    else:
+        ksp.getPC().setType(PETSc.PC.Type.LU)
+        ksp.getPC().setFactorSolverType("mumps")
     eps.setOptionsPrefix("stability_")
     eps.setFromOptions()
     return eps

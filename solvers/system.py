@@ -4,6 +4,8 @@ degrees of freedom with their prescribed motion.
 Units: K in N/m, M and M_L in kg, f in N (SI throughout).
 """
 
+from functools import cached_property
+
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -68,6 +70,20 @@ class System:
         ones.set(1.0)
         self.M.mult(ones, self.ML)
         self._constrain(benchmark.constraints)
+
+    @cached_property
+    def K_csr(self):
+        """K for the products in the time loops (solvers/blockcsr.py), built on first use."""
+        from tissuebench.solvers.blockcsr import BlockCSR
+
+        return BlockCSR(self.K, self.V)
+
+    @cached_property
+    def M_csr(self):
+        """M for the products in the time loops (solvers/blockcsr.py), built on first use."""
+        from tissuebench.solvers.blockcsr import BlockCSR
+
+        return BlockCSR(self.M, self.V)
 
     def owned_copy(self, x):
         """A plain (unghosted) Vec holding the owned entries of x."""

@@ -144,9 +144,13 @@ def test_iterative_options_agree_with_direct(solver):
     bench = get_benchmark("rod", mesh_size=2)
     system = System(bench, "MP3")
     direct = simulate(get_integrator("implicit", system, 1 / 30), 30, bench.extent).u[-1]
-    other = simulate(get_integrator("implicit", system, 1 / 30, solver=solver), 30, bench.extent).u[-1]
+    iterative = get_integrator("implicit", system, 1 / 30, solver=solver)
+    other = simulate(iterative, 30, bench.extent).u[-1]
     err = np.sqrt(comm.allreduce(float((other - direct) @ (other - direct))))
     assert err < 1e-8 * np.sqrt(comm.allreduce(float(direct @ direct)))
+    # it stopped at its tolerance (CONVERGED_RTOL or ATOL), not after ksp_max_it sweeps
+    ksp = iterative.solve.ksp
+    assert ksp.getConvergedReason() in (2, 3) and ksp.getIterationNumber() < 1000
 
 
 def test_histories_serial_equal_parallel():
