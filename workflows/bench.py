@@ -831,7 +831,10 @@ def write_report(records, probes, paper, mode, wall, out):
         "Peer: scikit-fem assembly (2x2(x2) Gauss points), SciPy CSR; direct = SuperLU (splu, "
         "MMD_AT_PLUS_A, symmetric mode) or MKL PARDISO (pypardiso, SPD Cholesky, solve phase "
         "called directly), iterative = SciPy CG + pyamg smoothed aggregation with rigid-body "
-        "modes, relative residual 1e-12, warm start. Ours: the defaults of `tissuebench run`. "
+        "modes, relative residual 1e-12, warm start. Ours: the defaults of `tissuebench run` "
+        "(matrix-vector products by the block-CSR loop of solvers/blockcsr.py, compiled here with "
+        "-O3 -march=native; factorisations, solves and preconditioners by the wheel's PETSc and "
+        "MUMPS, built -O2 for a generic x86-64). "
         "'u diff': relative difference of all nodal displacements after "
         f"{STEPS} steps, nodes matched by coordinates (peer against ours on 1 rank; "
         f"direct solvers must agree to {DIRECT_TOL:g}).",
@@ -843,16 +846,22 @@ def write_report(records, probes, paper, mode, wall, out):
         "## Real-time capacity (rod)",
         "",
         "The largest rod mesh measured whose time per step is at most its step h (one simulated "
-        "second in at most one wall second); 'wall/simulated' is step time / h there.",
+        "second in at most one wall second); 'wall/simulated' is step time / h there. For "
+        "explicit-lumped and implicit direct (the cases with a target), the rod size n is also "
+        "bisected between the sweep's last size in real time and the next one, with runs of "
+        f"{SHORT} steps: " + (", ".join(f"{p['case']} {p['ranks']}r n={p['n']}: "
+                                        + (fmt(p['step_s'] / p['h']) if p.get('step_s') else "failed")
+                                        for p in probes) or "no probe was needed") + ".",
         "",
         markdown_table(*capacity(records, probes)),
         "",
         "## Explicit-lumped step against the memory-bandwidth limit",
         "",
-        "limit = bytes / triad bandwidth; bytes = the stiffness matrix as stored (values, column "
-        "indices, row pointers; blocks for BAIJ) + 8 vectors (u, v, a read and written, f and "
-        "M_L read), a lower bound for any implementation. The peer's limit uses its CSR bytes and "
-        "the 1-rank triad.",
+        "limit = bytes / triad bandwidth; bytes = the stiffness matrix as the step reads it (the "
+        "compiled block-CSR loop of solvers/blockcsr.py: gdim x gdim blocks of values, one 4-byte "
+        "column index per block, row starts) + 8 vectors (u, v, a read and written, f and M_L "
+        "read), a lower bound for any implementation with this storage. The peer's limit uses "
+        "its CSR bytes and the 1-rank triad.",
         "",
         markdown_table(*bandwidth_rows(records)),
         "",

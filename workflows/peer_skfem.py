@@ -5,7 +5,8 @@ mesh (2 x 2 (x 2) Gauss points, exact on the benchmarks' box cells), the same co
 degrees of freedom and prescribed motion, and the same Newmark updates (SPEC section 3),
 with the linear solves done by
   - "superlu": scipy.sparse.linalg.splu, factorised once;
-  - "pardiso": MKL PARDISO through pypardiso (optional), factorised once (Cholesky);
+  - "pardiso": MKL PARDISO through pypardiso (in the bench extra; skipped if it will not
+    import), factorised once (Cholesky);
   - "pyamg":   scipy CG preconditioned by pyamg smoothed aggregation (rigid-body modes),
                warm-started from the last solution, relative residual 1e-12;
 and the explicit-lumped step as one CSR matrix-vector product plus numpy updates.
