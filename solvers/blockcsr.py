@@ -23,20 +23,28 @@ import numpy as np
 SOURCE = r"""
 #include <stdint.h>
 #define KERNELS(BS)                                                                        \
-/* y = A x (+ y if add): nbr block rows, block row r has blocks ai[r]..ai[r+1]-1 */        \
+/* s = row r of A x: block row r has blocks ai[r]..ai[r+1]-1 */                            \
+static inline void row##BS(int32_t r, const int32_t* restrict ai,                         \
+                           const int32_t* restrict aj, const double* restrict A,           \
+                           const double* restrict x, double* restrict s)                   \
+{                                                                                          \
+  for (int i = 0; i < BS; ++i) s[i] = 0.0;                                                 \
+  for (int32_t k = ai[r]; k < ai[r + 1]; ++k) {                                            \
+    const double* restrict b = A + (int64_t)k * BS * BS;                                   \
+    const double* restrict xc = x + (int64_t)aj[k] * BS;                                   \
+    for (int i = 0; i < BS; ++i)                                                           \
+      for (int j = 0; j < BS; ++j)                                                         \
+        s[i] += b[i * BS + j] * xc[j];                                                     \
+  }                                                                                        \
+}                                                                                          \
+/* y = A x (+ y if add) over nbr block rows */                                             \
 void mult##BS(int32_t nbr, const int32_t* restrict ai, const int32_t* restrict aj,        \
               const double* restrict A, const double* restrict x, double* restrict y,      \
               int32_t add)                                                                 \
 {                                                                                          \
   for (int32_t r = 0; r < nbr; ++r) {                                                      \
-    double s[BS] = {0};                                                                    \
-    for (int32_t k = ai[r]; k < ai[r + 1]; ++k) {                                          \
-      const double* restrict b = A + (int64_t)k * BS * BS;                                 \
-      const double* restrict xc = x + (int64_t)aj[k] * BS;                                 \
-      for (int i = 0; i < BS; ++i)                                                         \
-        for (int j = 0; j < BS; ++j)                                                       \
-          s[i] += b[i * BS + j] * xc[j];                                                   \
-    }                                                                                      \
+    double s[BS];                                                                          \
+    row##BS(r, ai, aj, A, x, s);                                                           \
     for (int i = 0; i < BS; ++i)                                                           \
       y[r * BS + i] = add ? y[r * BS + i] + s[i] : s[i];                                   \
   }                                                                                        \
@@ -50,14 +58,8 @@ void explicit_lumped##BS(int32_t nbr, const int32_t* restrict ai,               
                          double* restrict v, double* restrict a, double gh)                \
 {                                                                                          \
   for (int32_t r = 0; r < nbr; ++r) {                                                      \
-    double s[BS] = {0};                                                                    \
-    for (int32_t k = ai[r]; k < ai[r + 1]; ++k) {                                          \
-      const double* restrict b = K + (int64_t)k * BS * BS;                                 \
-      const double* restrict uc = u + (int64_t)aj[k] * BS;                                 \
-      for (int i = 0; i < BS; ++i)                                                         \
-        for (int j = 0; j < BS; ++j)                                                       \
-          s[i] += b[i * BS + j] * uc[j];                                                   \
-    }                                                                                      \
+    double s[BS];                                                                          \
+    row##BS(r, ai, aj, K, u, s);                                                           \
     for (int i = 0; i < BS; ++i) {                                                         \
       const int64_t d = (int64_t)r * BS + i;                                               \
       a[d] = inv_s[d] * ((f[d] - s[i]) - alpha_ml[d] * v[d]);                              \
