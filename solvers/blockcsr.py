@@ -132,8 +132,9 @@ def load(comm=None):
 
 class BlockCSR:
     """A PETSc matrix (AIJ or BAIJ, serial or MPI) copied into block CSR over this rank's
-    owned block rows, with columns in the local numbering of V's index map (owned nodes, then
-    ghosts). `mult(x, y)` takes PETSc Vecs over the owned dofs, as the solvers use them."""
+    owned block rows, with local block columns: V's owned nodes, then every other node the
+    rows reach (_column_map). `mult(x, y)` takes PETSc Vecs over the owned dofs, as the
+    solvers use them."""
 
     def __init__(self, A, V):
         from petsc4py import PETSc
@@ -168,6 +169,7 @@ class BlockCSR:
         self._step = getattr(self.lib.lib, f"explicit_lumped{bs}")
         ptr = self.lib.ffi.from_buffer
         self._args = (self.nbr, ptr("int32_t[]", self.ai), ptr("int32_t[]", self.aj), ptr("double[]", self.A))
+        self._xp = ptr("double[]", self._x.array)
 
     @staticmethod
     def _column_map(columns, index_map, comm):
@@ -181,17 +183,17 @@ class BlockCSR:
         ghosts = np.unique(columns[outside])
         starts = np.array(comm.allgather(first))
         owners = (np.searchsorted(starts, ghosts, side="right") - 1).astype(np.int32)
-        column_map = IndexMap(comm, index_map.size_local, ghosts.astype(np.int64), owners, 5219)
+        tag = 5219  # any MPI tag: it only labels the messages that build the map
+        column_map = IndexMap(comm, index_map.size_local, ghosts.astype(np.int64), owners, tag)
         local = columns - first
         local[outside] = index_map.size_local + np.searchsorted(ghosts, columns[outside])
         return column_map, local.astype(np.int32)
 
     def _ghosted(self, x):
         """x (a PETSc Vec over the owned dofs) with its ghost values, as a cffi pointer."""
-        n = self.nbr * self.bs
-        self._x.array[:n] = x.array_r
+        self._x.array[: self.nbr * self.bs] = x.array_r
         self._x.scatter_forward()
-        return self.lib.ffi.from_buffer("double[]", self._x.array)
+        return self._xp
 
     def mult(self, x, y, add=False):
         """y = A x, or y += A x if add."""

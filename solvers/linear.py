@@ -122,7 +122,7 @@ def step_operator(system, mass_coef, stiffness_coef, lumped, prefix, solver="dir
         S.scale(mass_coef)
         if stiffness_coef != 0:
             S.axpy(stiffness_coef, system.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-    if "baij" in S.getType():  # BAIJ speeds up products; factorisations and preconditioners want AIJ
+    if "baij" in S.getType():  # System(matrix_type="baij"): factorisations and preconditioners want AIJ
         S.convert("aij")  # in place: S is our own copy
     S.zeroRowsColumns(system.constrained_global, diag=1.0)
     S.setOption(PETSc.Mat.Option.SPD, True)  # M or M_L plus c K, constrained rows and columns -> I

@@ -30,14 +30,14 @@ def sigma(u, mu, lmbda):
 class System:
     """K, M, M_L and f of one benchmark and material, with the constrained dofs.
 
-    K and M are PETSc matrices of `matrix_type` ("baij", the default: gdim x gdim blocks,
-    faster products than AIJ; None for DOLFINx's AIJ); the solvers convert their step matrices
-    to AIJ. Vectors are PETSc Vecs over the owned dofs of V (vector Q1, block size gdim); a dof's
+    K and M are PETSc matrices of `matrix_type` (None, the default: DOLFINx's AIJ, which the
+    factorisations and preconditioners take; "baij" for gdim x gdim blocks). The products in
+    the time loops use the compiled block-CSR copies K_csr and M_csr. Vectors are PETSc Vecs over the owned dofs of V (vector Q1, block size gdim); a dof's
     local index in a Vec is its local index in V. `constrained` holds the local indices of
     the owned constrained dofs and `component` their displacement component.
     """
 
-    def __init__(self, benchmark, material=None, plane="strain", matrix_type="baij"):
+    def __init__(self, benchmark, material=None, plane="strain", matrix_type=None):
         self.benchmark = benchmark
         self.material = get_material(material or benchmark.material)
         self.mesh = mesh = benchmark.mesh
