@@ -85,6 +85,16 @@ class System:
 
         return BlockCSR(self.M, self.V)
 
+    @cached_property
+    def rigid_body_modes(self):
+        """The rigid-body motions of the mesh (gdim translations, 1 or 3 rotations) as a PETSc
+        near null space, for algebraic multigrid (PETSc's MatNullSpaceCreateRigidBody)."""
+        n = self.V.dofmap.index_map.size_local
+        coords = self.K.createVecLeft()
+        coords.setBlockSize(self.gdim)
+        coords.array[:] = self.V.tabulate_dof_coordinates()[:n, : self.gdim].ravel()
+        return PETSc.NullSpace().createRigidBody(coords)
+
     def owned_copy(self, x):
         """A plain (unghosted) Vec holding the owned entries of x."""
         y = self.K.createVecLeft()

@@ -139,7 +139,7 @@ def test_bad_time_step_and_algorithm():
         get_integrator("leapfrog", system, 0.1)
 
 
-@pytest.mark.parametrize("solver", ["cg", "gauss-seidel"])
+@pytest.mark.parametrize("solver", ["cg", "gamg", "gauss-seidel"])
 def test_iterative_options_agree_with_direct(solver):
     bench = get_benchmark("rod", mesh_size=2)
     system = System(bench, "MP3")
