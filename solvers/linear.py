@@ -13,11 +13,12 @@ SOLVERS = {
     # forward/backward substitution per step
     "direct": {"ksp_type": "preonly", "pc_type": "cholesky", "pc_factor_mat_solver_type": "mumps"},
     # conjugate gradients, warm-started from the last solution, preconditioned by incomplete
-    # Cholesky (ICC(0), one block per rank) of S stored as SBAIJ (half the matrix, gdim x gdim
-    # blocks: the same iterations as on AIJ, 1.3 to 1.6x less time per step on the rod). The
-    # step matrices with a mass term are mass-dominated: on the rod ICC(0) takes 29 (n = 24)
-    # and 57 (n = 48) iterations, each far cheaper than a multigrid cycle, and beats "gamg"
-    # 2.5x there; K alone (quasi-static) takes "gamg".
+    # Cholesky (ICC(0), one block per rank). The step matrices with a mass term are mass-
+    # dominated: on the rod ICC(0) takes 28 (n = 24) to 56 (n = 48) iterations, each far
+    # cheaper than a multigrid cycle, and beats "gamg" 2 to 3x there (tissuebench bench).
+    # SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its block ICC(0) breaks
+    # down on the block (MP1) under mpiexec -n 2 (indefinite preconditioner), shift or not.
+    # K alone (quasi-static) takes "gamg".
     "cg": {"ksp_type": "cg", "pc_type": "bjacobi", "sub_pc_type": "icc", "ksp_rtol": 1e-12,
            "ksp_atol": 1e-50, "ksp_initial_guess_nonzero": True, "ksp_max_it": 1000},
     # conjugate gradients with smoothed-aggregation multigrid (the rigid-body modes as its near
@@ -31,10 +32,6 @@ SOLVERS = {
     "gauss-seidel": {"ksp_type": "richardson", "pc_type": "sor", "ksp_rtol": 1e-12,
                      "ksp_atol": 1e-50, "ksp_initial_guess_nonzero": True, "ksp_max_it": 100000},
 }
-# Solvers whose step matrix is stored as SBAIJ, unless their PC is changed by option (GAMG,
-# for one, takes AIJ only).
-SBAIJ_SOLVERS = {"cg"}
-
 # The one solve with the consistent mass M at step 0 (the initial acceleration): M is well
 # conditioned, so CG + Jacobi reaches round-off in a few dozen iterations, with no second
 # factorisation. Not a user choice; options under the prefix <integrator>_mass_ still win.
@@ -136,8 +133,5 @@ def step_operator(system, mass_coef, stiffness_coef, lumped, prefix, solver="dir
     if solver == "cg" and mass_coef == 0:
         solver = "gamg"  # K alone is not mass-dominated
     S.setOption(PETSc.Mat.Option.SPD, True)  # M or M_L plus c K, constrained rows and columns -> I
-    opts = PETSc.Options()
-    if solver in SBAIJ_SOLVERS and not (opts.hasName(prefix + "pc_type") or opts.hasName(prefix + "sub_pc_type")):
-        S.convert("sbaij")
     S.setNearNullSpace(system.rigid_body_modes)  # for GAMG, chosen or by option
     return KSPSolve(S, prefix, solver)
