@@ -771,7 +771,7 @@ def plot(records, path):
     import matplotlib.pyplot as plt
     import matplotlib.ticker
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5.5), sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(16, 5.5), sharey=True)
     styles = {("explicit-lumped", "-"): "C0", ("implicit", "direct"): "C1", ("implicit", "cg"): "C2",
               ("implicit", "gamg"): "C6",
               ("implicit-lumped", "direct"): "C3", ("explicit", "direct"): "C4", ("quasi-static", "direct"): "C5"}
@@ -795,7 +795,7 @@ def plot(records, path):
         ax.set_xlabel("degrees of freedom")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("wall time per step (s)")
-    axes[1].legend(fontsize=7, loc="upper left")
+    axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # clear of the curves
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
