@@ -16,15 +16,17 @@ SOLVERS = {
     # Cholesky (ICC(0), one block per rank). The step matrices with a mass term are mass-
     # dominated: on the rod ICC(0) takes 28 (n = 24) to 56 (n = 48) iterations, each far
     # cheaper than a multigrid cycle, and beats "gamg" 2 to 3x there (tissuebench bench).
-    # SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its block ICC(0) breaks
-    # down on the block (MP1) under mpiexec -n 2 (indefinite preconditioner), shift or not.
-    # K alone (quasi-static) takes "gamg".
+    # On the nearly incompressible block (MP1) it weakens with the mesh and with the ranks (N =
+    # 214: 106 iterations on 1 rank, 523 on 2; N = 324, 2 ranks: no convergence in 1000):
+    # take "gamg" there. SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its
+    # block ICC(0) breaks down on the block under mpiexec -n 2 (indefinite preconditioner),
+    # shift or not. K alone (quasi-static) takes "gamg".
     "cg": {"ksp_type": "cg", "pc_type": "bjacobi", "sub_pc_type": "icc", "ksp_rtol": 1e-12,
            "ksp_atol": 1e-50, "ksp_initial_guess_nonzero": True, "ksp_max_it": 1000},
     # conjugate gradients with smoothed-aggregation multigrid (the rigid-body modes as its near
     # null space, one symmetric SOR sweep as smoother), warm-started: iterations independent of
     # the mesh, for K alone and for large nearly incompressible meshes (block MP1 at N = 590:
-    # 22 iterations, where ICC(0) needs several hundred)
+    # 34 iterations on 1 or 2 ranks, where ICC(0) takes 212 on 1 rank and fails on 2)
     "gamg": {"ksp_type": "cg", "pc_type": "gamg", "mg_levels_ksp_type": "richardson",
              "mg_levels_pc_type": "sor", "ksp_rtol": 1e-12, "ksp_atol": 1e-50,
              "ksp_initial_guess_nonzero": True, "ksp_max_it": 1000},
