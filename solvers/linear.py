@@ -14,8 +14,9 @@ SOLVERS = {
     "direct": {"ksp_type": "preonly", "pc_type": "cholesky", "pc_factor_mat_solver_type": "mumps"},
     # conjugate gradients, warm-started from the last solution, preconditioned by incomplete
     # Cholesky (ICC(0), one block per rank). The step matrices with a mass term are mass-
-    # dominated: on the rod ICC(0) takes 28 (n = 24) to 56 (n = 48) iterations, each far
-    # cheaper than a multigrid cycle, and beats "gamg" 2 to 3x there (tissuebench bench).
+    # dominated: on the rod ICC(0) takes 19 (n = 16) to 56 (n = 48) iterations, each far
+    # cheaper than a multigrid cycle, and beats "gamg" 1.4 to 2x at n = 16 to 32 (tissuebench
+    # bench).
     # On the nearly incompressible block (MP1) it weakens with the mesh and with the ranks (N =
     # 214: 106 iterations on 1 rank, 523 on 2; N = 324, 2 ranks: no convergence in 1000):
     # take "gamg" there. SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its
