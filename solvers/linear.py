@@ -16,8 +16,7 @@ SOLVERS = {
     # Cholesky (ICC(0), one block per rank). The step matrices with a mass term are mass-
     # dominated: on the rod ICC(0) takes 19 (n = 16) to 56 (n = 48) iterations, each far
     # cheaper than a multigrid cycle, and beats "gamg" 1.4 to 2x at n = 16 to 32 (tissuebench
-    # bench).
-    # On the nearly incompressible block (MP1) it weakens with the mesh and with the ranks (N =
+    # bench). On the nearly incompressible block (MP1) it weakens with the mesh and with the ranks (N =
     # 214: 106 iterations on 1 rank, 523 on 2; N = 324, 2 ranks: no convergence in 1000):
     # take "gamg" there. SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its
     # block ICC(0) breaks down on the block under mpiexec -n 2 (indefinite preconditioner),

@@ -47,7 +47,8 @@ ROD_SIZES = {"quick": [2, 6, 10], "full": [2, 4, 8, 12, 16, 24, 32, 48]}
 # assembly (the rod at 7e5 dofs takes about 4 minutes).
 BUDGET = {"quick": {"main": 10.0, "iterative": 10.0, "other": 5.0, "assembly": 10.0},
           "full": {"main": 30.0, "iterative": 200.0, "other": 8.0, "assembly": 300.0}}
-ITERATIVE = ("cg", "gamg", "pyamg")
+OURS_ITERATIVE = ("cg", "gamg")  # our iterative solvers; pyamg is their peer
+ITERATIVE = OURS_ITERATIVE + ("pyamg",)
 
 # (algorithm, solver): ours with tissuebench's solver names, the peer with its own.
 OURS_CASES = [("explicit-lumped", "-"), ("implicit", "direct"), ("implicit", "cg"), ("implicit", "gamg"),
@@ -220,7 +221,7 @@ def ours_worker(spec):
                 comm.Barrier()
                 times.append(time.perf_counter() - start)
                 ksp = getattr(integrator.solve, "ksp", None)
-                if ksp is not None and solver in ITERATIVE:
+                if ksp is not None and solver in OURS_ITERATIVE:
                     iterations.append(ksp.getIterationNumber())
             record["step_s"] = median_step(times)
             record["steps_s"] = times
@@ -352,8 +353,8 @@ class Budget:
     """How many steps a case runs at the next size: STEPS, SHORT, or 0 (skipped from then on),
     from its setup and step times at the size before scaled by (dofs ratio)^p: p = 2 (setup)
     and 1.4 (step) for direct solvers on the rod (3D), 1.5 and 1.2 on the block, 1.2 and 1.5
-    for the iterative solvers, 1.2 and 1.1 otherwise. The peer is skipped when its assembly (scaled by ratio^1.1)
-    would exceed its budget."""
+    for the iterative solvers, 1.2 and 1.1 otherwise. The peer is skipped when its assembly
+    (scaled by ratio^1.1) would exceed its budget."""
 
     def __init__(self, mode):
         self.limits = BUDGET[mode]
@@ -449,7 +450,7 @@ def measure(mode, out, log):
         if budget.peer_assembly(benchmark, dofs):
             pcases = [(*c, budget.steps("peer", benchmark, c, dofs)) for c in all_peer_cases]
             # pyamg is the reference of our iterative solvers: it runs wherever one of them ran
-            ran_iterative = any(get(rec, "ours1", ("implicit", s), "step_s") for s in ("cg", "gamg"))
+            ran_iterative = any(get(rec, "ours1", ("implicit", s), "step_s") for s in OURS_ITERATIVE)
             pcases = [(a, s, SHORT) if (a, s) == ("implicit", "pyamg") and not n and ran_iterative
                       else (a, s, n) for a, s, n in pcases]
             pcases = [c for c in pcases if c[2]]
@@ -545,7 +546,7 @@ def peer_for(rec, case):
     algorithm, solver = case
     if solver == "-":
         return ("explicit-lumped", "-")
-    if solver in ("cg", "gamg"):
+    if solver in OURS_ITERATIVE:
         return (algorithm, "pyamg")
     best = best_peer_direct(rec, algorithm)
     return (algorithm, best[0]) if best else (algorithm, "superlu")
@@ -734,7 +735,7 @@ def targets(records, probes=(), paper=None):
     check("implicit direct setup: ours/best peer direct", worst(
         ratio(get(r, "ours1", imp, "setup_s"), min(get(r, "peer", ("implicit", s), "setup_s") or math.inf
                                                    for s in ("pardiso", "superlu"))) for r in mid), 1.0, where=where)
-    for cg in (("implicit", "cg"), ("implicit", "gamg")):
+    for cg in (("implicit", s) for s in OURS_ITERATIVE):
         largest = [r for r in records if r["dofs"] >= 6e5 and get(r, "ours1", cg, "step_s")
                    and get(r, "peer", ("implicit", "pyamg"), "step_s")]
         where = ", ".join(f"{r['benchmark']} {r['size']}" for r in largest) or "7e5 dofs not reached by both"
