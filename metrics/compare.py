@@ -5,6 +5,11 @@ Rank 0 reads and checks both series; the reference mesh is then distributed over
 and every step is measured in parallel. Only rank 0 writes, and only once everything has
 been checked and computed: metrics.csv and metrics.png go to temporary names first and are
 renamed into place.
+
+A series whose displacement has a non-finite value (NaN or inf) at step k has diverged
+there: the metrics are not evaluated from step k on (NaN), and metrics.csv's `status` column
+says so ("diverged" for the candidate, "reference diverged" for the reference, as in a run's
+metrics.csv; "missing" for the steps after a shorter candidate's last one).
 """
 
 import csv
@@ -22,9 +27,9 @@ from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
 
 from tissuebench.metrics.errors import NAMES, Metrics
-from tissuebench.metrics.series import InputError, read_series
+from tissuebench.metrics.series import InputError, Series, read_series
 
-COLUMNS = ("algorithm", "step", "time", *NAMES)
+COLUMNS = ("algorithm", "step", "time", *NAMES, "status")
 POINT_TOLERANCE = 1e-6  # node coordinates match within this fraction of the mesh's extent
 TIME_RTOL, TIME_ATOL = 1e-6, 1e-9  # time stamps match within rtol |t| + atol (s)
 LABELS = {
@@ -36,7 +41,8 @@ LABELS = {
 
 
 def summarize(curve):
-    """(max, time-mean) of a metric curve over steps 1..N, ignoring NaN; NaN if none."""
+    """(max, time-mean) of a metric curve over steps 1..N, ignoring NaN; NaN if none (the
+    curve's own units: the metrics are dimensionless)."""
     values = np.asarray(curve, dtype=np.float64)[1:]
     values = values[~np.isnan(values)]
     if len(values) == 0:
@@ -131,6 +137,23 @@ def check_output(out_dir):
         raise InputError(f"{out}: cannot write there ({existing} is not writable)")
 
 
+def first_non_finite(series: Series) -> int | None:
+    """The first step at which the series' displacement has a non-finite value (NaN or inf),
+    None if it has none."""
+    return next((i for i, u in enumerate(series.displacements) if not np.isfinite(u).all()), None)
+
+
+def statuses(steps: int, cand_steps: int, ref_diverged: int | None, cand_diverged: int | None) -> list[str]:
+    """The status of each of `steps` steps: "ok", or from the reference's divergence step on
+    "reference diverged", from the candidate's last step on "missing", from the candidate's
+    divergence step on "diverged" (the later of these rules overrides the earlier)."""
+    status = ["ok"] * steps
+    for start, name in ((ref_diverged, "reference diverged"), (cand_steps, "missing"), (cand_diverged, "diverged")):
+        if start is not None:
+            status[start:] = [name] * (steps - min(start, steps))
+    return status
+
+
 # --- parallel evaluation --------------------------------------------------------------------
 
 
@@ -154,11 +177,13 @@ def function_space(comm, series):
     return V, point[: index_map.size_local]
 
 
-def _curves(comm, V, points, ref, cand, steps, match):
+def _curves(comm: MPI.Comm, V: fem.FunctionSpace, points: np.ndarray, ref: Series | None, cand: Series | None,
+            steps: int, graded: int, match: np.ndarray | None) -> dict[str, np.ndarray]:
+    """The metric curves (dimensionless, one value per step, keyed by NAMES), evaluated on the
+    first `graded` steps only and NaN on the others. Collective; the series are rank 0's."""
     metrics = Metrics(V)
     curves = {name: np.full(steps, np.nan) for name in NAMES}
-    n_cand = comm.bcast(len(cand.displacements) if comm.rank == 0 else None, root=0)
-    for i in range(min(steps, n_cand)):
+    for i in range(graded):
         u_ref, u_cand = comm.bcast((ref.displacements[i], cand.displacements[i][match])
                                    if comm.rank == 0 else None, root=0)
         for name, value in metrics.evaluate(u_ref[points].ravel(), u_cand[points].ravel()).items():
@@ -169,12 +194,14 @@ def _curves(comm, V, points, ref, cand, steps, match):
 # --- output ---------------------------------------------------------------------------------
 
 
-def write_csv(path, algorithm, times, curves):
+def write_csv(path: Path, algorithm: str, times: np.ndarray, curves: dict[str, np.ndarray],
+              status: list[str]) -> None:
+    """metrics.csv: one row per step (time in s, dimensionless metrics, the step's status)."""
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(COLUMNS)
         for i, t in enumerate(times):
-            writer.writerow([algorithm, i, repr(float(t)), *(repr(float(curves[n][i])) for n in NAMES)])
+            writer.writerow([algorithm, i, repr(float(t)), *(repr(float(curves[n][i])) for n in NAMES), status[i]])
 
 
 def spans_decades(values):
@@ -204,13 +231,15 @@ def plot(path, title, times, curves):
     fig.savefig(path, format="png", dpi=120)
 
 
-def _write(out_dir, algorithm, title, times, curves):
+def _write(out_dir: Path, algorithm: str, title: str, times: np.ndarray, curves: dict[str, np.ndarray],
+           status: list[str]) -> None:
+    """metrics.csv and metrics.png in out_dir, each renamed into place once complete."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     final = [out / "metrics.csv", out / "metrics.png"]
     temporary = [p.with_name(f".{p.name}.{os.getpid()}.tmp") for p in final]
     try:
-        write_csv(temporary[0], algorithm, times, curves)
+        write_csv(temporary[0], algorithm, times, curves, status)
         plot(temporary[1], title, times, curves)
         for tmp, path in zip(temporary, final):
             os.replace(tmp, path)
@@ -219,15 +248,27 @@ def _write(out_dir, algorithm, title, times, curves):
             tmp.unlink(missing_ok=True)
 
 
-def compare(reference, candidate, out_dir, field="displacement", comm=MPI.COMM_WORLD):
+def _divergence(who: str, step: int, time: float, field: str) -> str:
+    """One line: `who` ("candidate" or "reference") diverged at `step` (time in s)."""
+    what = "displacement" if field == "displacement" else f"displacement (field {field!r})"
+    return f"{who} diverged at step {step} (t = {time:.6g} s): non-finite {what}"
+
+
+def compare(reference: str | Path, candidate: str | Path, out_dir: str | Path, field: str = "displacement",
+            comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, str]:
     """Measure the candidate series against the reference series (XDMF or PVD files), write
-    out_dir/metrics.csv and out_dir/metrics.png, and return {metric: one-line summary}.
+    out_dir/metrics.csv and out_dir/metrics.png, and return one-line summaries: under
+    "reference" and "candidate" (first, and only when it happens) where that series diverged
+    (its first step with a non-finite displacement) or where a shorter candidate ends, then
+    one per metric of NAMES (max and time-mean of the dimensionless metric over the graded
+    steps). Times are in s.
 
     Collective over comm. Raises InputError (on every rank, before anything is written) for
-    unreadable files, meshes or time stamps that do not match, a missing field, or an output
-    directory that cannot be written.
+    unreadable files, meshes or time stamps that do not match, degenerate cells, a mesh
+    boundary that touches itself, a missing field, or an output directory that cannot be
+    written.
     """
-    ref = cand = match = None
+    ref = cand = match = plan = None
     error = None
     if comm.rank == 0:
         reading = reference
@@ -238,30 +279,48 @@ def compare(reference, candidate, out_dir, field="displacement", comm=MPI.COMM_W
             cand = read_series(candidate, field)
             match = check_meshes(ref, cand)
             check_times(ref, cand)
+            plan = (ref.times, len(cand.times), first_non_finite(ref), first_non_finite(cand))
         except InputError as exc:
             error = str(exc)
         except Exception as exc:  # never leave the other ranks waiting
             error = f"{reading}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
-    error = comm.bcast(error, root=0)
+    error, plan = comm.bcast((error, plan), root=0)
     if error is not None:
         raise InputError(error)
 
-    times = comm.bcast(ref.times if comm.rank == 0 else None, root=0)
+    times, cand_steps, ref_diverged, cand_diverged = plan
+    steps = len(times)
+    status = statuses(steps, cand_steps, ref_diverged, cand_diverged)
+    graded = status.count("ok")  # the steps before the first that is not "ok" (statuses only get worse)
     V, points = function_space(comm, ref)
-    curves = _curves(comm, V, points, ref, cand, len(times), match)
+    curves = _curves(comm, V, points, ref, cand, steps, graded, match)
+
+    summaries = {}
+    if ref_diverged is not None:
+        summaries["reference"] = _divergence("reference", ref_diverged, times[ref_diverged], field)
+    if cand_diverged is not None:
+        summaries["candidate"] = _divergence("candidate", cand_diverged, times[cand_diverged], field)
+    elif cand_steps < steps:
+        summaries["candidate"] = (f"candidate ends at step {cand_steps - 1} (t = {times[cand_steps - 1]:.6g} s): "
+                                  f"steps {cand_steps}..{steps - 1} missing")
 
     algorithm = Path(candidate).stem
     if comm.rank == 0:
+        title = f"{algorithm} against {Path(reference).stem}"
+        if "candidate" in summaries or "reference" in summaries:
+            title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
         try:
-            _write(out_dir, algorithm, f"{algorithm} against {Path(reference).stem}", times, curves)
+            _write(out_dir, algorithm, title, times, curves, status)
         except OSError as exc:
             error = f"{out_dir}: cannot write the results ({exc.strerror or exc})"
     error = comm.bcast(error, root=0)
     if error is not None:
         raise InputError(error)
 
-    summaries = {}
+    scope = f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
+    if graded <= 1:
+        scope = f"no step of 1..{steps - 1} graded"
     for name in NAMES:
         peak, mean = summarize(curves[name])
-        summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} (steps 1..{len(times) - 1}, {algorithm})"
+        summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {algorithm})"
     return summaries

@@ -76,6 +76,9 @@ def _finish(path, field, points, cells, cell_type, times, values):
         raise InputError(f"{path}: hexahedra with 2D points")
     if points.shape[1] > dim and np.any(points[:, dim:] != 0):
         raise InputError(f"{path}: quadrilaterals with a non-zero third coordinate (a surface in 3D is not supported)")
+    points = np.ascontiguousarray(points[:, :dim])
+    check_cells(path, points, cells)
+    check_boundary(path, points, cells)
     times = np.asarray(times, dtype=np.float64)
     if len(times) == 0:
         raise InputError(f"{path}: no time steps")
@@ -89,7 +92,122 @@ def _finish(path, field, points, cells, cell_type, times, values):
         if u.shape[1] > dim and np.any(u[:, dim:] != 0):
             raise InputError(f"{path}: 2D mesh but field {field!r} at time {t:g} has a non-zero third component")
         displacements.append(np.ascontiguousarray(u[:, :dim]))
-    return Series(path, np.ascontiguousarray(points[:, :dim]), cells, cell_type, times, displacements)
+    return Series(path, points, cells, cell_type, times, displacements)
+
+
+# --- mesh checks ----------------------------------------------------------------------------
+
+# Faces of a VTK hexahedron, each a cycle of its four corners; edges of a VTK quadrilateral.
+HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
+QUAD_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+# A VTK hexahedron as six tetrahedra (0, 6, a, b) around its diagonal 0-6, (a, b) going round
+# the cycle 1-2-3-7-4-5 of the corners that are neither 0 nor 6.
+HEX_RING = np.array([1, 2, 3, 7, 4, 5])
+DEGENERATE = 1e-12  # a cell whose |area| or |volume| is at most this times extent^d is degenerate
+
+
+def _node(points: np.ndarray, i: int) -> str:
+    return f"node {i} at ({', '.join(f'{x:.9g}' for x in points[i])})"
+
+
+def cell_measures(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Signed area (quadrilaterals, shoelace of the 4 nodes in VTK order; units of the
+    coordinates squared) or volume estimate (hexahedra, the sum of the six tetrahedra around
+    the diagonal from node 0 to node 6; units cubed) of each cell."""
+    x = points[cells]
+    if cells.shape[1] == 4:
+        following = np.roll(x, -1, axis=1)
+        return 0.5 * np.sum(x[..., 0] * following[..., 1] - following[..., 0] * x[..., 1], axis=1)
+    a, b = x[:, HEX_RING] - x[:, [0]], x[:, np.roll(HEX_RING, -1)] - x[:, [0]]
+    return np.einsum("ckj,cj->c", np.cross(a, b), x[:, 6] - x[:, 0]) / 6
+
+
+def check_cells(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
+    """Refuse (InputError) cells that repeat a node or whose area (2D) or volume (3D) is at
+    most DEGENERATE * extent^d, extent the largest side of the nodes' bounding box (in the
+    units of the coordinates)."""
+    ordered = np.sort(cells, axis=1)
+    repeated = np.flatnonzero(np.any(ordered[:, 1:] == ordered[:, :-1], axis=1))
+    if len(repeated):
+        c = repeated[0]
+        node = ordered[c, 1:][ordered[c, 1:] == ordered[c, :-1]][0]
+        raise InputError(f"{path}: {len(repeated)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
+                         f"repeats node {node}")
+    dim = points.shape[1]
+    extent = float(np.ptp(points, axis=0).max())
+    measures = cell_measures(points, cells)
+    flat = np.flatnonzero(np.abs(measures) <= DEGENERATE * extent**dim)
+    if len(flat):
+        c = flat[0]
+        what = "area" if dim == 2 else "volume"
+        raise InputError(f"{path}: {len(flat)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
+                         f"has zero {what} ({measures[c]:.3g}; its nodes are collinear or coplanar or coincide)")
+
+
+def _count_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unique rows of `rows` with their nodes sorted, the index of each row among them, and
+    how often each occurs."""
+    rows = np.sort(rows, axis=1)
+    order = np.lexsort(rows.T[::-1])
+    ordered = rows[order]
+    first = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+    inverse = np.empty(len(rows), dtype=np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return ordered[first], inverse, np.diff(np.r_[np.flatnonzero(first), len(rows)])
+
+
+def check_boundary(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
+    """Refuse (InputError) a mesh whose boundary is not a manifold: a facet (2D edge, 3D face)
+    shared by more than two cells, or a boundary that touches itself at a node or along an
+    edge (as two quadrilaterals sharing only a corner do), where the boundary loops or
+    surfaces that the surface error E_s is measured on would be ambiguous."""
+    dim = points.shape[1]
+    local = QUAD_EDGES if dim == 2 else HEX_FACES
+    facets = cells[:, local].reshape(-1, local.shape[1])  # corners in cycle order
+    unique, inverse, counts = _count_rows(facets)
+    if np.any(counts > 2):
+        f = np.flatnonzero(counts > 2)[0]
+        name = "edge" if dim == 2 else "face"
+        raise InputError(f"{path}: the {name} through nodes {' '.join(map(str, unique[f]))} is shared by "
+                         f"{counts[f]} cells (the mesh is not a manifold)")
+    boundary = facets[counts[inverse] == 1]
+    touching = f"{path}: the mesh boundary touches itself at"
+    why = f"the boundary {'loops' if dim == 2 else 'surface'} that the surface error E_s needs would be ambiguous"
+    if dim == 2:
+        degree = np.bincount(boundary.ravel(), minlength=len(points))
+        if np.any(degree > 2):
+            raise InputError(f"{touching} {_node(points, int(np.argmax(degree > 2)))} ({why})")
+        return
+    # 3D: each boundary edge lies on exactly two boundary faces, and around each boundary node
+    # its faces form one fan, connected through the edges at that node.
+    corners = boundary.shape[1]
+    edges = np.stack([boundary, np.roll(boundary, -1, axis=1)], axis=2).reshape(-1, 2)  # face by face
+    unique, inverse, counts = _count_rows(edges)
+    if np.any(counts != 2):
+        e = unique[np.flatnonzero(counts != 2)[0]]
+        raise InputError(f"{touching} the edge from {_node(points, e[0])} to {_node(points, e[1])} "
+                         f"({why})")
+    # Half-edge (edge e seen from its end v) = 2 e + (v is the edge's larger node). At each
+    # corner v of a face, the face joins the half-edges of its two edges at v.
+    edge_id = inverse.reshape(-1, corners)  # edge_id[f, j]: edge from corner j to corner j + 1
+    after = 2 * edge_id + (boundary > np.roll(boundary, -1, axis=1))
+    before = 2 * np.roll(edge_id, 1, axis=1) + (boundary > np.roll(boundary, 1, axis=1))
+    p, q = after.ravel(), before.ravel()
+    label = np.arange(2 * len(unique))
+    while True:  # connected components by propagating the smallest label
+        smallest = np.minimum(label[p], label[q])
+        new = label.copy()
+        np.minimum.at(new, p, smallest)
+        np.minimum.at(new, q, smallest)
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    node = np.where(np.arange(2 * len(unique)) % 2 == 0, unique[:, 0].repeat(2), unique[:, 1].repeat(2))
+    fans = np.unique(node * len(label) + label) // len(label)  # one entry per (node, fan)
+    several = np.flatnonzero(np.bincount(fans, minlength=len(points)) > 1)
+    if len(several):
+        raise InputError(f"{touching} {_node(points, int(several[0]))} ({why})")
 
 
 # --- XDMF -----------------------------------------------------------------------------------
@@ -219,7 +337,8 @@ def _read_pvd(path, field):
             points = mesh.points
             blocks = [block for block in mesh.cells if len(block.data)]
             if len(blocks) != 1:
-                raise InputError(f"{vtu}: cells of types {[b.type for b in blocks]}; expected one of quad or hexahedron")
+                raise InputError(f"{vtu}: cells of types {[b.type for b in blocks]}; "
+                                 "expected one of quad or hexahedron")
             cells, cell_type = blocks[0].data, blocks[0].type
         elif len(mesh.points) != len(points):
             raise InputError(f"{vtu}: {len(mesh.points)} points, the first step has {len(points)}")

@@ -3,6 +3,9 @@ and bad input is refused with one line and nothing written."""
 
 import contextlib
 import csv
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -13,8 +16,8 @@ import pytest
 from dolfinx import fem, io, mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
 
-from helpers import run_script
-from tissuebench.metrics import InputError, Metrics, compare, read_series
+from helpers import mpiexec, run_script
+from tissuebench.metrics import NAMES, InputError, Metrics, compare, read_series
 from tissuebench.metrics.compare import COLUMNS
 
 TIMES = [0.0, 0.1, 0.2, 0.3]
@@ -28,12 +31,12 @@ def make_space(dim):
     return fem.functionspace(mesh, ("Lagrange", 1, (dim,)))
 
 
-def fields(V):
+def fields(V, times=TIMES):
     """Reference and candidate histories as (n, d) nodal arrays of the serial space V."""
     dim = V.mesh.geometry.dim
     X = V.tabulate_dof_coordinates()
-    ref = [t * np.c_[0.3 * X[:, 1] * X[:, 0], -0.2 * X[:, 0] ** 2, 0.1 * X[:, 2]][:, :dim] for t in TIMES]
-    cand = [u * (1 + 0.3 * t) + t**2 * 0.01 * np.sin(3 * X[:, :dim]) for t, u in zip(TIMES, ref)]
+    ref = [t * np.c_[0.3 * X[:, 1] * X[:, 0], -0.2 * X[:, 0] ** 2, 0.1 * X[:, 2]][:, :dim] for t in times]
+    cand = [u * (1 + 0.3 * t) + t**2 * 0.01 * np.sin(3 * X[:, :dim]) for t, u in zip(times, ref)]
     return ref, cand
 
 
@@ -91,9 +94,11 @@ def assert_same_curves(out, expected, algorithm):
     assert [r[0] for r in rows] == [algorithm] * len(TIMES)
     assert [int(r[1]) for r in rows] == list(range(len(TIMES)))
     assert np.allclose([float(r[2]) for r in rows], TIMES, rtol=1e-15)
-    for j, name in enumerate(COLUMNS[3:], start=3):
+    assert COLUMNS[3:-1] == NAMES and COLUMNS[-1] == "status"
+    for j, name in enumerate(NAMES, start=3):
         got = np.array([float(r[j]) for r in rows])
         np.testing.assert_allclose(got, expected[name], rtol=1e-12, atol=1e-15, err_msg=name)
+    assert [r[-1] for r in rows] == ["ok"] * len(TIMES)
     assert np.isnan(float(rows[0][3]))  # E_n at step 0: the reference is zero there
     assert (out / "metrics.png").stat().st_size > 0
     assert sorted(p.name for p in out.iterdir()) == ["metrics.csv", "metrics.png"]
@@ -112,7 +117,7 @@ def test_meshio_series_give_the_in_memory_curves(tmp_path, dim):
 
     summary = compare(tmp_path / "reference.xdmf", tmp_path / "explicit.xdmf", tmp_path / "out")
     assert_same_curves(tmp_path / "out", in_memory(V, ref, cand), "explicit")
-    assert set(summary) == set(COLUMNS[3:])
+    assert set(summary) == set(NAMES)  # no divergence line for finite series
     assert all("max" in line and "time-mean" in line and "\n" not in line for line in summary.values())
 
 
@@ -178,9 +183,19 @@ def test_refuses_different_meshes(tmp_path, reference):
     refused(ref, tmp_path / "coarse.xdmf", tmp_path / "out", "9 nodes")
 
     rewired = cells.copy()
-    rewired[0, 3] = cells[-1, 2]  # a node of another cell
+    rewired[0, 3] = cells[-1, 2]  # a node of another cell: the candidate's mesh is broken
     write_meshio_xdmf(tmp_path / "cells.xdmf", points, rewired, cell_type, cand)
-    refused(ref, tmp_path / "cells.xdmf", tmp_path / "out", "different cells")
+    assert refused(ref, tmp_path / "cells.xdmf", tmp_path / "out", "touches itself").startswith(
+        f"{tmp_path / 'cells.xdmf'}:")
+
+    # A hexagon split into two quadrilaterals along the diagonal 0-3, and along 1-4: two valid
+    # meshes on the same nodes.
+    angles = np.pi / 3 * np.arange(6)
+    hexagon = np.c_[np.cos(angles), np.sin(angles)]
+    zero = [np.zeros((6, 2))] * len(TIMES)
+    write_meshio_xdmf(tmp_path / "split03.xdmf", hexagon, np.array([[0, 1, 2, 3], [3, 4, 5, 0]]), "quad", zero)
+    write_meshio_xdmf(tmp_path / "split14.xdmf", hexagon, np.array([[1, 2, 3, 4], [4, 5, 0, 1]]), "quad", zero)
+    refused(tmp_path / "split03.xdmf", tmp_path / "split14.xdmf", tmp_path / "out", "different cells")
 
 
 def test_refuses_mismatched_times(tmp_path, reference):
@@ -197,7 +212,8 @@ def test_shorter_candidate_is_a_stopped_run(tmp_path, reference):
     write_meshio_xdmf(tmp_path / "stopped.xdmf", points, cells, cell_type, cand[:2], times=TIMES[:2])
     compare(ref, tmp_path / "stopped.xdmf", tmp_path / "out")
     _, rows = read_csv(tmp_path / "out" / "metrics.csv")
-    assert len(rows) == len(TIMES) and all(np.isnan(float(x)) for r in rows[2:] for x in r[3:])
+    assert len(rows) == len(TIMES) and all(np.isnan(float(x)) for r in rows[2:] for x in r[3:-1])
+    assert [r[-1] for r in rows] == ["ok", "ok", "missing", "missing"]
 
 
 def test_refuses_missing_field(tmp_path, reference):
@@ -251,7 +267,196 @@ def test_compare_serial_and_two_ranks_agree(tmp_path):
     serial = (tmp_path / "serial" / "metrics.csv").read_text()
     parallel = run_script("mpi_metrics.py", tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "parallel",
                                  ranks=2)["compare"]
-    tables = [np.array([row.split(",")[1:] for row in text.strip().splitlines()[1:]], dtype=float)
+    tables = [np.array([row.split(",")[1:-1] for row in text.strip().splitlines()[1:]], dtype=float)
               for text in (serial, parallel)]
     np.testing.assert_allclose(tables[1], tables[0], rtol=1e-12, atol=1e-15)
+    assert all(row.endswith(",ok") for row in parallel.strip().splitlines()[1:])
     assert np.isfinite(tables[0][1:, 2:]).all()
+
+
+# --- diverged series --------------------------------------------------------------------------
+
+LONG = [0.1 * k for k in range(7)]  # steps 0..6
+
+
+def cli(*args, ranks=1):
+    """`tissuebench ...` in a fresh process (under mpiexec with `ranks` > 1)."""
+    cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]
+    if ranks > 1:
+        cmd = [mpiexec(), "-n", str(ranks), *cmd]
+    # a fresh MPI job: drop the launcher variables of the calling (singleton MPI) process
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))}
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=dict(env, OMP_NUM_THREADS="1"))
+
+
+def table(path):
+    """(the numbers of metrics.csv: step, time and the metrics per row; its status column)."""
+    _, rows = read_csv(path)
+    return np.array([r[1:-1] for r in rows], dtype=float), [r[-1] for r in rows]
+
+
+@pytest.fixture
+def diverging(tmp_path):
+    """A 3D reference over LONG, a clean candidate, and the same candidate non-finite from step
+    3 on: a NaN in one component of one node at step 3, NaN everywhere at 4, +-inf at 5 and 6."""
+    V = make_space(3)
+    ref, cand = fields(V, LONG)
+    points, cells, cell_type = mesh_data(V)
+    bad = [u.copy() for u in cand]
+    bad[3][5, 1] = np.nan
+    bad[4][:] = np.nan
+    bad[5][:] = np.inf
+    bad[6][::2] = -np.inf
+    write_meshio_xdmf(tmp_path / "reference.xdmf", points, cells, cell_type, ref, times=LONG)
+    write_meshio_xdmf(tmp_path / "clean.xdmf", points, cells, cell_type, cand, times=LONG)
+    p, c, values = shuffled(points, cells, bad)
+    write_pvd(tmp_path / "blowup.pvd", p, c, cell_type, values, times=LONG)
+    return tmp_path
+
+
+def test_non_finite_candidate_is_diverged_from_its_first_bad_step(diverging, monkeypatch):
+    """Metrics NaN from step 3 on and never evaluated there, the clean candidate's values on
+    steps 0..2, status "diverged" from step 3, and a summary line that says so."""
+    d = diverging
+    clean = compare(d / "reference.xdmf", d / "clean.xdmf", d / "clean")
+    evaluated = []
+    evaluate = Metrics.evaluate
+
+    def counting(self, u_ref, u_cand):
+        evaluated.append(bool(np.isfinite(u_cand).all()))
+        return evaluate(self, u_ref, u_cand)
+
+    monkeypatch.setattr(Metrics, "evaluate", counting)
+    summary = compare(d / "reference.xdmf", d / "blowup.pvd", d / "blowup")
+    assert evaluated == [True] * 3  # steps 0, 1, 2 only
+
+    good, good_status = table(d / "clean" / "metrics.csv")
+    bad, status = table(d / "blowup" / "metrics.csv")
+    assert good_status == ["ok"] * 7 and status == ["ok"] * 3 + ["diverged"] * 4
+    np.testing.assert_array_equal(bad[:, :2], good[:, :2])  # steps and times
+    np.testing.assert_allclose(bad[:3, 2:], good[:3, 2:], rtol=1e-12, atol=1e-15)  # E_n is NaN at step 0 in both
+    assert np.isnan(bad[3:, 2:]).all()
+    assert np.isfinite(good[1:, 2:]).all() and np.all(np.diff(good[1:, 2]) > 0)  # E_n grows with t
+
+    assert summary["candidate"] == "candidate diverged at step 3 (t = 0.3 s): non-finite displacement"
+    assert list(summary)[0] == "candidate" and "reference" not in summary and "candidate" not in clean
+    # the summaries grade steps 1..2 only: E_n's max is the clean run's at step 2, below its max at step 6
+    peak = float(summary["relative_error"].split("max ")[1].split(",")[0])
+    assert peak == pytest.approx(good[2, 2], rel=1e-3) and peak < 0.5 * good[6, 2]
+    assert "steps 1..2 of 1..6" in summary["relative_error"]
+
+
+def test_non_finite_reference_is_diverged(diverging):
+    """A reference that goes non-finite at step 3: metrics NaN from 3 on, the clean reference's
+    values before, status "reference diverged", one line saying so, no crash."""
+    d = diverging
+    clean = compare(d / "clean.xdmf", d / "reference.xdmf", d / "clean")
+    summary = compare(d / "blowup.pvd", d / "reference.xdmf", d / "blowup")
+    good, good_status = table(d / "clean" / "metrics.csv")
+    got, status = table(d / "blowup" / "metrics.csv")
+    assert good_status == ["ok"] * 7 and status == ["ok"] * 3 + ["reference diverged"] * 4
+    np.testing.assert_allclose(got[:3], good[:3], rtol=1e-12, atol=1e-15)
+    assert np.isnan(got[3:, 2:]).all() and np.isfinite(got[1:3, 2:]).all() and np.all(got[1:3, 2:] > 0)
+    assert summary["reference"] == "reference diverged at step 3 (t = 0.3 s): non-finite displacement"
+    assert "candidate" not in summary and "reference" not in clean
+    # both diverged: "diverged" (the candidate's) wins from its step on
+    summary = compare(d / "blowup.pvd", d / "blowup.pvd", d / "both")
+    assert table(d / "both" / "metrics.csv")[1] == ["ok"] * 3 + ["diverged"] * 4
+    assert summary["reference"].startswith("reference diverged at step 3")
+    assert summary["candidate"].startswith("candidate diverged at step 3")
+
+
+def test_diverged_candidate_on_the_command_line_serial_and_two_ranks(diverging):
+    """The CLI prints the divergence line once and writes the same metrics.csv under
+    mpiexec -n 2 as in serial."""
+    d = diverging
+    runs = {n: cli("compare", d / "reference.xdmf", d / "blowup.pvd", "--out", d / f"cli{n}", ranks=n) for n in (1, 2)}
+    for n, r in runs.items():
+        assert r.returncode == 0, r.stderr[-3000:]
+        assert r.stdout.count("candidate diverged at step 3 (t = 0.3 s): non-finite displacement") == 1
+        assert r.stdout.splitlines()[0].startswith("candidate diverged")
+    (serial, serial_status), (parallel, parallel_status) = (table(d / f"cli{n}" / "metrics.csv") for n in (1, 2))
+    assert serial_status == parallel_status == ["ok"] * 3 + ["diverged"] * 4
+    np.testing.assert_allclose(parallel, serial, rtol=1e-12, atol=1e-15)
+    assert np.isnan(serial[3:, 2:]).all() and np.isfinite(serial[1:3, 2:]).all()
+
+
+# --- meshes that cannot be graded -------------------------------------------------------------
+
+ZERO = [np.zeros((7, 2))] * len(TIMES)
+
+
+def bowtie(path):
+    """Two unit squares that share only the corner (1, 1)."""
+    points = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [2, 1], [2, 2], [1, 2]], dtype=float)
+    write_meshio_xdmf(path, points, np.array([[0, 1, 2, 3], [2, 4, 5, 6]]), "quad", ZERO)
+
+
+def flat_strip(path):
+    """Three quadrilaterals in a row; the middle one has zero width (its nodes are collinear)."""
+    x = np.array([0.0, 1.0, 1.0, 2.0])
+    points = np.r_[np.c_[x, 0 * x], np.c_[x, 0 * x + 1]]
+    cells = np.array([[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6]])
+    write_meshio_xdmf(path, points, cells, "quad", [np.zeros((8, 2))] * len(TIMES))
+
+
+def repeated_node(path):
+    """Two quadrilaterals, the second with a repeated node (a triangle)."""
+    points = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [2, 0], [2, 1]], dtype=float)
+    write_meshio_xdmf(path, points, np.array([[0, 1, 2, 3], [1, 4, 5, 5]]), "quad", [np.zeros((6, 2))] * len(TIMES))
+
+
+@pytest.mark.parametrize("make, problem", [(bowtie, "touches itself at node 2 at (1, 1)"),
+                                           (flat_strip, "cell 1 (nodes 1 2 6 5) has zero area"),
+                                           (repeated_node, "cell 1 (nodes 1 4 5 5) repeats node 5")])
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_ungradable_reference_is_refused_on_one_line(tmp_path, make, problem, ranks):
+    """Exit 2, one line on stderr naming the file and the problem, no traceback, no --out."""
+    make(tmp_path / "ref.xdmf")
+    make(tmp_path / "cand.xdmf")
+    r = cli("compare", tmp_path / "ref.xdmf", tmp_path / "cand.xdmf", "--out", tmp_path / "out", ranks=ranks)
+    assert r.returncode == 2, r.stderr[-3000:]
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr
+    assert lines[0].startswith(f"tissuebench compare: error: {tmp_path / 'ref.xdmf'}: ") and problem in lines[0]
+    assert not (tmp_path / "out").exists() and r.stdout == ""
+
+
+def hexahedra(path, points, cells):
+    write_meshio_xdmf(path, np.asarray(points, dtype=float), np.asarray(cells), "hexahedron",
+                      [np.zeros((len(points), 3))] * len(TIMES))
+
+
+CUBE = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=float)
+
+
+def test_hexahedral_meshes_that_cannot_be_graded(tmp_path):
+    """3D: cubes touching at a corner or along an edge, a flat hexahedron, a repeated node; two
+    cubes sharing a face are fine."""
+    hexahedra(tmp_path / "corner.xdmf", np.r_[CUBE, CUBE[1:] + 1], [range(8), [6, *range(8, 15)]])
+    with pytest.raises(InputError, match=r"corner.xdmf: the mesh boundary touches itself at node 6 at \(1, 1, 1\)"):
+        read_series(tmp_path / "corner.xdmf")
+    edge = np.arange(8, 16)
+    edge[[0, 4]] = [2, 6]  # the second cube, moved by (1, 1, 0), shares the edge 2-6 only
+    hexahedra(tmp_path / "edge.xdmf", np.r_[CUBE, CUBE + [1, 1, 0]], [range(8), edge])
+    with pytest.raises(InputError, match="touches itself at the edge from node 2 at .* to node 6"):
+        read_series(tmp_path / "edge.xdmf")
+    hexahedra(tmp_path / "flat.xdmf", np.r_[CUBE[:4], CUBE[:4] + [0, 0, 1e-13]], [range(8)])
+    with pytest.raises(InputError, match="flat.xdmf: 1 degenerate cell.*has zero volume"):
+        read_series(tmp_path / "flat.xdmf")
+    hexahedra(tmp_path / "repeat.xdmf", CUBE, [[0, 1, 2, 3, 4, 5, 6, 6]])
+    with pytest.raises(InputError, match="repeats node 6"):
+        read_series(tmp_path / "repeat.xdmf")
+    hexahedra(tmp_path / "pair.xdmf", np.r_[CUBE, CUBE[4:] + [0, 0, 1]], [range(8), range(4, 12)])
+    assert read_series(tmp_path / "pair.xdmf").cells.shape == (2, 8)
+    hexahedra(tmp_path / "thin.xdmf", np.r_[CUBE[:4], CUBE[:4] + [0, 0, 1e-9]], [range(8)])  # thin, not flat
+    assert read_series(tmp_path / "thin.xdmf").dim == 3
+
+
+def test_ungradable_candidate_is_refused_in_the_library(tmp_path, reference):
+    """compare() raises one InputError naming the candidate file, nothing written."""
+    ref, _ = reference
+    bowtie(tmp_path / "bow.xdmf")
+    message = refused(ref, tmp_path / "bow.xdmf", tmp_path / "out", "touches itself")
+    assert message.startswith(f"{tmp_path / 'bow.xdmf'}:")
+    assert not (tmp_path / "out").exists()
