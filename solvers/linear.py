@@ -46,12 +46,37 @@ class SolveError(RuntimeError):
     """A linear solve that did not converge (treated as divergence of the run)."""
 
 
-def set_petsc_options(text):
+class OptionsError(ValueError):
+    """PETSc options that PETSc refuses (an unknown type, a bad value): bad input."""
+
+
+def petsc_message(err: PETSc.Error) -> str:
+    """The last line of a PETSc error's traceback, the one that says what is wrong."""
+    lines = [line.split("] ", 1)[-1].strip() for line in str(err).splitlines() if line.strip()]
+    return lines[-1] if lines else f"error code {err.ierr}"
+
+
+def mumps_failure(ksp: PETSc.KSP) -> str | None:
+    """Why a MUMPS factorisation of ksp's preconditioner failed (INFOG(1) < 0), or None.
+    MUMPS can fail without a PETSc error and leave inf in every solution."""
+    pc = ksp.getPC()
+    if pc.getType() not in ("lu", "cholesky") or pc.getFactorSolverType() != "mumps":
+        return None
+    infog1 = pc.getFactorMatrix().getMumpsInfog(1)
+    if infog1 >= 0:
+        return None
+    infog2 = pc.getFactorMatrix().getMumpsInfog(2)
+    return f"MUMPS factorisation failed for {ksp.getOptionsPrefix()}: INFOG(1) = {infog1}, INFOG(2) = {infog2}"
+
+
+def set_petsc_options(text: str) -> None:
     """Put options such as "-implicit_ksp_type cg -implicit_pc_type gamg" in PETSc's database."""
     words = text.split()
     opts = PETSc.Options()
     i = 0
     while i < len(words):
+        if not words[i].startswith("-") or words[i].strip("-") == "":
+            raise OptionsError(f"PETSc options: expected -name [value], got {words[i]!r} in {text!r}")
         key = words[i].lstrip("-")
         if i + 1 < len(words) and not words[i + 1].startswith("-"):
             opts[key] = words[i + 1]
@@ -74,9 +99,13 @@ def make_ksp(A, prefix, solver="direct"):
     ksp = PETSc.KSP().create(A.getComm())
     ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
-    ksp.setFromOptions()
-    for key in defaults:  # this KSP's defaults must not leak into the next one
-        opts.delValue(key)
+    try:
+        ksp.setFromOptions()
+    except PETSc.Error as err:
+        raise OptionsError(f"PETSc options for prefix {prefix!r}: {petsc_message(err)}") from None
+    finally:
+        for key in defaults:  # this KSP's defaults must not leak into the next one
+            opts.delValue(key)
     ksp.setUp()
     return ksp
 
@@ -86,7 +115,13 @@ class KSPSolve:
 
     def __init__(self, A, prefix, solver="direct"):
         self.A = A
-        self.ksp = make_ksp(A, prefix, solver)
+        self.failure = None  # a failed set-up is the run's divergence at its first solve
+        try:
+            self.ksp = make_ksp(A, prefix, solver)
+            self.failure = mumps_failure(self.ksp)
+        except PETSc.Error as err:
+            self.failure = f"{prefix} solver set-up failed: {petsc_message(err)}"
+            return
         if self.ksp.getType() == "richardson" and self.ksp.getPC().getType() == "sor":
             # PETSc's Richardson + SOR fast path (PCApplyRichardson) runs all ksp_max_it sweeps
             # whatever the tolerance; with a monitor set, KSPSolve_Richardson takes its general
@@ -94,6 +129,8 @@ class KSPSolve:
             self.ksp.setMonitor(lambda ksp, its, rnorm: None)
 
     def __call__(self, b, x):
+        if self.failure:
+            raise SolveError(self.failure)
         self.ksp.solve(b, x)
         reason = self.ksp.getConvergedReason()
         if reason < 0:

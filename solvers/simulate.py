@@ -22,6 +22,7 @@ class Run:
     diverged_time: float | None = None
     steps: int = 0  # the last step computed and kept
     wall_time_s: float = 0.0
+    reason: str | None = None  # why it diverged, in a few words
     u: list = field(default_factory=list)
     v: list = field(default_factory=list)
 
@@ -38,26 +39,37 @@ def simulate(integrator, n_steps, extent, name="", on_step=None, keep=True):
     """Advance `integrator` n_steps steps from its initial state.
 
     A step whose displacement is not finite or exceeds 100 x `extent` (m), or whose linear
-    solve fails, stops the run: it is recorded as diverged at that step and time and the
-    steps before it are kept. `on_step(state)` is called at step 0 and after every kept step.
+    solve fails, stops the run: it is recorded as diverged at that step and time, with the
+    reason, and the steps before it are kept (none if the initial state, step 0, fails).
+    `on_step(state)` is called at step 0 and after every kept step.
     """
     system = integrator.system
     comm, gdim = system.comm, system.gdim
     run = Run(name)
     limit = 100.0 * extent
     start = time.perf_counter()
-    state = integrator.start()
+    state = None
     for i in range(n_steps + 1):
-        if i > 0:
-            try:
-                state = integrator.step(state)
-                bad = max_nodal_displacement(state.u.array_r, gdim, comm) > limit
-            except (SolveError, PETSc.Error, FloatingPointError):
-                bad = True
-            bad = comm.allreduce(bad, op=MPI.LOR)
-            if bad:
-                run.status, run.diverged_step, run.diverged_time = "diverged", i, i * integrator.h
-                break
+        reason, largest = None, 0.0
+        try:  # no communication inside: one rank failing must not leave the others waiting
+            state = integrator.start() if i == 0 else integrator.step(state)
+            local = state.u.array_r.reshape(-1, gdim)
+            largest = float(np.linalg.norm(local, axis=1).max(initial=0.0)) if np.isfinite(local).all() else np.inf
+        except SolveError as err:
+            reason = str(err)
+        except (PETSc.Error, FloatingPointError) as err:
+            reason = f"{type(err).__name__}: {' '.join(str(err).split())[:200]}"
+        reports = comm.allgather((reason, largest))
+        largest = max(r[1] for r in reports)
+        reason = next((r[0] for r in reports if r[0]), None)
+        if reason is None and not np.isfinite(largest):
+            reason = "displacement not finite"
+        elif reason is None and largest > limit:
+            reason = f"largest displacement {largest:.3g} m > 100 x the domain's extent"
+        if reason is not None:
+            run.status, run.diverged_step, run.diverged_time = "diverged", i, i * integrator.h
+            run.reason = reason
+            break
         run.steps = i
         if keep:
             run.u.append(state.u.array_r.copy())
