@@ -1,20 +1,25 @@
 """tissuebench.meshes: gmsh scripts for the benchmarks' meshes, and the benchmarks themselves.
 
 A benchmark is one file here with a `benchmark(mesh_size, comm=..., msh_path=..., **options)`
-function, registered below.
+function and an `ENTRY` (meshes.benchmark.Entry: its defaults and options), registered below.
 """
 
 from tissuebench.meshes import block, rod
 from tissuebench.meshes.gmshio import MeshError
 
 BENCHMARKS = {
-    "block": block.benchmark,
-    "rod": rod.benchmark,
+    "block": block.ENTRY,
+    "rod": rod.ENTRY,
 }
+
+
+def get_entry(name):
+    """The registry entry of benchmark `name` (see BENCHMARKS)."""
+    if name not in BENCHMARKS:
+        raise MeshError(f"unknown benchmark {name!r}: use one of {', '.join(BENCHMARKS)}")
+    return BENCHMARKS[name]
 
 
 def get_benchmark(name, **kwargs):
     """Build the benchmark `name` (see BENCHMARKS) with its keyword options."""
-    if name not in BENCHMARKS:
-        raise MeshError(f"unknown benchmark {name!r}: use one of {', '.join(BENCHMARKS)}")
-    return BENCHMARKS[name](**kwargs)
+    return get_entry(name).build(**kwargs)

@@ -41,6 +41,21 @@ class Benchmark:
         return self.tagged.mesh.geometry.dim
 
 
+@dataclass(frozen=True)
+class Entry:
+    """A benchmark in the registry: how to build it, and what commands need to know before
+    building its mesh (defaults, the options it takes, its size for a mesh size)."""
+
+    build: Callable[..., Benchmark]  # build(mesh_size=..., comm=..., msh_path=..., **options)
+    gdim: int
+    material: str  # default material name
+    mesh_size: int  # default mesh size
+    dt: float  # default time step h, s
+    end_time: float  # default end time T, s
+    nodes: Callable[[int], int]  # the number of mesh nodes for a mesh size
+    options: tuple[str, ...] = ()  # keyword options of build beyond mesh_size, comm, msh_path
+
+
 def fixed(gdim):
     """The motion of a clamped node: u = v = a = 0."""
     zero = np.zeros(gdim)

@@ -10,7 +10,7 @@ import dolfinx.mesh
 import gmsh
 import numpy as np
 
-from tissuebench.meshes.benchmark import Benchmark, Constraint, fixed
+from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
 from tissuebench.meshes.gmshio import MeshError, check_positive_int, start_gmsh, to_dolfinx
 
 LENGTH = 1.0  # m, both sides
@@ -81,7 +81,11 @@ def benchmark(mesh_size=20, needle_width=0.0, comm=MPI.COMM_WORLD, msh_path=None
         *(Constraint(edge, *tagged.entities(edge), fixed(2)) for edge in ("left", "bottom", "top")),
     ]
     return Benchmark(
-        name="block", tagged=tagged, constraints=constraints, gravity=(0.0, 0.0), material="MP1",
-        dt=1 / 30, end_time=10.0, extent=LENGTH, mesh_size=mesh_size,
+        name="block", tagged=tagged, constraints=constraints, gravity=(0.0, 0.0), material=ENTRY.material,
+        dt=ENTRY.dt, end_time=ENTRY.end_time, extent=LENGTH, mesh_size=mesh_size,
         options={"needle_width": needle_width},
     )
+
+
+ENTRY = Entry(build=benchmark, gdim=2, material="MP1", mesh_size=20, dt=1 / 30, end_time=10.0,
+              nodes=lambda N: (N + 1) ** 2, options=("needle_width",))

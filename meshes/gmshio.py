@@ -3,6 +3,8 @@
 The gmsh model is built on rank 0 only; `dolfinx.io.gmsh.model_to_mesh` distributes it.
 """
 
+import signal
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,7 +38,13 @@ class TaggedMesh:
 
 def start_gmsh():
     if not gmsh.isInitialized():
+        # gmsh's initialize puts the default SIGTERM action back: keep the caller's handlers
+        handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
         gmsh.initialize(interruptible=False)
+        if threading.current_thread() is threading.main_thread():
+            for number, handler in handlers.items():
+                if handler is not None:
+                    signal.signal(number, handler)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.clear()
 

@@ -6,7 +6,7 @@ from mpi4py import MPI
 
 import gmsh
 
-from tissuebench.meshes.benchmark import Benchmark, Constraint, fixed
+from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
 from tissuebench.meshes.gmshio import check_positive_int, start_gmsh, to_dolfinx
 
 SIZE = (0.5, 0.25, 0.25)  # m: length (x), height (y), depth (z)
@@ -54,6 +54,10 @@ def benchmark(mesh_size=3, comm=MPI.COMM_WORLD, msh_path=None):
     tagged = rod_mesh(mesh_size, comm, msh_path)
     return Benchmark(
         name="rod", tagged=tagged, constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(3))],
-        gravity=GRAVITY, material="MP3", dt=1 / 30, end_time=10.0, extent=max(SIZE),
+        gravity=GRAVITY, material=ENTRY.material, dt=ENTRY.dt, end_time=ENTRY.end_time, extent=max(SIZE),
         mesh_size=mesh_size, probe=TIP,
     )
+
+
+ENTRY = Entry(build=benchmark, gdim=3, material="MP3", mesh_size=3, dt=1 / 30, end_time=10.0,
+              nodes=lambda n: (2 * n + 1) * (n + 1) ** 2)

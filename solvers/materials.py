@@ -9,6 +9,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 
+MAX_NAME = 64  # characters of a material name (it labels files, figures and tables)
+
+
 class MaterialError(ValueError):
     """A material that the SPEC does not allow, or a material file that cannot be read."""
 
@@ -23,10 +26,19 @@ class Material:
     beta: float = 0.0  # Rayleigh stiffness coefficient, s
 
     def __post_init__(self):
+        if not isinstance(self.name, str) or not 0 < len(self.name) <= MAX_NAME or not self.name.isprintable():
+            shown = repr(self.name)[:40] + ("..." if len(repr(self.name)) > 40 else "")
+            raise MaterialError(f"material name must be printable text of 1 to {MAX_NAME} characters, got {shown}")
         for field in ("E", "nu", "rho", "alpha", "beta"):
             value = getattr(self, field)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise MaterialError(f"material {self.name}: {field} must be a finite number, got {value!r}")
+            try:
+                finite = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+            except OverflowError:  # an integer beyond the float range
+                finite = False
+            if not finite:
+                shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:40] + "..."
+                raise MaterialError(f"material {self.name}: {field} must be a finite number, got {shown}")
+            object.__setattr__(self, field, float(value))
         if self.E <= 0:
             raise MaterialError(f"material {self.name}: E must be > 0 Pa, got {self.E}")
         if not -1 < self.nu < 0.5:
@@ -64,6 +76,7 @@ MATERIALS = {
 }
 
 FIELDS = ("E", "nu", "rho", "alpha", "beta")
+MAX_FILE = 64 * 1024  # bytes of a material file
 
 
 def material_from_toml(path):
@@ -80,17 +93,26 @@ def material_from_toml(path):
     path = Path(path)
     if not path.is_file():
         raise MaterialError(f"material file {path} does not exist")
+    if path.stat().st_size > MAX_FILE:
+        raise MaterialError(f"material file {path} is {path.stat().st_size:,} bytes; a material takes at most {MAX_FILE:,}")
     try:
         data = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise MaterialError(f"material file {path} is not valid TOML: {err}") from None
+    except RecursionError:
+        raise MaterialError(f"material file {path} is nested too deeply to be a material") from None
+    except OSError as err:
+        raise MaterialError(f"material file {path} cannot be read ({err.strerror or err})") from None
     unknown = set(data) - set(FIELDS) - {"name"}
     if unknown:
         raise MaterialError(f"material file {path}: unknown key(s) {', '.join(sorted(unknown))}")
     missing = [f for f in ("E", "nu", "rho") if f not in data]
     if missing:
         raise MaterialError(f"material file {path}: missing {', '.join(missing)}")
-    return Material(name=str(data.get("name", path.stem)), **{f: data[f] for f in FIELDS if f in data})
+    name = data.get("name", path.stem)
+    if not isinstance(name, str):
+        raise MaterialError(f"material file {path}: name must be text, got a {type(name).__name__}")
+    return Material(name=name, **{f: data[f] for f in FIELDS if f in data})
 
 
 def get_material(spec):
