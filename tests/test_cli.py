@@ -12,7 +12,8 @@ import pytest
 from helpers import mpiexec
 from tissuebench.metrics.series import read_series
 
-COLUMNS = ["algorithm", "step", "time", "relative_error", "surface_error", "interior_error", "interior_error_nodal"]
+COLUMNS = ["algorithm", "step", "time", "relative_error", "surface_error", "interior_error", "interior_error_nodal",
+           "status"]
 
 
 def tissuebench(*args, ranks=1):
@@ -31,10 +32,19 @@ def read_metrics(path):
 
 
 def curves(path):
+    """{algorithm: array of (step, time, the four metrics)} from a metrics.csv."""
     out = {}
     for row in read_metrics(path):
-        out.setdefault(row[0], []).append([float(x) for x in row[1:]])
+        out.setdefault(row[0], []).append([float(x) for x in row[1:-1]])
     return {k: np.array(v) for k, v in out.items()}
+
+
+def statuses(path):
+    """{algorithm: [status per step]} from a metrics.csv."""
+    out = {}
+    for row in read_metrics(path):
+        out.setdefault(row[0], []).append(row[-1])
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -100,6 +110,8 @@ def test_diverged_run_is_reported_and_kept(tmp_path):
     assert run["diverged_time"] == pytest.approx(run["diverged_step"] / 30)
     c = curves(out / "metrics.csv")["explicit-lumped"]
     assert len(c) == 16 and np.all(np.isnan(c[run["diverged_step"]:, 2:]))
+    k = run["diverged_step"]
+    assert statuses(out / "metrics.csv")["explicit-lumped"] == ["ok"] * k + ["diverged"] * (16 - k)
     assert len(read_series(out / "explicit-lumped.xdmf").times) == run["diverged_step"]
     assert "DIVERGED" in r.stdout
 
@@ -132,18 +144,18 @@ def test_refuses_bad_material_file_and_unwritable_output(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
     r = tissuebench("run", "block", "--out", blocker / "x")
-    assert r.returncode == 2 and "cannot be written" in r.stderr
+    assert r.returncode == 2 and "cannot create" in r.stderr
     r = tissuebench("compare", tmp_path / "missing.xdmf", tmp_path / "missing2.xdmf", "--out", tmp_path / "c")
     assert r.returncode == 2 and "missing.xdmf" in r.stderr and not (tmp_path / "c").exists()
 
 
 def test_interrupted_output_is_replaced_whole(tmp_path):
-    """A leftover partial directory (an interrupted run) and an incomplete target are redone."""
+    """A leftover partial directory (an interrupted run) and an incomplete folder of ours are redone."""
     out = tmp_path / "rod"
     (tmp_path / ".partial-rod").mkdir()
     (tmp_path / ".partial-rod" / "junk.h5").write_text("half")
     out.mkdir()
-    (out / "summary.json").write_text('{"files": ["implicit.h5"]}')  # names a file that is absent
+    (out / "summary.json").write_text('{"fingerprint": "x", "files": ["implicit.h5"]}')  # names an absent file
     r = tissuebench("run", "rod", "--out", out, "--mesh-size", 1, "--end-time", 0.2, "--algorithms", "implicit")
     assert r.returncode == 0, r.stderr[-2000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rod"]

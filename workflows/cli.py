@@ -1,12 +1,17 @@
 """The `tissuebench` command line.
 
 Every subcommand is one module in workflows/ with `add_parser(subparsers)`, which registers its
-arguments and sets `func(args)`; it is listed once in COMMANDS below. Bad input raises one of
-USAGE_ERRORS and ends as one line on stderr with exit status 2.
+arguments and sets `func(args)`; it is listed once in COMMANDS below.
+
+Exit status: 0 done; 2 bad input (one of `usage_errors()`, one line on stderr); 1 the
+environment failed while writing (disk full, permission lost; one line); 130 interrupted
+(SIGINT) and 143 terminated (SIGTERM), one line each. In every case the partial output is
+removed and nothing else is touched.
 """
 
 import argparse
 import importlib
+import signal
 import sys
 import traceback
 
@@ -25,13 +30,24 @@ class UsageError(ValueError):
     """Bad options or input: reported as one line, exit status 2."""
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT."""
+
+
 def usage_errors():
     """The exception types that mean 'bad input', from every layer."""
     from tissuebench.meshes.gmshio import MeshError
     from tissuebench.metrics.series import InputError
+    from tissuebench.solvers.linear import OptionsError
     from tissuebench.solvers.materials import MaterialError
+    from tissuebench.workflows.limits import LimitError
+    from tissuebench.workflows.output import OutputError
 
-    return (UsageError, MeshError, MaterialError, InputError)
+    return (UsageError, MeshError, MaterialError, InputError, OptionsError, LimitError, OutputError)
+
+
+def _terminate(signum, frame):
+    raise Terminated()
 
 
 def parser():
@@ -45,22 +61,53 @@ def parser():
 
 
 def main(argv=None):
+    from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
+    import petsc4py
+
+    petsc4py.init([sys.argv[0], "-no_signal_handler"])  # SIGINT and SIGTERM are ours (below)
     args = parser().parse_args(argv)
-    from mpi4py import MPI
+
+    from tissuebench.workflows.output import WriteFailure
 
     comm = MPI.COMM_WORLD
+    # Signals are rank 0's: it removes the partial output and the lock, says so, and ends the
+    # job; the other ranks ignore them, so that none leaves a collective that rank 0 waits in.
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    if comm.rank == 0:
+        signal.signal(signal.SIGTERM, _terminate)
+    else:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+    def say(text):
+        if comm.rank == 0:
+            print(f"tissuebench {args.command}: {text}", file=sys.stderr)
+
     try:
         return args.func(args) or 0
     except usage_errors() as err:
-        if comm.rank == 0:
-            print(f"tissuebench {args.command}: error: {err}", file=sys.stderr)
+        say(f"error: {err}")
         return 2
+    except WriteFailure as err:
+        say(f"error: {err}")
+        return 1
+    except (KeyboardInterrupt, Terminated) as signalled:
+        status = 130 if isinstance(signalled, KeyboardInterrupt) else 143
+        name = "interrupted (SIGINT)" if status == 130 else "terminated (SIGTERM)"
+        say(f"{name}; partial output removed")
+        if comm.size > 1:  # the other ranks wait in a collective for this one: end them all
+            sys.stderr.flush()
+            comm.Abort(status)
+        return status
     except BaseException:
         if comm.size > 1:  # one rank failing alone would leave the others waiting forever
             traceback.print_exc()
             sys.stderr.flush()
             comm.Abort(1)
         raise
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 if __name__ == "__main__":  # python -m: run the imported module, so its UsageError is the one raised

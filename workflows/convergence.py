@@ -283,11 +283,12 @@ def add_parser(subparsers):
 
 def main(args):
     from tissuebench.workflows.cli import UsageError
-    from tissuebench.workflows.stability import check_writable
+    from tissuebench.workflows.output import check_writable
 
     comm = MPI.COMM_WORLD
     h = 1 / 30
-    n = round(args.end_time / h)
+    ratio = args.end_time / h
+    n = round(ratio) if math.isfinite(ratio) else 0
     if n < 1 or not math.isclose(n * h, args.end_time, rel_tol=1e-9):
         raise UsageError(f"--end-time must be a positive multiple of h = 1/30 s, got {args.end_time}")
     check_writable(args.out, comm)

@@ -1,11 +1,15 @@
 """`tissuebench mesh {block,rod} --mesh-size N --out FILE.msh`: save a benchmark's gmsh mesh."""
 
+import os
 from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.meshes import BENCHMARKS, get_benchmark
+from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
+from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.workflows.cli import UsageError
+from tissuebench.workflows.limits import check as check_limits, estimate
+from tissuebench.workflows.output import collective
 
 
 def add_parser(sub):
@@ -13,18 +17,39 @@ def add_parser(sub):
                        description="Build a benchmark's mesh with gmsh and save it (.msh) for inspection.")
     p.add_argument("benchmark", help=" or ".join(BENCHMARKS))
     p.add_argument("--mesh-size", type=int, help="block: N (even, default 20); rod: n (default 3)")
-    p.add_argument("--out", required=True, type=Path, help="the .msh file to write")
+    p.add_argument("--out", required=True, type=Path, help="the .msh file to write (a new one, unless --force)")
+    p.add_argument("--force", action="store_true", help="replace an existing file")
     p.set_defaults(func=main)
 
 
+def check_target(out: Path, force: bool) -> None:
+    """Refuse an output that is a folder, is not .msh, or exists (unless force)."""
+    if out.suffix != ".msh":
+        raise UsageError(f"output {out} must end in .msh")
+    if out.is_dir():
+        raise UsageError(f"output {out} is a folder: name a .msh file")
+    if out.exists() and not force:
+        raise UsageError(f"output {out} exists: --force replaces it")
+    existing = next(p for p in out.absolute().parents if p.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(f"output {out}: cannot write there ({existing} is not a writable folder)")
+
+
 def main(args):
-    if args.out.suffix != ".msh":
-        raise UsageError(f"output {args.out} must end in .msh")
-    options = {} if args.mesh_size is None else {"mesh_size": args.mesh_size}
-    if args.benchmark not in BENCHMARKS:
-        raise UsageError(f"unknown benchmark {args.benchmark!r}: use {' or '.join(BENCHMARKS)}")
-    bench = get_benchmark(args.benchmark, msh_path=args.out, **options)
-    if MPI.COMM_WORLD.rank == 0:
+    comm = MPI.COMM_WORLD
+    entry = get_entry(args.benchmark)
+    mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
+    check_positive_int("mesh size", mesh_size)
+    collective(comm, lambda: check_target(args.out, args.force))
+    check_limits(estimate(entry.gdim, entry.nodes(mesh_size), 0, 0, comm.size), args.out.absolute().parent, comm)
+    tmp = args.out.with_name(f".{args.out.name}.{os.getpid()}.tmp.msh")
+    try:
+        bench = get_benchmark(args.benchmark, mesh_size=mesh_size, msh_path=tmp)
+        collective(comm, lambda: os.replace(tmp, args.out), args.out)
+    finally:
+        if comm.rank == 0:
+            tmp.unlink(missing_ok=True)
+    if comm.rank == 0:
         m = bench.mesh.topology
         print(f"{args.out}: {m.index_map(0).size_global} nodes, {m.index_map(m.dim).size_global} cells, "
               f"physical groups {', '.join(bench.tagged.groups)}")

@@ -5,30 +5,30 @@ material) and block-MP2-vs-MP1 (the paper's Figure 11: every MP1 run and quasi-s
 against implicit MP2). A case whose directory is complete is skipped unless --force.
 """
 
-import json
+import os
 from pathlib import Path
 
 from mpi4py import MPI
 
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows import report
-from tissuebench.workflows.output import SUMMARY, is_complete
+from tissuebench.workflows.output import OutputError, check_writable, collective
 from tissuebench.workflows.run import add_common, check_common
 from tissuebench.workflows.study import Case, algorithm_case, run_case
 
 
-def cases(solver="direct"):
+def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
     names = list(ALGORITHMS)
     vs = [("implicit-MP2", "implicit", "MP2"), *((f"{a}-MP1", a, "MP1") for a in names),
           ("quasi-static-MP2", "quasi-static", "MP2")]
     return [
-        algorithm_case("block-MP1", "block", "MP1", names, solver=solver,
+        algorithm_case("block-MP1", "block", "MP1", names, solver=solver, petsc=petsc,
                        description="Block and needle, MP1: the five algorithms against implicit MP1 (paper Figs. 5-7)"),
-        algorithm_case("block-MP2", "block", "MP2", names, solver=solver,
+        algorithm_case("block-MP2", "block", "MP2", names, solver=solver, petsc=petsc,
                        description="Block and needle, MP2 (human prostate): the five algorithms against implicit MP2"),
-        algorithm_case("rod-MP3", "rod", "MP3", names, solver=solver,
+        algorithm_case("rod-MP3", "rod", "MP3", names, solver=solver, petsc=petsc,
                        description="Bending rod, MP3: the five algorithms against implicit MP3 (paper Figs. 8-10)"),
-        Case("block-MP2-vs-MP1", "block", vs, "implicit-MP2", solver=solver,
+        Case("block-MP2-vs-MP1", "block", vs, "implicit-MP2", solver=solver, petsc=petsc,
              description="Block: every MP1 run and quasi-static MP2 against implicit MP2 (paper Fig. 11)"),
     ]
 
@@ -36,25 +36,38 @@ def cases(solver="direct"):
 def add_parser(sub):
     p = sub.add_parser("paper", help="the paper's study, its figures and report",
                        description="Run the paper's study into OUT (default results/) and write OUT/README.md.")
-    p.add_argument("--out", type=Path, default=Path("results"), help="output directory (default results)")
+    p.add_argument("--out", type=Path, default=Path("results"),
+                   help="output folder (default results): one case folder each, and README.md")
     add_common(p)
     p.set_defaults(func=main)
+
+
+def check_report(path: Path) -> None:
+    """Refuse to replace a README.md that the paper's report did not write."""
+    if path.exists() and (not path.is_file() or not path.read_text(errors="replace").startswith(report.MARKER)):
+        raise OutputError(f"{path}: exists and was not written by tissuebench paper; move it or choose another --out")
 
 
 def main(args):
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out
+    check_writable(out, comm)
+    collective(comm, lambda: check_report(out / "README.md"))
     summaries = {}
-    for case in cases(args.solver):
-        target = out / case.name
-        if not args.force and is_complete(target):
-            if comm.rank == 0:
-                print(f"{target}: complete, skipped (--force reruns)")
-        else:
-            run_case(case, target, comm)
-        summaries[case.name] = json.loads((target / SUMMARY).read_text()) if comm.rank == 0 else None
+    for case in cases(args.solver, args.petsc):
+        summaries[case.name] = run_case(case, out / case.name, comm, force=args.force)
+
+    def write():
+        check_report(out / "README.md")
+        tmp = out / f".README.md.{os.getpid()}.tmp"
+        try:
+            tmp.write_text(report.paper_report(out, summaries))
+            os.replace(tmp, out / "README.md")
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    collective(comm, write, out)
     if comm.rank == 0:
-        (out / "README.md").write_text(report.paper_report(out, summaries))
         print(f"report: {out / 'README.md'}")
     return 0

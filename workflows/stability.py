@@ -21,12 +21,11 @@ from mpi4py import MPI
 
 
 from tissuebench.meshes import get_benchmark
-from tissuebench.metrics import InputError
-from tissuebench.metrics.compare import check_output
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.simulate import max_nodal_displacement, simulate
 from tissuebench.solvers.stability import SCHEMES, growth_per_step, stability_limits
 from tissuebench.solvers.system import System
+from tissuebench.workflows.output import check_writable
 
 EXPLICIT = ("explicit", "explicit-lumped")
 PAPER_MP2_LIMIT = 1e-6  # s: the paper's statement for explicit integration with MP2
@@ -252,19 +251,6 @@ def write(out_dir, case, checks, cases, wall):
     if cases:
         plot(out / "stability.png", cases)
     (out / "stability.md").write_text(markdown(case, checks, cases, wall))
-
-
-def check_writable(out_dir, comm):
-    """Raise InputError on every rank if rank 0 cannot write to out_dir."""
-    error = None
-    if comm.rank == 0:
-        try:
-            check_output(out_dir)
-        except InputError as exc:
-            error = str(exc)
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise InputError(error)
 
 
 def main(args):

@@ -8,27 +8,34 @@ import csv
 import json
 import math
 import platform
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 from mpi4py import MPI
 
 import numpy as np
 from tqdm import tqdm
 
-from tissuebench.meshes import get_benchmark
+from tissuebench.meshes import get_benchmark, get_entry
+from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import COLUMNS, summarize
 from tissuebench.metrics.errors import NAMES
 from tissuebench.solvers import REFERENCE, get_integrator
 from tissuebench.solvers.simulate import simulate
+from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System, probe
-from tissuebench.workflows.output import SUMMARY, partial_directory
-from tissuebench.workflows.xdmf import write_xdmf
+from tissuebench.workflows.limits import check as check_limits, estimate, step_count
+from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
+from tissuebench.workflows.xdmf import gather_series, write_series
 
 
 @dataclass
 class Case:
-    """Runs (label, algorithm, material) on one benchmark; `reference` is a label."""
+    """Runs (label, algorithm, material) on one benchmark; `reference` is a label.
+
+    None for mesh_size, dt or end_time means the benchmark's default; `options` are the
+    benchmark's own options (for the block: needle_width, m); `petsc` the PETSc options text
+    in force (it changes the numbers, so it is part of the fingerprint)."""
 
     name: str
     benchmark: str
@@ -37,11 +44,11 @@ class Case:
     mesh_size: int | None = None
     dt: float | None = None
     end_time: float | None = None
-    needle_width: float = 0.0
+    options: dict = field(default_factory=dict)
     plane: str = "strain"
     solver: str = "direct"
+    petsc: str = ""
     description: str = ""
-    extra: dict = field(default_factory=dict)
 
 
 def algorithm_case(name, benchmark, material, algorithms, **options):
@@ -68,87 +75,141 @@ def nan_to_none(x):
     return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
 
 
-def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print):
-    """Run every run of the case, measure it against the reference and write the case
-    directory (whole, or not at all). Returns the summary dict."""
+def case_inputs(case: Case, mesh_size: int, h: float, n_steps: int, materials: dict) -> dict:
+    """Every input that changes the case's numbers (its fingerprint is their hash)."""
+    v = versions()
+    return {
+        "benchmark": case.benchmark, "mesh_size": mesh_size, "options": dict(sorted(case.options.items())),
+        "plane": case.plane if get_entry(case.benchmark).gdim == 2 else None,
+        "h": h, "steps": n_steps, "solver": case.solver, "petsc": " ".join(case.petsc.split()),
+        "reference": case.reference,
+        "runs": [{"label": label, "algorithm": algorithm, "material": asdict(materials[material])}
+                 for label, algorithm, material in case.runs],
+        "versions": {k: v[k] for k in ("tissuebench", "dolfinx", "petsc4py")},
+    }
+
+
+def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print, force=False):
+    """Run every run of the case, measure it against the reference and write the case folder
+    (whole, or not at all; see workflows/output.py for which folders may be written). Returns
+    the summary dict; complete results of the same inputs are kept and their summary returned
+    unless `force`."""
     rank0 = comm.rank == 0
-    options = {"mesh_size": case.mesh_size} if case.mesh_size is not None else {}
-    if case.benchmark == "block":
-        options["needle_width"] = case.needle_width
-    bench = get_benchmark(case.benchmark, comm=comm, **options)
-    h = case.dt or bench.dt
-    end_time = case.end_time or bench.end_time
-    n_steps = max(1, round(end_time / h))
-    systems = {m: System(bench, m, plane=case.plane) for m in dict.fromkeys(m for _, _, m in case.runs)}
+    entry = get_entry(case.benchmark)
+    mesh_size = entry.mesh_size if case.mesh_size is None else case.mesh_size
+    check_positive_int("mesh size", mesh_size)
+    h = entry.dt if case.dt is None else case.dt
+    end_time = entry.end_time if case.end_time is None else case.end_time
+    n_steps = step_count(h, end_time)
+    materials = {m: get_material(m) for m in dict.fromkeys(m for _, _, m in case.runs)}
+    inputs = case_inputs(case, mesh_size, h, n_steps, materials)
+
+    with RunFolder(out_dir, comm) as folder:
+        if folder.prepare(inputs, force) == "complete":
+            if rank0:
+                log(f"{out_dir}: complete results for the same inputs exist, skipped (--force reruns)")
+            return {**comm.bcast(read_summary(folder.path) if rank0 else None, root=0), "skipped": True}
+        need = estimate(entry.gdim, entry.nodes(mesh_size), n_steps, len(case.runs), comm.size)
+        check_limits(need, folder.path.parent, comm)
+        if rank0 and not math.isclose(n_steps * h, end_time, rel_tol=1e-9):
+            log(f"{case.name}: end time {end_time:g} s is not a multiple of h = {h:g} s; "
+                f"running {n_steps} steps to t = {n_steps * h:.6g} s")
+        with folder.writing() as tmp:
+            summary = compute_case(case, tmp, folder.path, inputs, mesh_size, h, n_steps, materials, comm, log)
+    return summary
+
+
+def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, comm, log):
+    """The runs, metrics, figures and summary of a case, written into tmp, which becomes
+    target. Collective."""
+    rank0 = comm.rank == 0
+    bench = get_benchmark(case.benchmark, mesh_size=mesh_size, comm=comm, **case.options)
+    systems = {m: System(bench, materials[m], plane=case.plane) for m in materials}
     metrics = Metrics(next(iter(systems.values())).V)
 
     results, tips = {}, {}
-    with partial_directory(out_dir, comm) as tmp:
-        for label, algorithm, material in case.runs:
-            system = systems[material]
-            integrator = get_integrator(algorithm, system, h, solver=case.solver)
-            bar = tqdm(total=n_steps, desc=f"{case.name} {label}", unit="step", leave=False,
-                       disable=not rank0, mininterval=0.5)
+    for label, algorithm, material in case.runs:
+        system = systems[material]
+        integrator = get_integrator(algorithm, system, h, solver=case.solver)
+        bar = tqdm(total=n_steps, desc=f"{case.name} {label}", unit="step", leave=False,
+                   disable=not rank0, mininterval=0.5)
+        try:
             run = simulate(integrator, n_steps, bench.extent, label,
                            on_step=lambda state: bar.update(1 if state.i else 0))
-            bar.close()
-            write_xdmf(tmp / f"{label}.xdmf", system.V, np.arange(run.steps + 1) * h,
-                       {"displacement": run.u, "velocity": run.v})
-            results[label] = (run, material, algorithm)
-            if bench.probe is not None:
-                tips[label] = np.array([probe(system.V, u, bench.probe) for u in run.u])
-            if rank0:
-                status = "ok" if run.status == "ok" else f"DIVERGED at step {run.diverged_step} (t = {run.diverged_time:.4g} s)"
-                log(f"{case.name:>18} {label:<18} {material}: {status}, {run.steps} steps in {run.wall_time_s:.2f} s")
-
-        ref = results[case.reference][0].u
-        times = np.arange(n_steps + 1) * h
-        curves = {label: metrics.history(ref, run.u) for label, (run, _, _) in results.items()}
-        for label, (run, _, _) in results.items():  # NaN from the diverged step on
-            if run.status == "diverged":
-                for name in NAMES:
-                    curves[label][name][run.diverged_step:] = np.nan
-
-        summary = {
-            "case": case.name, "description": case.description, "benchmark": case.benchmark,
-            "material": sorted({s.material.name for s in systems.values()}), "reference": case.reference,
-            "mesh_size": bench.mesh_size, "num_dofs": next(iter(systems.values())).num_dofs(),
-            "h": h, "end_time": n_steps * h, "steps": n_steps, "plane": case.plane,
-            "needle_width": case.needle_width if case.benchmark == "block" else None,
-            "solver": case.solver, "versions": versions(), "runs": {}, **case.extra,
-        }
-        for label, (run, material, algorithm) in results.items():
-            entry = {"algorithm": algorithm, "material": systems[material].material.name, "status": run.status,
-                     "diverged_step": run.diverged_step, "diverged_time": run.diverged_time,
-                     "steps": run.steps, "wall_time_s": run.wall_time_s}
-            for name in NAMES:
-                peak, mean = summarize(curves[label][name])
-                entry[f"{name}_max"], entry[f"{name}_mean"] = nan_to_none(peak), nan_to_none(mean)
-            if label in tips:
-                entry["tip_displacement_final"] = tips[label][-1].tolist()
-            summary["runs"][label] = entry
-
-        files = [f"{label}.{ext}" for label in results for ext in ("xdmf", "h5")]
+        finally:
+            bar.close()  # also when interrupted: the last line is then the error's
+        series = gather_series(system.V, {"displacement": run.u, "velocity": run.v})
+        collective(comm, lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
+                   target)
+        results[label] = (run, material, algorithm)
+        if bench.probe is not None:
+            tips[label] = np.array([probe(system.V, u, bench.probe) for u in run.u])
         if rank0:
-            write_metrics_csv(tmp / "metrics.csv", times, curves)
-            if tips:
-                write_tip_csv(tmp / "tip.csv", times, tips)
-                files.append("tip.csv")
-            from tissuebench.workflows import figures
+            status = "ok" if run.status == "ok" else f"DIVERGED at step {run.diverged_step} (t = {run.diverged_time:.4g} s)"
+            if run.reason:
+                status += f": {run.reason}"
+            log(f"{case.name:>18} {label:<18} {systems[material].material.name}: {status}, "
+                f"{run.steps} steps in {run.wall_time_s:.2f} s")
 
-            files += figures.case_figures(tmp, case, summary, times, curves, tips)
-            summary["files"] = ["metrics.csv", *files, SUMMARY]
-            (tmp / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
-    return comm.bcast(summary if rank0 else None, root=0)
+    ref_run = results[case.reference][0]
+    times = np.arange(n_steps + 1) * h
+    curves, status = {}, {}
+    for label, (run, _, _) in results.items():
+        curves[label] = {name: np.full(n_steps + 1, np.nan) for name in NAMES}
+        for name, values in metrics.history(ref_run.u, run.u).items():  # the steps both have
+            curves[label][name][: len(values)] = values
+        status[label] = np.full(n_steps + 1, "ok", dtype=object)
+        if ref_run.status == "diverged":  # NaN from the diverged step on, the reference's too
+            status[label][ref_run.diverged_step:] = "reference diverged"
+        if run.status == "diverged":
+            status[label][run.diverged_step:] = "diverged"
+        for name in NAMES:
+            curves[label][name][status[label] != "ok"] = np.nan
+
+    summary = {
+        "case": case.name, "description": case.description, "benchmark": case.benchmark,
+        "material": sorted({s.material.name for s in systems.values()}), "reference": case.reference,
+        "mesh_size": bench.mesh_size, "num_dofs": next(iter(systems.values())).num_dofs(),
+        "h": h, "end_time": n_steps * h, "steps": n_steps, "plane": inputs["plane"], **case.options,
+        "solver": case.solver, "versions": versions(), "runs": {},
+    }
+    for label, (run, material, algorithm) in results.items():
+        entry = {"algorithm": algorithm, "material": systems[material].material.name, "status": run.status,
+                 "diverged_step": run.diverged_step, "diverged_time": run.diverged_time, "reason": run.reason,
+                 "steps": run.steps, "wall_time_s": run.wall_time_s}
+        for name in NAMES:
+            peak, mean = summarize(curves[label][name])
+            entry[f"{name}_max"], entry[f"{name}_mean"] = nan_to_none(peak), nan_to_none(mean)
+        if label in tips:
+            entry["tip_displacement_final"] = tips[label][-1].tolist() if len(tips[label]) else None
+        summary["runs"][label] = entry
+
+    def write():
+        files = [f"{label}.{ext}" for label in results for ext in ("xdmf", "h5")]
+        write_metrics_csv(tmp / "metrics.csv", times, curves, status)
+        if tips:
+            write_tip_csv(tmp / "tip.csv", times, tips)
+            files.append("tip.csv")
+        from tissuebench.workflows import figures
+
+        files += figures.case_figures(tmp, case, summary, times, curves, tips)
+        summary["files"] = ["metrics.csv", *files, SUMMARY]
+        summary["inputs"], summary["fingerprint"] = inputs, fingerprint(inputs)
+        (tmp / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")  # last: it marks the folder ours
+        return summary
+
+    return collective(comm, write, target)
 
 
-def write_metrics_csv(path, times, curves):
+def write_metrics_csv(path, times, curves, status):
+    """metrics.csv: one row per run and step; `status` says ok, diverged or reference diverged."""
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(COLUMNS)
         for label, curve in curves.items():
             for i, t in enumerate(times):
-                writer.writerow([label, i, repr(float(t)), *(repr(float(curve[n][i])) for n in NAMES)])
+                writer.writerow([label, i, repr(float(t)), *(repr(float(curve[n][i])) for n in NAMES),
+                                 status[label][i]])
 
 
 def write_tip_csv(path, times, tips):

@@ -2,11 +2,14 @@
 
 DOLFINx's XDMFFile rewrites its whole XML file at every write_function, which makes a
 300-step series cost O(steps^2); a run's history is in memory anyway, so it is gathered to
-rank 0 and written in one go. Layout as DOLFINx writes it (/Mesh/mesh/geometry,
+rank 0 and written in one go. The HDF5 file is built in memory and written by Python, so
+that a full disk raises OSError (HDF5 itself crashes the process on ENOSPC). Every DataItem
+states its number type and precision (ParaView reads float64 as float32 otherwise). Layout as DOLFINx writes it (/Mesh/mesh/geometry,
 /Mesh/mesh/topology, /Function/<name>/<step>), one temporal collection holding every field
 at every time; ParaView opens it with its XDMF readers.
 """
 
+import io
 from pathlib import Path
 
 import h5py
@@ -41,26 +44,45 @@ def gather_mesh(V):
 
 def write_xdmf(path, V, times, fields):
     """Write fields {name: [owned dof values per step]} at `times` (s) to path (.xdmf) and
-    path with suffix .h5. Collective; rank 0 writes."""
+    path with suffix .h5. Collective; rank 0 writes (OSError on rank 0 only)."""
+    gathered = gather_series(V, fields)
+    if gathered is not None:
+        write_series(path, gathered, times)
+
+
+def gather_series(V, fields):
+    """Collective: on rank 0 (mesh, {name: (steps, nodes, 3) array}); None on other ranks."""
     comm, bs = V.mesh.comm, V.dofmap.bs
     mesh_data, owned = gather_mesh(V)
     gathered = {name: comm.gather((owned, np.asarray(values).reshape(len(values), -1, bs)), root=0)
                 for name, values in fields.items()}
     if comm.rank != 0:
-        return
-    points, cells, cell_type = mesh_data
+        return None
+    points = mesh_data[0]
+    n_steps = min(len(v) for v in fields.values())
+    data = {}
+    for name, parts in gathered.items():
+        data[name] = np.zeros((n_steps, len(points), 3))
+        for nodes, values in parts:
+            data[name][:, nodes, :bs] = values[:n_steps]
+    return mesh_data, data
+
+
+def write_series(path, gathered, times):
+    """Write a gathered series (see gather_series) at `times` (s): path (.xdmf) and its .h5."""
+    (points, cells, cell_type), data = gathered
     path = Path(path)
     h5name = path.with_suffix(".h5").name
-    n_steps = min(len(v) for v in fields.values())
-    with h5py.File(path.with_suffix(".h5"), "w") as h5:
+    n_steps = min(len(v) for v in data.values())
+    image = io.BytesIO()
+    with h5py.File(image, "w") as h5:
         h5["/Mesh/mesh/geometry"] = points
         h5["/Mesh/mesh/topology"] = cells
-        for name, parts in gathered.items():
-            data = np.zeros((n_steps, len(points), 3))
-            for nodes, values in parts:
-                data[:, nodes, :bs] = values[:n_steps]
+        for name, values in data.items():
             for i in range(n_steps):
-                h5[f"/Function/{name}/{i}"] = data[i]
+                h5[f"/Function/{name}/{i}"] = values[i]
+    path.with_suffix(".h5").write_bytes(image.getbuffer())
+    fields = list(data)
     N, (n_cells, per_cell) = len(points), cells.shape
     lines = [
         '<?xml version="1.0"?>',
@@ -71,7 +93,7 @@ def write_xdmf(path, V, times, fields):
         f'        <DataItem Dimensions="{n_cells} {per_cell}" NumberType="Int" Precision="8" Format="HDF">{h5name}:/Mesh/mesh/topology</DataItem>',
         "      </Topology>",
         '      <Geometry GeometryType="XYZ">',
-        f'        <DataItem Dimensions="{N} 3" Format="HDF">{h5name}:/Mesh/mesh/geometry</DataItem>',
+        f'        <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" Format="HDF">{h5name}:/Mesh/mesh/geometry</DataItem>',
         "      </Geometry>",
         "    </Grid>",
         '    <Grid Name="series" GridType="Collection" CollectionType="Temporal">',
@@ -83,7 +105,7 @@ def write_xdmf(path, V, times, fields):
                   f'        <Time Value="{float(times[i])!r}" />']
         for name in fields:
             lines += [f'        <Attribute Name="{name}" AttributeType="Vector" Center="Node">',
-                      f'          <DataItem Dimensions="{N} 3" Format="HDF">{h5name}:/Function/{name}/{i}</DataItem>',
+                      f'          <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" Format="HDF">{h5name}:/Function/{name}/{i}</DataItem>',
                       "        </Attribute>"]
         lines.append("      </Grid>")
     lines += ["    </Grid>", "  </Domain>", "</Xdmf>", ""]
