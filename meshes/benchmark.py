@@ -53,7 +53,13 @@ class Entry:
     dt: float  # default time step h, s
     end_time: float  # default end time T, s
     nodes: Callable[[int], int]  # the number of mesh nodes for a mesh size
+    cell_size: Callable[[int], float]  # the edge of one cell for a mesh size, m
+    materials: tuple[str, ...]  # the SPEC's materials for it, the default first
+    study_sizes: tuple[int, ...]  # mesh sizes of the stability sweep and the space-convergence study
     options: tuple[str, ...] = ()  # keyword options of build beyond mesh_size, comm, msh_path
+    refinement_options: dict = field(default_factory=dict)  # options for mesh-refinement studies
+    probe: tuple[float, ...] | None = None  # a point whose displacement is reported, m
+    probe_label: str = ""  # its name in tables and figures
 
 
 def fixed(gdim):

@@ -8,13 +8,14 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from mpi4py import MPI
+from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import gmsh
 import dolfinx.io.gmsh
+from tissuebench.workflows.errors import UserError
 
 
-class MeshError(ValueError):
+class MeshError(UserError):
     """A mesh that cannot be built from the arguments given (bad size, bad file)."""
 
 

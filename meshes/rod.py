@@ -55,9 +55,10 @@ def benchmark(mesh_size=3, comm=MPI.COMM_WORLD, msh_path=None):
     return Benchmark(
         name="rod", tagged=tagged, constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(3))],
         gravity=GRAVITY, material=ENTRY.material, dt=ENTRY.dt, end_time=ENTRY.end_time, extent=max(SIZE),
-        mesh_size=mesh_size, probe=TIP,
+        mesh_size=mesh_size, probe=ENTRY.probe,
     )
 
 
 ENTRY = Entry(build=benchmark, gdim=3, material="MP3", mesh_size=3, dt=1 / 30, end_time=10.0,
-              nodes=lambda n: (2 * n + 1) * (n + 1) ** 2)
+              nodes=lambda n: (2 * n + 1) * (n + 1) ** 2, cell_size=lambda n: SIZE[1] / n, materials=("MP3",),
+              study_sizes=(2, 3, 6, 12), probe=TIP, probe_label="tip (0.5, 0.25, 0.125) m")

@@ -6,7 +6,7 @@ outside. Nodes are numbered by their position in `nodes`, the sorted global indi
 boundary nodes of V. Orientation is decided once, on the undeformed mesh.
 """
 
-from mpi4py import MPI
+from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import basix
 import dolfinx.mesh

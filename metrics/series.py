@@ -13,6 +13,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from tissuebench.workflows.errors import UserError
 
 # file cell names -> (our cell type, nodes per cell)
 CELLS = {
@@ -21,7 +22,7 @@ CELLS = {
 }
 
 
-class InputError(ValueError):
+class InputError(UserError):
     """Input files that cannot be compared: the message is one line naming file and problem."""
 
 

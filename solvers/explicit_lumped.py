@@ -3,7 +3,8 @@ and C = alpha M_L (the paper's scheme). The step matrix (1 + h alpha / 2) M_L is
 custom loop per step: pointwise Vec updates, then one compiled pass over K that also
 updates a and v (solvers/blockcsr.py), no KSP."""
 
-from tissuebench.solvers.newmark import Newmark, State
+from tissuebench.solvers.algorithm import Algorithm, State
+from tissuebench.solvers.newmark import Newmark
 
 
 class ExplicitLumped(Newmark):
@@ -13,9 +14,8 @@ class ExplicitLumped(Newmark):
     same arithmetic up to round-off (tests/test_integrators.py checks it against the general
     step)."""
 
-    def __init__(self, system, h, solver="direct"):
-        super().__init__(system, h, beta_N=0.0, gamma=0.5, lumped=True, stiffness_damping=False,
-                         solver=solver, prefix="explicit_lumped_")
+    def __init__(self, system, h: float, solver: str = "direct"):
+        super().__init__(system, h, ALGORITHM, "explicit_lumped_", solver)
         self._alpha_ml = system.ML.copy()
         self._alpha_ml.scale(self.alpha)
         self._inv_s = system.ML.copy()  # 1 / ((1 + gamma h alpha) M_L), 0 on constrained dofs
@@ -24,7 +24,7 @@ class ExplicitLumped(Newmark):
         self._inv_s.array[system.constrained] = 0.0
         self.K_product = system.K_csr  # the matrix that the one product per step reads
 
-    def step(self, state):
+    def step(self, state: State) -> State:
         s, h, c = self.system, self.h, self.system.constrained
         i = state.i + 1
         u, v, a = state.u, state.v, state.a
@@ -37,8 +37,12 @@ class ExplicitLumped(Newmark):
         self.K_product.explicit_lumped(u, s.f, self._inv_s, self._alpha_ml, v, a, self.gamma * h)
         a.array[c] = ac  # ... + a0
         v.array[c] = vc
-        return State(i, i * h, u, v, a)
+        state.i, state.t = i, i * h
+        return state
 
 
-def integrator(system, h, solver="direct"):
+def integrator(system, h: float, solver: str = "direct") -> ExplicitLumped:
     return ExplicitLumped(system, h, solver)
+
+
+ALGORITHM = Algorithm(integrator, mass="lumped", stiffness_damping=False, beta_N=0.0, gamma=0.5)

@@ -1,8 +1,12 @@
 """`implicit`, the reference: trapezoidal rule (beta_N = gamma = 1/2), consistent mass M,
 C = alpha M + beta K; one solve with M + hC/2 + h^2 K/4 per step."""
 
+from tissuebench.solvers.algorithm import Algorithm
 from tissuebench.solvers.newmark import Newmark
 
 
-def integrator(system, h, solver="direct"):
-    return Newmark(system, h, beta_N=0.5, gamma=0.5, lumped=False, solver=solver, prefix="implicit_")
+def integrator(system, h: float, solver: str = "direct") -> Newmark:
+    return Newmark(system, h, ALGORITHM, "implicit_", solver)
+
+
+ALGORITHM = Algorithm(integrator, mass="consistent", stiffness_damping=True, beta_N=0.5, gamma=0.5)

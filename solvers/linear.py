@@ -6,6 +6,7 @@ over the defaults below.
 """
 
 from petsc4py import PETSc
+from tissuebench.workflows.errors import UserError
 
 SOLVERS = {
     # factor once (MUMPS Cholesky: every step matrix here is symmetric positive definite, and
@@ -46,7 +47,7 @@ class SolveError(RuntimeError):
     """A linear solve that did not converge (treated as divergence of the run)."""
 
 
-class OptionsError(ValueError):
+class OptionsError(UserError):
     """PETSc options that PETSc refuses (an unknown type, a bad value): bad input."""
 
 
@@ -128,6 +129,14 @@ class KSPSolve:
             # loop, which tests the residual every sweep (23 sweeps instead of 100000 on the rod)
             self.ksp.setMonitor(lambda ksp, its, rnorm: None)
 
+    def iterations(self) -> int:
+        """Iterations of the last solve (1 for a direct solve, PETSc's count)."""
+        return 0 if self.failure else self.ksp.getIterationNumber()
+
+    def destroy(self) -> None:
+        if not self.failure:
+            self.ksp.destroy()
+
     def __call__(self, b, x):
         if self.failure:
             raise SolveError(self.failure)
@@ -142,6 +151,12 @@ class DiagonalSolve:
 
     def __init__(self, d):
         self.d = d
+
+    def iterations(self) -> int:
+        return 0
+
+    def destroy(self) -> None:
+        pass
 
     def __call__(self, b, x):
         x.pointwiseDivide(b, self.d)

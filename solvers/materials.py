@@ -7,12 +7,13 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from tissuebench.workflows.errors import UserError
 
 
 MAX_NAME = 64  # characters of a material name (it labels files, figures and tables)
 
 
-class MaterialError(ValueError):
+class MaterialError(UserError):
     """A material that the SPEC does not allow, or a material file that cannot be read."""
 
 

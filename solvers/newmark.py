@@ -12,36 +12,24 @@ prescribed values put into the predictors, the unknown is the free part delta of
     S = (1 + gamma h alpha) M + (gamma h beta + beta_N h^2/2) K.
 """
 
-from dataclasses import dataclass
-
+from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.linear import step_operator
 
-
-@dataclass
-class State:
-    """(u, v, a) at step i, t = i h: PETSc Vecs in m, m/s, m/s^2."""
-
-    i: int
-    t: float
-    u: object
-    v: object
-    a: object
+__all__ = ["Newmark", "State"]
 
 
 class Newmark:
-    """One Newmark scheme: `start()` gives the initial state, `step(state)` the next one."""
+    """One Newmark scheme, its data taken from its registry entry (solvers/algorithm.py): an
+    Integrator (`start()`, `step(state)` in place)."""
 
-    name = "newmark"
-
-    def __init__(self, system, h, beta_N, gamma, lumped, stiffness_damping=True,
-                 solver="direct", prefix=None):
+    def __init__(self, system, h: float, scheme: Algorithm, prefix: str, solver: str = "direct"):
         if not h > 0:
             raise ValueError(f"time step h must be > 0 s, got {h}")
         self.system, self.h = system, h
-        self.beta_N, self.gamma, self.lumped = beta_N, gamma, lumped
+        self.beta_N, self.gamma, self.lumped = scheme.beta_N, scheme.gamma, scheme.lumped
+        beta_N, gamma, lumped = self.beta_N, self.gamma, self.lumped
         self.alpha = system.material.alpha
-        self.beta = system.material.beta if stiffness_damping else 0.0
-        prefix = prefix or self.name.replace("-", "_") + "_"
+        self.beta = system.material.beta if scheme.stiffness_damping else 0.0
         self.solve = step_operator(
             system, 1 + gamma * h * self.alpha, gamma * h * self.beta + beta_N * h * h / 2,
             lumped, prefix, solver)
@@ -49,6 +37,15 @@ class Newmark:
         self.mass_solve = step_operator(system, 1.0, 0.0, lumped, prefix + "mass_", "mass")
         K = system.K
         self._r, self._w, self._delta = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
+
+    def iterations(self) -> int:
+        """Linear-solver iterations of the last step's solve (0: direct or diagonal)."""
+        return self.solve.iterations()
+
+    def destroy(self) -> None:
+        """Free the PETSc solvers."""
+        self.solve.destroy()
+        self.mass_solve.destroy()
 
     def mass_mult(self, x, y):
         """y = M x (consistent) or M_L x (lumped)."""
@@ -68,7 +65,7 @@ class Newmark:
         r.array[self.system.constrained] = 0.0
         return r
 
-    def start(self):
+    def start(self) -> State:
         """Step 0: u = v = 0 on free dofs, constrained dofs prescribed, and M a = f - C v - K u."""
         s, K = self.system, self.system.K
         u, v, a = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
@@ -82,7 +79,7 @@ class Newmark:
         a.axpy(1.0, self._delta)
         return State(0, 0.0, u, v, a)
 
-    def step(self, state):
+    def step(self, state: State) -> State:
         """Advance (u, v, a) from t_i to t_{i+1} = (i + 1) h, in place."""
         s, h = self.system, self.h
         i = state.i + 1

@@ -1,21 +1,28 @@
 """`quasi-static`: K u_{i+1} = f_{i+1} at every step, no history; v and a are reported as 0.
 Step 0 is the initial state (u = 0, constrained dofs prescribed)."""
 
+from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.linear import step_operator
-from tissuebench.solvers.newmark import State
 
 
 class QuasiStatic:
-    name = "quasi-static"
+    """An Integrator (solvers/algorithm.py) with one solve with K per step."""
 
-    def __init__(self, system, h, solver="direct"):
+    def __init__(self, system, h: float, solver: str = "direct"):
         if not h > 0:
             raise ValueError(f"time step h must be > 0 s, got {h}")
         self.system, self.h = system, h
         self.solve = step_operator(system, 0.0, 1.0, False, "quasi_static_", solver)
         self._r, self._delta = system.K.createVecLeft(), system.K.createVecLeft()
 
-    def start(self):
+    def iterations(self) -> int:
+        """Linear-solver iterations of the last step's solve (0: direct)."""
+        return self.solve.iterations()
+
+    def destroy(self) -> None:
+        self.solve.destroy()
+
+    def start(self) -> State:
         s = self.system
         u, v, a = (s.K.createVecLeft() for _ in range(3))
         for x in (u, v, a):
@@ -23,7 +30,7 @@ class QuasiStatic:
         u.array[s.constrained] = s.prescribed(0.0)[0]
         return State(0, 0.0, u, v, a)
 
-    def step(self, state):
+    def step(self, state: State) -> State:
         """u_{i+1} = ubar + K_bc^-1 (f - K ubar), ubar = prescribed values on constrained dofs."""
         s = self.system
         i = state.i + 1
@@ -42,5 +49,8 @@ class QuasiStatic:
         return state
 
 
-def integrator(system, h, solver="direct"):
+def integrator(system, h: float, solver: str = "direct") -> QuasiStatic:
     return QuasiStatic(system, h, solver)
+
+
+ALGORITHM = Algorithm(integrator, mass="none", stiffness_damping=False)

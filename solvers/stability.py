@@ -20,30 +20,30 @@ Units: omega in rad/s, h in s, alpha in 1/s, beta in s.
 
 from dataclasses import dataclass
 
+from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
+import math
+
 import numpy as np
 
-
-@dataclass(frozen=True)
-class Scheme:
-    """A Newmark scheme as solvers/newmark.py runs it: (beta_N, gamma) of SPEC section 3, the
-    mass it uses, and whether its damping has the stiffness term beta K."""
-
-    beta_N: float
-    gamma: float
-    lumped: bool
-    stiffness_damping: bool
+from tissuebench.meshes import BENCHMARKS, get_benchmark
+from tissuebench.solvers import ALGORITHMS, get_integrator
+from tissuebench.solvers.simulate import max_nodal_displacement, simulate
+from tissuebench.solvers.system import System
 
 
-# The SPEC section 2 table, as the integrators in solvers/ build it (tests check they agree).
-SCHEMES = {
-    "implicit": Scheme(0.5, 0.5, lumped=False, stiffness_damping=True),
-    "implicit-lumped": Scheme(0.5, 0.5, lumped=True, stiffness_damping=True),
-    "explicit": Scheme(0.0, 0.5, lumped=False, stiffness_damping=True),
-    "explicit-lumped": Scheme(0.0, 0.5, lumped=True, stiffness_damping=False),
-}
+def newmark_schemes():
+    """The Newmark schemes of the algorithm registry (solvers/__init__.py), by name: each entry
+    carries beta_N, gamma, its mass (lumped or not) and whether C holds beta K."""
+    return {name: a for name, a in ALGORITHMS.items() if a.newmark}
+
+
+def explicit_schemes() -> tuple[str, ...]:
+    """The names of the explicit Newmark schemes (beta_N = 0): conditionally stable."""
+    return tuple(name for name, a in newmark_schemes().items() if a.explicit)
+
 
 RHO_TOL = 1e-12  # a spectral radius above 1 + RHO_TOL is growth, not round-off
 OMEGA_H_MAX = 1e8  # Omega = h omega up to which a scheme is searched for instability
@@ -107,7 +107,7 @@ def critical_dt(scheme, material, omega_min, omega_max, samples=30):
 
     The minimum of the modal limits over the interval is taken on a geometric grid that holds
     both ends; for gamma = 1/2 and beta_N = 0 it is 2 / omega_max whatever the damping."""
-    scheme = SCHEMES[scheme] if isinstance(scheme, str) else scheme
+    scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
     beta = material.beta if scheme.stiffness_damping else 0.0
     omegas = np.geomspace(omega_min, omega_max, samples)
     return min(mode_critical_h(w, modal_damping(w, material.alpha, beta), scheme.beta_N, scheme.gamma)
@@ -117,7 +117,7 @@ def critical_dt(scheme, material, omega_min, omega_max, samples=30):
 def growth_per_step(scheme, material, omega, h):
     """The spectral radius of the mode omega (rad/s) with step h (s) in `scheme`: above 1 it is
     the factor by which that mode grows at every step."""
-    scheme = SCHEMES[scheme] if isinstance(scheme, str) else scheme
+    scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
     beta = material.beta if scheme.stiffness_damping else 0.0
     return float(spectral_radius(h, omega, modal_damping(omega, material.alpha, beta),
                                  scheme.beta_N, scheme.gamma))
@@ -215,14 +215,106 @@ class Limit:
         return bool(np.isinf(self.critical_dt))
 
 
-def stability_limits(system, algorithms=tuple(SCHEMES)):
+def stability_limits(system, algorithms=None):
     """{algorithm: Limit} for the Newmark schemes of `system` (quasi-static has no dynamics)."""
+    schemes = newmark_schemes()
     spectra = {}
     limits = {}
-    for name in algorithms:
-        scheme = SCHEMES[name]
+    for name in schemes if algorithms is None else algorithms:
+        scheme = schemes[name]
         if scheme.lumped not in spectra:
             spectra[scheme.lumped] = omega_range(system, scheme.lumped)
         w_min, w_max = spectra[scheme.lumped]
         limits[name] = Limit(name, w_min, w_max, critical_dt(scheme, system.material, w_min, w_max))
     return limits
+
+
+# --- checks against real runs, and the studies of `tissuebench stability` ---------------------
+
+GROWTH_TO_DIVERGE = 1e20  # a mode seeded at round-off (1e-18 m) must grow this much to pass 100 m
+# every benchmark with each of its materials: at its default mesh, and on its study meshes
+DEFAULTS = [(name, m, e.mesh_size) for name, e in BENCHMARKS.items() for m in e.materials]
+SWEEP = [(name, m, e.study_sizes) for name, e in BENCHMARKS.items() for m in e.materials]
+
+
+def system_for(benchmark, material=None, mesh_size=None, comm=MPI.COMM_WORLD):
+    options = {} if mesh_size is None else {"mesh_size": mesh_size}
+    return System(get_benchmark(benchmark, comm=comm, **options), material)
+
+
+def steps_to_diverge(growth, max_steps):
+    """Steps for a mode growing by `growth` per step to grow by GROWTH_TO_DIVERGE, at most
+    max_steps."""
+    if growth <= 1:
+        return max_steps
+    return min(max_steps, math.ceil(math.log(GROWTH_TO_DIVERGE) / math.log(growth)))
+
+
+def check_run(system, algorithm, h, steps):
+    """Run `algorithm` with step h (s) for `steps` steps: (status, diverged step, largest nodal
+    displacement reached in m, wall time in s)."""
+    bench = system.benchmark
+    peak = [0.0]
+
+    def track(state):
+        peak[0] = max(peak[0], max_nodal_displacement(state.u.array_r, system.gdim, system.comm))
+
+    run = simulate(get_integrator(algorithm, system, h), steps, bench.extent, algorithm, on_step=track, keep=False)
+    return run.status, run.diverged_step, peak[0], run.wall_time_s
+
+
+def run_check(system, limits, margin=0.05, max_steps=100_000):
+    """For each explicit scheme, real runs at (1 + margin) and (1 - margin) times the predicted
+    critical step. The run above goes on for the steps its fastest mode needs to grow by
+    GROWTH_TO_DIVERGE (at most max_steps), the run below for as many steps as the run above
+    took, and at least to the benchmark's end time T. A list of dicts, one per run."""
+    rows = []
+    for name in explicit_schemes():
+        limit = limits[name]
+        above = (1 + margin) * limit.critical_dt
+        growth = growth_per_step(name, system.material, limit.omega_max, above)
+        steps = steps_to_diverge(growth, max_steps)
+        for factor in (1 + margin, 1 - margin):
+            h = factor * limit.critical_dt
+            status, step, peak, wall = check_run(system, name, h, steps)
+            rows.append({"algorithm": name, "h": h, "ratio": factor, "steps": steps,
+                         "growth_per_step": growth_per_step(name, system.material, limit.omega_max, h),
+                         "status": status, "diverged_step": step,
+                         "diverged_time": None if step is None else step * h,
+                         "peak_displacement": peak, "wall_time_s": wall})
+            if status == "diverged":  # the run below: as many steps as the run above took, at least to T
+                steps = max(step, math.ceil(system.benchmark.end_time / ((1 - margin) * limit.critical_dt)))
+    return rows
+
+
+def system_end(case):
+    return case["end_time"]
+
+
+def case_summary(system, limits):
+    """The JSON record of one benchmark, material and mesh."""
+    m = system.material
+    algorithms = {}
+    for name, limit in limits.items():
+        algorithms[name] = {
+            "critical_dt": None if limit.unconditional else limit.critical_dt,
+            "unconditionally_stable": limit.unconditional,
+            "omega_max": limit.omega_max, "omega_min": limit.omega_min,
+            "mass": ALGORITHMS[name].mass, "damping": ALGORITHMS[name].damping}
+    return {"benchmark": system.benchmark.name, "material": m.name, "mesh_size": system.benchmark.mesh_size,
+            "cell_size": BENCHMARKS[system.benchmark.name].cell_size(system.benchmark.mesh_size),
+            "end_time": system.benchmark.end_time,
+            "material_data": {"E": m.E, "nu": m.nu, "rho": m.rho, "alpha": m.alpha, "beta": m.beta},
+            "units": {"critical_dt": "s", "omega_max": "rad/s", "omega_min": "rad/s", "cell_size": "m",
+                      "end_time": "s"},
+            "algorithms": algorithms}
+
+
+def sweep(comm):
+    """Every (benchmark, material, size) of SWEEP: a list of case summaries (explicit schemes)."""
+    cases = []
+    for bench, material, sizes in SWEEP:
+        for size in sizes:
+            system = system_for(bench, material, size, comm)
+            cases.append(case_summary(system, stability_limits(system, explicit_schemes())))
+    return cases

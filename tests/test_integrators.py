@@ -169,12 +169,14 @@ def test_histories_serial_equal_parallel():
 def test_explicit_lumped_loop_equals_the_general_newmark_step():
     """The custom explicit-lumped loop against the general Newmark step with the same
     parameters (beta_N = 0, gamma = 1/2, M_L, C = alpha M_L), on the moving needle."""
+    from tissuebench.solvers.algorithm import Algorithm
     from tissuebench.solvers.newmark import Newmark
 
     bench = get_benchmark("block", mesh_size=8)
     system = System(bench, "MP1")
     h = 1 / 30
-    general = Newmark(system, h, beta_N=0.0, gamma=0.5, lumped=True, stiffness_damping=False, prefix="general_")
+    scheme = Algorithm(None, mass="lumped", stiffness_damping=False, beta_N=0.0, gamma=0.5)
+    general = Newmark(system, h, scheme, "general_")
     fast = simulate(get_integrator("explicit-lumped", system, h), 90, bench.extent).u
     slow = simulate(general, 90, bench.extent).u
     for a, b in zip(fast, slow):

@@ -17,10 +17,11 @@ from helpers import run_script
 from tissuebench.meshes import get_benchmark
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.stability import SCHEMES, critical_dt, mode_critical_h, omega_range, stability_limits
+from tissuebench.solvers.stability import critical_dt, explicit_schemes, newmark_schemes, run_check, mode_critical_h, omega_range, stability_limits
 from tissuebench.solvers.system import System
+from tissuebench.solvers.convergence import METRICS, difference_orders, interpolate, orders, time_study
 from tissuebench.workflows import convergence, stability
-from tissuebench.workflows.cli import UsageError
+from tissuebench.workflows.errors import UserError
 
 serial_only = pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial")
 
@@ -88,10 +89,22 @@ def test_central_difference_limit_is_two_over_omega_max():
     assert critical_dt("implicit", get_material("MP2"), 20.0, 3000.0) == math.inf
 
 
-def test_schemes_are_the_integrators():
-    """The table in solvers/stability.py describes the integrators that actually run."""
+# SPEC sections 2 and 3, written out here independently of the registry:
+# (beta_N, gamma, mass, C has beta K)
+SPEC_TABLE = {
+    "implicit": (0.5, 0.5, "consistent", True),
+    "implicit-lumped": (0.5, 0.5, "lumped", True),
+    "explicit": (0.0, 0.5, "consistent", True),
+    "explicit-lumped": (0.0, 0.5, "lumped", False),
+}
+
+
+def test_schemes_are_the_spec_and_the_integrators():
+    """The registry's scheme data is SPEC section 2's table, and the integrators that run use it."""
+    schemes = newmark_schemes()
+    assert {name: (a.beta_N, a.gamma, a.mass, a.stiffness_damping) for name, a in schemes.items()} == SPEC_TABLE
     s = system("block", 4, "MP1")
-    for name, scheme in SCHEMES.items():
+    for name, scheme in schemes.items():
         integrator = get_integrator(name, s, 0.01)
         assert (integrator.beta_N, integrator.gamma, integrator.lumped) == (scheme.beta_N, scheme.gamma, scheme.lumped)
         assert integrator.alpha == s.material.alpha
@@ -101,7 +114,7 @@ def test_schemes_are_the_integrators():
 @pytest.mark.parametrize("bench,size,material", [("block", 4, "MP1"), ("rod", 2, "MP3")])
 def test_real_runs_diverge_just_above_the_limit_and_not_below(bench, size, material):
     s = system(bench, size, material)
-    rows = stability.run_check(s, stability_limits(s, stability.EXPLICIT), margin=0.05, max_steps=20_000)
+    rows = run_check(s, stability_limits(s, explicit_schemes()), margin=0.05, max_steps=20_000)
     for row in rows:
         expected = "diverged" if row["ratio"] > 1 else "ok"
         assert row["status"] == expected, row
@@ -113,25 +126,25 @@ def test_time_orders():
     the lumped-mass solution (its error stops falling) while its own successive differences
     still fall with order 2."""
     s = system("block", 4, "MP1")
-    results = convergence.time_study(s, 1 / 30, 1.0, algorithms=("implicit", "explicit-lumped"))
+    results = time_study(s, 1 / 30, 1.0, algorithms=("implicit", "explicit-lumped"))
     steps = [1, 2, 4, 8]
-    for name in convergence.METRICS:
+    for name in METRICS:
         implicit = [e[name] for e in results["implicit"]["errors"]]
-        assert convergence.orders(steps, implicit) == pytest.approx([2, 2, 2], abs=0.15)
+        assert orders(steps, implicit) == pytest.approx([2, 2, 2], abs=0.15)
         lumped = results["explicit-lumped"]
         errors = [e[name] for e in lumped["errors"]]
         assert errors[-1] > 0.9 * errors[0]
         differences = [d[name] for d in lumped["differences"]]
-        assert convergence.difference_orders(steps, differences) == pytest.approx([2, 2], abs=0.15)
+        assert difference_orders(steps, differences) == pytest.approx([2, 2], abs=0.15)
 
 
 def test_order_formulas():
     sizes = [2, 3, 6, 12]
     p, C = 1.4, 0.3
     errors = [C * s**-p for s in sizes]
-    assert convergence.orders(sizes, errors) == pytest.approx([p] * 3, rel=1e-12)
+    assert orders(sizes, errors) == pytest.approx([p] * 3, rel=1e-12)
     differences = [abs(errors[k] - errors[k + 1]) for k in range(3)]
-    assert convergence.difference_orders(sizes, differences) == pytest.approx([p, p], rel=1e-8)
+    assert difference_orders(sizes, differences) == pytest.approx([p, p], rel=1e-8)
 
 
 @pytest.mark.parametrize("bench,coarse,fine", [("block", 4, 8), ("rod", 2, 6)])
@@ -147,7 +160,7 @@ def test_interpolation_between_nested_meshes_is_exact_for_a_multilinear_field(be
     u_from.interpolate(field)
     u_to.interpolate(field)
     n = V_from.dofmap.index_map.size_local * V_from.dofmap.bs
-    values = convergence.interpolate(V_to, V_from, u_from.x.array[:n])
+    values = interpolate(V_to, V_from, u_from.x.array[:n])
     assert values == pytest.approx(u_to.x.array[: len(values)], abs=1e-12)
 
 
@@ -178,7 +191,7 @@ def test_stability_command_writes_json(tmp_path):
 def test_bad_options_are_usage_errors(tmp_path):
     args = argparse.Namespace(benchmark="block", material="MP1", mesh_size=4, out=str(tmp_path), margin=1.5,
                               max_steps=10, no_sweep=True)
-    with pytest.raises(UsageError, match="margin"):
+    with pytest.raises(UserError, match="margin"):
         stability.main(args)
-    with pytest.raises(UsageError, match="end-time"):
+    with pytest.raises(UserError, match="end-time"):
         convergence.main(argparse.Namespace(out=str(tmp_path), end_time=0.01))

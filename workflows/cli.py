@@ -3,7 +3,7 @@
 Every subcommand is one module in workflows/ with `add_parser(subparsers)`, which registers its
 arguments and sets `func(args)`; it is listed once in COMMANDS below.
 
-Exit status: 0 done; 2 bad input (one of `usage_errors()`, one line on stderr); 1 the
+Exit status: 0 done; 2 bad input (UserError, workflows/errors.py; one line on stderr); 1 the
 environment failed while writing (disk full, permission lost; one line); 130 interrupted
 (SIGINT) and 143 terminated (SIGTERM), one line each. In every case the partial output is
 removed and nothing else is touched.
@@ -14,6 +14,8 @@ import importlib
 import signal
 import sys
 import traceback
+
+from tissuebench.workflows.errors import UserError
 
 COMMANDS = [
     "tissuebench.workflows.run",
@@ -26,24 +28,8 @@ COMMANDS = [
 ]
 
 
-class UsageError(ValueError):
-    """Bad options or input: reported as one line, exit status 2."""
-
-
 class Terminated(BaseException):
     """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT."""
-
-
-def usage_errors():
-    """The exception types that mean 'bad input', from every layer."""
-    from tissuebench.meshes.gmshio import MeshError
-    from tissuebench.metrics.series import InputError
-    from tissuebench.solvers.linear import OptionsError
-    from tissuebench.solvers.materials import MaterialError
-    from tissuebench.workflows.limits import LimitError
-    from tissuebench.workflows.output import OutputError
-
-    return (UsageError, MeshError, MaterialError, InputError, OptionsError, LimitError, OutputError)
 
 
 def _terminate(signum, frame):
@@ -85,7 +71,7 @@ def main(argv=None):
 
     try:
         return args.func(args) or 0
-    except usage_errors() as err:
+    except UserError as err:
         say(f"error: {err}")
         return 2
     except WriteFailure as err:
@@ -110,7 +96,7 @@ def main(argv=None):
             signal.signal(number, handler)
 
 
-if __name__ == "__main__":  # python -m: run the imported module, so its UsageError is the one raised
+if __name__ == "__main__":  # python -m: run the imported module, so its classes are the ones raised
     from tissuebench.workflows.cli import main as cli_main
 
     sys.exit(cli_main())

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mpi4py import MPI
+from tissuebench.workflows.errors import UserError
 
 BASE_MEMORY = 400e6  # bytes per process: Python with DOLFINx, PETSc, gmsh, matplotlib, pyvista
 # bytes per dof for K, M, M_L, the step matrices and their MUMPS factors, five algorithms:
@@ -26,7 +27,7 @@ FIGURES = 3e6  # bytes: the PNG figures and the GIF of one case
 MAX_STEPS = 10**9  # steps in one run: beyond any run this machine can hold
 
 
-class LimitError(ValueError):
+class LimitError(UserError):
     """A case that cannot finish on this machine: one line, exit status 2."""
 
 

@@ -7,7 +7,7 @@ from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
 from tissuebench.meshes.gmshio import check_positive_int
-from tissuebench.workflows.cli import UsageError
+from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.limits import check as check_limits, estimate
 from tissuebench.workflows.output import collective
 
@@ -25,14 +25,14 @@ def add_parser(sub):
 def check_target(out: Path, force: bool) -> None:
     """Refuse an output that is a folder, is not .msh, or exists (unless force)."""
     if out.suffix != ".msh":
-        raise UsageError(f"output {out} must end in .msh")
+        raise UserError(f"output {out} must end in .msh")
     if out.is_dir():
-        raise UsageError(f"output {out} is a folder: name a .msh file")
+        raise UserError(f"output {out} is a folder: name a .msh file")
     if out.exists() and not force:
-        raise UsageError(f"output {out} exists: --force replaces it")
+        raise UserError(f"output {out} exists: --force replaces it")
     existing = next(p for p in out.absolute().parents if p.exists())
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(f"output {out}: cannot write there ({existing} is not a writable folder)")
+        raise UserError(f"output {out}: cannot write there ({existing} is not a writable folder)")
 
 
 def main(args):

@@ -29,11 +29,12 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from mpi4py import MPI
+from tissuebench.workflows.errors import UserError
 
 SUMMARY = "summary.json"
 
 
-class OutputError(ValueError):
+class OutputError(UserError):
     """An output folder that cannot or must not be written: one line, exit status 2."""
 
 

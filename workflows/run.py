@@ -8,7 +8,7 @@ from tissuebench.meshes import BENCHMARKS, get_entry
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.solvers.linear import SOLVERS, set_petsc_options
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.cli import UsageError
+from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.study import algorithm_case, run_case
 
 
@@ -18,7 +18,7 @@ def positive(text: str) -> float:
     except ValueError:
         value = float("nan")
     if not value > 0 or value == float("inf"):
-        raise UsageError(f"expected a positive number of seconds, got {text!r}")
+        raise UserError(f"expected a positive number of seconds, got {text!r}")
     return value
 
 
@@ -52,13 +52,13 @@ def parse_algorithms(text: str) -> list[str]:
     names = [a.strip() for a in text.split(",") if a.strip()]
     unknown = [a for a in names if a not in ALGORITHMS]
     if unknown or not names:
-        raise UsageError(f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}")
+        raise UserError(f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}")
     return names
 
 
 def check_common(args) -> None:
     if args.solver not in SOLVERS:
-        raise UsageError(f"unknown solver {args.solver!r}: use one of {', '.join(SOLVERS)}")
+        raise UserError(f"unknown solver {args.solver!r}: use one of {', '.join(SOLVERS)}")
     if args.petsc:
         set_petsc_options(args.petsc)
 
@@ -71,10 +71,10 @@ def benchmark_options(args, entry) -> dict:
         if value is None:
             continue
         if name not in entry.options:
-            raise UsageError(f"--{name.replace('_', '-')} does not apply to {args.benchmark}")
+            raise UserError(f"--{name.replace('_', '-')} does not apply to {args.benchmark}")
         options[name] = value
     if args.plane is not None and entry.gdim != 2:
-        raise UsageError(f"--plane applies to 2D benchmarks only, not to {args.benchmark}")
+        raise UserError(f"--plane applies to 2D benchmarks only, not to {args.benchmark}")
     return options
 
 
