@@ -12,7 +12,6 @@ Units: h in s, omega in rad/s, cell size in m.
 """
 
 import json
-import math
 import os
 import time
 from pathlib import Path
@@ -20,119 +19,28 @@ from pathlib import Path
 from mpi4py import MPI
 
 
-from tissuebench.meshes import get_benchmark
-from tissuebench.solvers import get_integrator
-from tissuebench.solvers.simulate import max_nodal_displacement, simulate
-from tissuebench.solvers.stability import SCHEMES, growth_per_step, stability_limits
-from tissuebench.solvers.system import System
+from tissuebench.meshes import BENCHMARKS
+from tissuebench.solvers.stability import (DEFAULTS, GROWTH_TO_DIVERGE, SWEEP, case_summary, explicit_schemes,
+                                           run_check, stability_limits, sweep, system_end,
+                                           system_for)
 from tissuebench.workflows.output import check_writable
 
-EXPLICIT = ("explicit", "explicit-lumped")
+EXPLICIT = explicit_schemes()
 PAPER_MP2_LIMIT = 1e-6  # s: the paper's statement for explicit integration with MP2
-GROWTH_TO_DIVERGE = 1e20  # a mode seeded at round-off (1e-18 m) must grow this much to pass 100 m
-SWEEP = [("block", "MP1", (10, 20, 40, 80)), ("block", "MP2", (10, 20, 40, 80)), ("rod", "MP3", (2, 3, 6, 12))]
-DEFAULTS = [("block", "MP1", 20), ("block", "MP2", 20), ("rod", "MP3", 3)]
-CELL = {"block": lambda N: 1.0 / N, "rod": lambda n: 0.25 / n}  # m, edge of one cell
-DAMPING = {"implicit": "αM + βK", "implicit-lumped": "αM_L + βK", "explicit": "αM + βK",
-           "explicit-lumped": "αM_L"}
-
 
 def add_parser(subparsers):
     p = subparsers.add_parser(
         "stability", help="critical time step of every scheme (eigenvalues + amplification matrix)",
         description=__doc__.split("\n\n")[1])
-    p.add_argument("benchmark", choices=["block", "rod"])
+    p.add_argument("benchmark", choices=list(BENCHMARKS))
     p.add_argument("--material", default=None, help="MP1, MP2, MP3 or a .toml file (default: the benchmark's)")
-    p.add_argument("--mesh-size", type=int, default=None, help="block N or rod n (default: 20 or 3)")
+    p.add_argument("--mesh-size", type=int, default=None, help="mesh size (default: the benchmark's)")
     p.add_argument("--out", default="results", help="output directory (default: results)")
     p.add_argument("--margin", type=float, default=0.05,
                    help="run check at (1 -/+ margin) times the predicted limit (default 0.05)")
     p.add_argument("--max-steps", type=int, default=100_000, help="most steps of one check run (default 100000)")
     p.add_argument("--no-sweep", action="store_true", help="skip the default-case table and the mesh-size sweep")
     p.set_defaults(func=main)
-
-
-def system_for(benchmark, material=None, mesh_size=None, comm=MPI.COMM_WORLD):
-    options = {} if mesh_size is None else {"mesh_size": mesh_size}
-    return System(get_benchmark(benchmark, comm=comm, **options), material)
-
-
-def steps_to_diverge(growth, max_steps):
-    """Steps for a mode growing by `growth` per step to grow by GROWTH_TO_DIVERGE, at most
-    max_steps."""
-    if growth <= 1:
-        return max_steps
-    return min(max_steps, math.ceil(math.log(GROWTH_TO_DIVERGE) / math.log(growth)))
-
-
-def check_run(system, algorithm, h, steps):
-    """Run `algorithm` with step h (s) for `steps` steps: (status, diverged step, largest nodal
-    displacement reached in m, wall time in s)."""
-    bench = system.benchmark
-    peak = [0.0]
-
-    def track(state):
-        peak[0] = max(peak[0], max_nodal_displacement(state.u.array_r, system.gdim, system.comm))
-
-    run = simulate(get_integrator(algorithm, system, h), steps, bench.extent, algorithm, on_step=track, keep=False)
-    return run.status, run.diverged_step, peak[0], run.wall_time_s
-
-
-def run_check(system, limits, margin=0.05, max_steps=100_000):
-    """For each explicit scheme, real runs at (1 + margin) and (1 - margin) times the predicted
-    critical step. The run above goes on for the steps its fastest mode needs to grow by
-    GROWTH_TO_DIVERGE (at most max_steps), the run below for as many steps as the run above
-    took, and at least to the benchmark's end time T. A list of dicts, one per run."""
-    rows = []
-    for name in EXPLICIT:
-        limit = limits[name]
-        above = (1 + margin) * limit.critical_dt
-        growth = growth_per_step(name, system.material, limit.omega_max, above)
-        steps = steps_to_diverge(growth, max_steps)
-        for factor in (1 + margin, 1 - margin):
-            h = factor * limit.critical_dt
-            status, step, peak, wall = check_run(system, name, h, steps)
-            rows.append({"algorithm": name, "h": h, "ratio": factor, "steps": steps,
-                         "growth_per_step": growth_per_step(name, system.material, limit.omega_max, h),
-                         "status": status, "diverged_step": step,
-                         "diverged_time": None if step is None else step * h,
-                         "peak_displacement": peak, "wall_time_s": wall})
-            if status == "diverged":  # the run below: as many steps as the run above took, at least to T
-                steps = max(step, math.ceil(system.benchmark.end_time / ((1 - margin) * limit.critical_dt)))
-    return rows
-
-
-def system_end(case):
-    return case["end_time"]
-
-
-def case_summary(system, limits):
-    """The JSON record of one benchmark, material and mesh."""
-    m = system.material
-    algorithms = {}
-    for name, limit in limits.items():
-        algorithms[name] = {
-            "critical_dt": None if limit.unconditional else limit.critical_dt,
-            "unconditionally_stable": limit.unconditional,
-            "omega_max": limit.omega_max, "omega_min": limit.omega_min,
-            "mass": "lumped" if SCHEMES[name].lumped else "consistent", "damping": DAMPING[name]}
-    return {"benchmark": system.benchmark.name, "material": m.name, "mesh_size": system.benchmark.mesh_size,
-            "cell_size": CELL[system.benchmark.name](system.benchmark.mesh_size),
-            "end_time": system.benchmark.end_time,
-            "material_data": {"E": m.E, "nu": m.nu, "rho": m.rho, "alpha": m.alpha, "beta": m.beta},
-            "units": {"critical_dt": "s", "omega_max": "rad/s", "omega_min": "rad/s", "cell_size": "m",
-                      "end_time": "s"},
-            "algorithms": algorithms}
-
-
-def sweep(comm):
-    """Every (benchmark, material, size) of SWEEP: a list of case summaries."""
-    cases = []
-    for bench, material, sizes in SWEEP:
-        for size in sizes:
-            system = system_for(bench, material, size, comm)
-            cases.append(case_summary(system, stability_limits(system, EXPLICIT)))
-    return cases
 
 
 # --- output (rank 0) ----------------------------------------------------------------------------
@@ -254,13 +162,13 @@ def write(out_dir, case, checks, cases, wall):
 
 
 def main(args):
-    from tissuebench.workflows.cli import UsageError
+    from tissuebench.workflows.errors import UserError
 
     comm = MPI.COMM_WORLD
     if not 0 < args.margin < 1:
-        raise UsageError(f"--margin must be between 0 and 1, got {args.margin}")
+        raise UserError(f"--margin must be between 0 and 1, got {args.margin}")
     if args.max_steps < 1:
-        raise UsageError(f"--max-steps must be >= 1, got {args.max_steps}")
+        raise UserError(f"--max-steps must be >= 1, got {args.max_steps}")
     check_writable(args.out, comm)
     start = time.perf_counter()
     system = system_for(args.benchmark, args.material, args.mesh_size, comm)
