@@ -1,6 +1,7 @@
 # Two entry points, both self-contained on a fresh machine:
 #   make paper   set up .venv, then run the paper's study into results/
-#   make test    set up .venv, then run the test suite (serial and mpiexec -n 2 cases)
+#   make test    set up .venv, then ruff, then the test suite in serial and, for the tests not
+#                marked serial, under mpiexec -n 2
 # PYTHON must be 3.12 (the DOLFINx wheel needs it); .python-version makes pyenv's python3 one.
 PYTHON ?= python3
 VENV   ?= .venv
@@ -22,7 +23,9 @@ paper: setup
 	$(BIN)/tissuebench paper --out results
 
 test: setup
+	$(BIN)/ruff check .
 	$(BIN)/pytest
+	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
 
 bench: setup
 	$(BIN)/python -m pip install --quiet -e ".[bench]"

@@ -15,6 +15,8 @@ from tissuebench.metrics.series import read_series
 COLUMNS = ["algorithm", "step", "time", "relative_error", "surface_error", "interior_error", "interior_error_nodal",
            "status"]
 
+pytestmark = pytest.mark.serial  # drives the command line in subprocesses
+
 
 def tissuebench(*args, ranks=1):
     cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]

@@ -22,6 +22,10 @@ from tissuebench.metrics.compare import COLUMNS
 
 TIMES = [0.0, 0.1, 0.2, 0.3]
 
+# the series are written in serial by meshio and DOLFINx here; compare() under mpiexec -n 2 is
+# checked against serial by test_compare_serial_and_two_ranks_agree and the command-line tests
+pytestmark = pytest.mark.serial
+
 
 def make_space(dim):
     if dim == 2:
@@ -254,6 +258,7 @@ def test_refuses_an_output_path_that_is_a_file(tmp_path, reference):
         compare(ref, ref, tmp_path / "taken")
 
 
+@pytest.mark.serial
 def test_compare_serial_and_two_ranks_agree(tmp_path):
     """compare() under mpiexec -n 2 (mesh read on rank 0 and distributed, nodal values mapped
     through the input indices) writes the serial metrics.csv to 1e-12."""

@@ -153,6 +153,7 @@ def test_iterative_options_agree_with_direct(solver):
     assert ksp.getConvergedReason() in (2, 3) and ksp.getIterationNumber() < 1000
 
 
+@pytest.mark.serial
 def test_histories_serial_equal_parallel():
     serial_run = run_script("mpi_integrators.py", ranks=1)
     parallel_run = run_script("mpi_integrators.py", ranks=2)

@@ -194,6 +194,7 @@ def test_summarize_skips_step_zero_and_nan():
     assert all(np.isnan(summarize([0.0, np.nan])))
 
 
+@pytest.mark.serial
 def test_serial_and_two_ranks_agree():
     serial, parallel = run_script("mpi_metrics.py"), run_script("mpi_metrics.py", ranks=2)
     for case in ("block", "rod"):

@@ -23,6 +23,8 @@ from test_cli import curves, statuses, tissuebench
 SMALL = ("--mesh-size", 4, "--end-time", 0.1)
 DIVERGING_REFERENCE = "-implicit_ksp_type cg -implicit_pc_type none -implicit_ksp_max_it 1"
 
+pytestmark = pytest.mark.serial  # drives the command line in subprocesses
+
 
 def one_line_error(result, status=2):
     """The command failed with `status` and exactly one line on stderr, no traceback."""

@@ -165,6 +165,7 @@ def test_interpolation_between_nested_meshes_is_exact_for_a_multilinear_field(be
 
 
 @serial_only
+@pytest.mark.serial
 def test_serial_and_two_ranks_agree():
     serial, parallel = run_script("mpi_stability.py"), run_script("mpi_stability.py", ranks=2)
     for bench in ("block", "rod"):

@@ -189,6 +189,7 @@ def test_msh_export(tmp_path):
     assert len(m.points) == 25 and sum(len(c.data) for c in m.cells if c.type == "quad") == 16
 
 
+@pytest.mark.serial
 def test_norms_serial_equal_parallel():
     """The assembled system does not depend on the partition, and the compiled block-CSR
     products (solvers/blockcsr.py, ghost columns included) equal PETSc's MatMult to
@@ -204,6 +205,7 @@ def test_norms_serial_equal_parallel():
             assert diff < 1e-14, key
 
 
+@pytest.mark.serial
 def test_package_names_do_not_leak():
     """The code folders are tissuebench.* only: no bare `metrics` or `solvers` on sys.path."""
     import importlib.util

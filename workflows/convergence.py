@@ -30,7 +30,7 @@ from tissuebench.solvers.convergence import (LEVELS, METRICS, REFINEMENT, SPACE_
 from tissuebench.solvers.stability import explicit_schemes, stability_limits
 from tissuebench.solvers.system import System
 from tissuebench.workflows.errors import UserError
-from tissuebench.workflows.output import check_writable
+from tissuebench.workflows.output import check_writable, collective
 
 SYMBOL = {"relative_error": "E_n", "surface_error": "E_s", "interior_error": "E_i"}
 # every benchmark at its defaults (time), and on its study meshes with its refinement options (space)
@@ -164,8 +164,9 @@ def main(args):
     space_results = {(bench, material, sizes): space_study(bench, material, sizes, comm=comm, **options)
                      for bench, material, sizes, options in SPACE_CASES}
     wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
-    if comm.rank == 0:
-        out = Path(args.out)
+    out = Path(args.out)
+
+    def write():
         out.mkdir(parents=True, exist_ok=True)
         plot(out / "convergence_time.png", f"Time: each metric's maximum over t ≤ {args.end_time:g} s, "
              f"against implicit with h/{REFINEMENT}",
@@ -175,5 +176,8 @@ def main(args):
              [(f"{b} {m}", [BENCHMARKS[b].cell_size(s) for s in sizes], r)
               for (b, m, sizes), r in space_results.items()], "cell size (m)", guides=[1, 2])
         (out / "convergence.md").write_text(markdown(time_results, ratios, space_results, h, args.end_time, wall))
+
+    collective(comm, write, out)  # rank 0 writes; its failure is raised on every rank
+    if comm.rank == 0:
         print(f"wrote {out / 'convergence.md'}, convergence_time.png, convergence_space.png ({wall:.1f} s)")
     return 0

@@ -23,7 +23,7 @@ from tissuebench.meshes import BENCHMARKS
 from tissuebench.solvers.stability import (DEFAULTS, GROWTH_TO_DIVERGE, SWEEP, case_summary, explicit_schemes,
                                            run_check, stability_limits, sweep, system_end,
                                            system_for)
-from tissuebench.workflows.output import check_writable
+from tissuebench.workflows.output import check_writable, collective
 
 EXPLICIT = explicit_schemes()
 PAPER_MP2_LIMIT = 1e-6  # s: the paper's statement for explicit integration with MP2
@@ -177,8 +177,9 @@ def main(args):
     checks = run_check(system, limits, args.margin, args.max_steps)
     cases = [] if args.no_sweep else sweep(comm)
     wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    # rank 0 writes; a failure there is raised on every rank, and no rank returns before it is done
+    collective(comm, lambda: write(args.out, case, checks, cases, wall), Path(args.out))
     if comm.rank == 0:
-        write(args.out, case, checks, cases, wall)
         for name, r in case["algorithms"].items():
             print(f"{name:16s} omega_max {r['omega_max']:.6g} rad/s  critical h {fmt(r['critical_dt'])} s")
         for r in checks:
