@@ -4,6 +4,8 @@ The right edge is split at the needle node (1, 0.5), so that N must be even. Phy
 "left", "right", "bottom", "top" (edges) and "needle" (the node at (1, 0.5)).
 """
 
+from __future__ import annotations
+
 from mpi4py import MPI
 
 import dolfinx.mesh
@@ -11,13 +13,13 @@ import gmsh
 import numpy as np
 
 from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
-from tissuebench.meshes.gmshio import MeshError, check_positive_int, start_gmsh, to_dolfinx
+from tissuebench.meshes.gmshio import MeshError, TaggedMesh, check_positive_int, start_gmsh, to_dolfinx
 
 LENGTH = 1.0  # m, both sides
 NEEDLE = (1.0, 0.5)  # m
 
 
-def gmsh_block(N):
+def gmsh_block(N: int) -> None:
     """Build the structured N x N quadrilateral block in the current gmsh model."""
     geo = gmsh.model.geo
     p = [geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (1, 0), NEEDLE, (1, 1), (0, 1)]]
@@ -42,7 +44,7 @@ def gmsh_block(N):
     gmsh.model.mesh.generate(2)
 
 
-def block_mesh(N=20, comm=MPI.COMM_WORLD, msh_path=None):
+def block_mesh(N: int = 20, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> TaggedMesh:
     """The N x N block as a TaggedMesh distributed over `comm` (N even, cell size 1/N m)."""
     check_positive_int("mesh size N", N)
     if N % 2:
@@ -54,7 +56,7 @@ def block_mesh(N=20, comm=MPI.COMM_WORLD, msh_path=None):
     return to_dolfinx(comm, gdim=2, msh_path=msh_path)
 
 
-def needle_motion(t):
+def needle_motion(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The needle's prescribed (u, v, a) at time t (s): u = (-0.08 min(t, 2), 0) m,
     v = (-0.08, 0) m/s for 0 <= t < 2 and 0 after (right derivative), a = 0."""
     speed = -0.08  # m/s
@@ -63,7 +65,8 @@ def needle_motion(t):
     return u, v, np.zeros(2)
 
 
-def benchmark(mesh_size=20, needle_width=0.0, comm=MPI.COMM_WORLD, msh_path=None):
+def benchmark(mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = MPI.COMM_WORLD,
+              msh_path=None) -> Benchmark:
     """Benchmark A: the block fixed on its left, bottom and top edges, pushed by the needle at
     (1, 0.5). With needle_width w > 0 (m) every right-edge node with |y - 0.5| <= w/2 moves."""
     if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):

@@ -3,6 +3,8 @@
 The gmsh model is built on rank 0 only; `dolfinx.io.gmsh.model_to_mesh` distributes it.
 """
 
+from __future__ import annotations
+
 import signal
 import threading
 from dataclasses import dataclass
@@ -12,6 +14,7 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import gmsh
 import dolfinx.io.gmsh
+import numpy as np
 from tissuebench.workflows.errors import UserError
 
 
@@ -31,13 +34,13 @@ class TaggedMesh:
     tags: dict
     groups: dict
 
-    def entities(self, name):
+    def entities(self, name: str) -> tuple[int, np.ndarray]:
         """(dim, local entity indices) of the physical group `name`."""
         dim, mt = self.tags[name]
         return dim, mt.find(self.groups[name])
 
 
-def start_gmsh():
+def start_gmsh() -> None:
     if not gmsh.isInitialized():
         # gmsh's initialize puts the default SIGTERM action back: keep the caller's handlers
         handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
@@ -50,7 +53,7 @@ def start_gmsh():
     gmsh.clear()
 
 
-def to_dolfinx(comm, gdim, msh_path=None):
+def to_dolfinx(comm: MPI.Comm, gdim: int, msh_path: str | Path | None = None) -> TaggedMesh:
     """Turn the current gmsh model (on rank 0) into a TaggedMesh on `comm`; optionally save .msh."""
     if comm.rank == 0 and msh_path is not None:
         Path(msh_path).parent.mkdir(parents=True, exist_ok=True)
@@ -70,6 +73,6 @@ def to_dolfinx(comm, gdim, msh_path=None):
     return TaggedMesh(data.mesh, tags, groups)
 
 
-def check_positive_int(name, value):
+def check_positive_int(name: str, value: object) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise MeshError(f"{name} must be a positive whole number, got {value!r}")

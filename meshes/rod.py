@@ -2,18 +2,20 @@
 2n x n x n hexahedra. Physical group "clamped": the face x = 0; "free_end": the face x = 0.5.
 """
 
+from __future__ import annotations
+
 from mpi4py import MPI
 
 import gmsh
 
 from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
-from tissuebench.meshes.gmshio import check_positive_int, start_gmsh, to_dolfinx
+from tissuebench.meshes.gmshio import TaggedMesh, check_positive_int, start_gmsh, to_dolfinx
 
 SIZE = (0.5, 0.25, 0.25)  # m: length (x), height (y), depth (z)
 TIP = (0.5, 0.25, 0.125)  # m: middle of the top edge of the free end
 
 
-def gmsh_rod(n):
+def gmsh_rod(n: int) -> None:
     """Build the structured 2n x n x n hexahedral rod in the current gmsh model."""
     L, H, D = SIZE
     geo = gmsh.model.geo
@@ -36,7 +38,7 @@ def gmsh_rod(n):
     gmsh.model.mesh.generate(3)
 
 
-def rod_mesh(n=3, comm=MPI.COMM_WORLD, msh_path=None):
+def rod_mesh(n: int = 3, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> TaggedMesh:
     """The 2n x n x n rod as a TaggedMesh distributed over `comm` (cell size 0.25/n m)."""
     check_positive_int("mesh size n", n)
     if comm.rank == 0:
@@ -49,7 +51,7 @@ def rod_mesh(n=3, comm=MPI.COMM_WORLD, msh_path=None):
 GRAVITY = (0.0, -0.05, 0.0)  # m/s^2, switched on at t = 0
 
 
-def benchmark(mesh_size=3, comm=MPI.COMM_WORLD, msh_path=None):
+def benchmark(mesh_size: int = 3, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> Benchmark:
     """Benchmark B: the rod clamped at x = 0, bending under gravity 0.05 m/s^2 in -y."""
     tagged = rod_mesh(mesh_size, comm, msh_path)
     return Benchmark(

@@ -6,7 +6,10 @@ Displacements are numpy arrays of the owned dofs of V, unrolled with block size 
 collective and returns the same numbers on every rank.
 """
 
+from __future__ import annotations
+
 import numpy as np
+from dolfinx import fem
 
 from tissuebench.metrics.boundary import Boundary
 from tissuebench.metrics.interior import InteriorError
@@ -24,7 +27,7 @@ class Metrics:
     Solid on rank 0).
     """
 
-    def __init__(self, V, points=3):
+    def __init__(self, V: fem.FunctionSpace, points: int = 3):
         self.comm = V.mesh.comm
         self.dim = V.mesh.geometry.dim
         self.size = V.dofmap.index_map.size_local * self.dim
@@ -39,7 +42,7 @@ class Metrics:
             raise ValueError(f"expected the {self.size} owned dof values of V, got shape {u.shape}")
         return u
 
-    def surface(self, u_ref, u_cand):
+    def surface(self, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
         """E_s, computed on rank 0 from the gathered deformed boundaries and broadcast."""
         x_ref, x_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
         value = None
@@ -48,7 +51,7 @@ class Metrics:
             value = surface_error(self.domain, X + x_ref, X + x_cand)
         return self.comm.bcast(value, root=0)
 
-    def evaluate(self, u_ref, u_cand):
+    def evaluate(self, u_ref: np.ndarray, u_cand: np.ndarray) -> dict[str, float]:
         """The metrics of candidate u_cand against reference u_ref, as a dict keyed by NAMES."""
         u_ref, u_cand = self._check(u_ref), self._check(u_cand)
         values = {
@@ -59,7 +62,7 @@ class Metrics:
         }
         return {name: float(value) for name, value in values.items()}
 
-    def history(self, ref, cand):
+    def history(self, ref: list[np.ndarray], cand: list[np.ndarray]) -> dict[str, np.ndarray]:
         """One value per reference step for each metric (numpy arrays keyed by NAMES); NaN
         for the steps a shorter candidate (a diverged run) does not have."""
         curves = {name: np.full(len(ref), np.nan) for name in NAMES}

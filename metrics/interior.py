@@ -2,6 +2,8 @@
 the finite-element displacements, and the paper's nodal form
 |Ω_0|^(−1/d) Σ_n w_n ‖u′_n − u_n‖ with w_n = ∫_{Ω_0} φ_n dX."""
 
+from __future__ import annotations
+
 from mpi4py import MPI
 
 import numpy as np
@@ -16,7 +18,7 @@ class InteriorError:
     the highest that basix's Gauss-Jacobi rule with that many points integrates exactly.
     """
 
-    def __init__(self, V, points=3):
+    def __init__(self, V: fem.FunctionSpace, points: int = 3):
         mesh = V.mesh
         self.comm = mesh.comm
         self.dim = mesh.geometry.dim
@@ -34,14 +36,14 @@ class InteriorError:
         self.weights = w.array[: self.owned].reshape(-1, self.dim)[:, 0].copy()
         self.scale = self.volume ** (-1 / self.dim)
 
-    def quadrature(self, u_ref, u_cand):
+    def quadrature(self, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
         """E_i by quadrature."""
         self.e.x.array[: self.owned] = np.asarray(u_cand) - np.asarray(u_ref)
         self.e.x.scatter_forward()
         local = fem.assemble_scalar(self.integral)
         return self.scale * self.comm.allreduce(local, op=MPI.SUM)
 
-    def nodal(self, u_ref, u_cand):
+    def nodal(self, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
         """E_i's nodal variant."""
         e = (np.asarray(u_cand) - np.asarray(u_ref)).reshape(-1, self.dim)
         local = self.weights @ np.linalg.norm(e, axis=1)

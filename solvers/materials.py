@@ -3,6 +3,8 @@
 Units: E in Pa, rho in kg/m^3, Rayleigh alpha in 1/s, Rayleigh beta in s.
 """
 
+from __future__ import annotations
+
 import math
 import tomllib
 from dataclasses import dataclass
@@ -52,16 +54,16 @@ class Material:
             raise MaterialError(f"material {self.name}: beta must be >= 0 s, got {self.beta}")
 
     @property
-    def mu(self):
+    def mu(self) -> float:
         """Shear modulus mu = E / (2(1 + nu)), Pa."""
         return self.E / (2 * (1 + self.nu))
 
     @property
-    def lmbda(self):
+    def lmbda(self) -> float:
         """Lame's first parameter lambda = E nu / ((1 + nu)(1 - 2 nu)), Pa."""
         return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
 
-    def lame(self, plane="strain"):
+    def lame(self, plane: str = "strain") -> tuple[float, float]:
         """(mu, lambda) in Pa; in 2D plane stress lambda* = 2 mu lambda / (lambda + 2 mu)."""
         if plane == "strain":
             return self.mu, self.lmbda
@@ -80,7 +82,7 @@ FIELDS = ("E", "nu", "rho", "alpha", "beta")
 MAX_FILE = 64 * 1024  # bytes of a material file
 
 
-def material_from_toml(path):
+def material_from_toml(path: str | Path) -> Material:
     """Read a user material from a TOML file with keys name (optional), E, nu, rho, alpha, beta.
 
     Example:
@@ -116,7 +118,7 @@ def material_from_toml(path):
     return Material(name=name, **{f: data[f] for f in FIELDS if f in data})
 
 
-def get_material(spec):
+def get_material(spec: "str | Path | Material") -> Material:
     """A Material from a name (MP1, MP2, MP3), a TOML file path, or a Material."""
     if isinstance(spec, Material):
         return spec

@@ -1,6 +1,9 @@
 """Run an integrator for n steps, detecting divergence as SPEC section 3 defines it."""
 
+from __future__ import annotations
+
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -8,6 +11,7 @@ from petsc4py import PETSc
 
 import numpy as np
 
+from tissuebench.solvers.algorithm import Integrator, State
 from tissuebench.solvers.linear import SolveError
 
 
@@ -27,7 +31,7 @@ class Run:
     v: list = field(default_factory=list)
 
 
-def max_nodal_displacement(u, gdim, comm):
+def max_nodal_displacement(u: np.ndarray, gdim: int, comm: MPI.Comm) -> float:
     """The largest nodal displacement magnitude over all ranks (m); inf if any is not finite."""
     local = u.reshape(-1, gdim)
     finite = bool(np.isfinite(local).all())
@@ -35,7 +39,8 @@ def max_nodal_displacement(u, gdim, comm):
     return comm.allreduce(largest, op=MPI.MAX)
 
 
-def simulate(integrator, n_steps, extent, name="", on_step=None, keep=True):
+def simulate(integrator: Integrator, n_steps: int, extent: float, name: str = "",
+             on_step: Callable[[State], None] | None = None, keep: bool = True) -> Run:
     """Advance `integrator` n_steps steps from its initial state.
 
     A step whose displacement is not finite or exceeds 100 x `extent` (m), or whose linear

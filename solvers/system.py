@@ -4,6 +4,8 @@ degrees of freedom with their prescribed motion.
 Units: K in N/m, M and M_L in kg, f in N (SI throughout).
 """
 
+from __future__ import annotations
+
 from functools import cached_property
 
 from mpi4py import MPI
@@ -14,15 +16,16 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
-from tissuebench.solvers.materials import get_material
+from tissuebench.meshes.benchmark import Benchmark
+from tissuebench.solvers.materials import Material, get_material
 
 
-def epsilon(u):
+def epsilon(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
     """Small strain, sym(grad u)."""
     return ufl.sym(ufl.grad(u))
 
 
-def sigma(u, mu, lmbda):
+def sigma(u: ufl.core.expr.Expr, mu, lmbda) -> ufl.core.expr.Expr:
     """Linear isotropic stress, 2 mu eps + lambda tr(eps) I."""
     return 2 * mu * epsilon(u) + lmbda * ufl.tr(epsilon(u)) * ufl.Identity(len(u))
 
@@ -37,7 +40,8 @@ class System:
     the owned constrained dofs and `component` their displacement component.
     """
 
-    def __init__(self, benchmark, material=None, plane="strain", matrix_type=None):
+    def __init__(self, benchmark: Benchmark, material: Material | str | None = None, plane: str = "strain",
+                 matrix_type: str | None = None):
         self.benchmark = benchmark
         self.material = get_material(material or benchmark.material)
         self.mesh = mesh = benchmark.mesh
@@ -95,7 +99,7 @@ class System:
         coords.array[:] = self.V.tabulate_dof_coordinates()[:n, : self.gdim].ravel()
         return PETSc.NullSpace().createRigidBody(coords)
 
-    def owned_copy(self, x):
+    def owned_copy(self, x: PETSc.Vec) -> np.ndarray:
         """A plain (unghosted) Vec holding the owned entries of x."""
         y = self.K.createVecLeft()
         y.array[:] = x.array_r[: y.getLocalSize()]
@@ -120,7 +124,7 @@ class System:
         self.constrained_global = (self.constrained + offset).astype(PETSc.IntType)
         self.free = np.setdiff1d(np.arange(n_owned * bs, dtype=np.int32), self.constrained)
 
-    def prescribed(self, t):
+    def prescribed(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(u, v, a) of the constrained dofs at time t (s), aligned with self.constrained."""
         values = np.zeros((3, len(self.constrained)))
         for k, motion in enumerate(self._motions):
@@ -130,7 +134,7 @@ class System:
                     values[j, sel] = np.asarray(x)[self.component[sel]]
         return values
 
-    def num_dofs(self):
+    def num_dofs(self) -> int:
         return self.V.dofmap.index_map.size_global * self.gdim
 
     def function(self, values=None, name="displacement"):
@@ -142,7 +146,7 @@ class System:
         return fn
 
 
-def gather_by_coordinates(V, values, comm=None):
+def gather_by_coordinates(V: fem.FunctionSpace, values: np.ndarray, comm: MPI.Comm | None = None):
     """On rank 0: (coordinates, values) of all nodes of V in one order fixed by the node
     coordinates, whatever the partition; None on other ranks. `values` are owned dof values."""
     comm = comm or V.mesh.comm
@@ -158,7 +162,7 @@ def gather_by_coordinates(V, values, comm=None):
     return x[order], vals[order]
 
 
-def probe(V, values, point):
+def probe(V: fem.FunctionSpace, values: np.ndarray, point: tuple[float, ...]) -> np.ndarray:
     """The finite-element field with owned dof values `values`, evaluated at `point` (m).
     Collective; every rank returns the same vector."""
     import dolfinx.geometry
