@@ -26,18 +26,19 @@ import ufl
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
 
-from tissuebench.metrics.errors import NAMES, Metrics
+from tissuebench.metrics.errors import METRICS, Metrics, panels
 from tissuebench.metrics.series import InputError, Series, read_series
 
-COLUMNS = ("algorithm", "step", "time", *NAMES, "status")
+
+
+def columns() -> tuple[str, ...]:
+    """The columns of a metrics.csv: one per metric of METRICS, then the step's status."""
+    return ("algorithm", "step", "time", *METRICS, "status")
+
+
+COLUMNS = columns()  # with the SPEC's metrics
 POINT_TOLERANCE = 1e-6  # node coordinates match within this fraction of the mesh's extent
 TIME_RTOL, TIME_ATOL = 1e-6, 1e-9  # time stamps match within rtol |t| + atol (s)
-LABELS = {
-    "relative_error": "relative error E\u2099",  # Unicode subscripts: mathtext is slow to load
-    "surface_error": "surface error E\u209b",
-    "interior_error": "interior error E\u1d62",
-    "interior_error_nodal": "interior error, nodal form",
-}
 
 
 def summarize(curve):
@@ -179,10 +180,10 @@ def function_space(comm, series):
 
 def _curves(comm: MPI.Comm, V: fem.FunctionSpace, points: np.ndarray, ref: Series | None, cand: Series | None,
             steps: int, graded: int, match: np.ndarray | None) -> dict[str, np.ndarray]:
-    """The metric curves (dimensionless, one value per step, keyed by NAMES), evaluated on the
+    """The metric curves (dimensionless, one value per step, keyed as METRICS), evaluated on the
     first `graded` steps only and NaN on the others. Collective; the series are rank 0's."""
     metrics = Metrics(V)
-    curves = {name: np.full(steps, np.nan) for name in NAMES}
+    curves = {name: np.full(steps, np.nan) for name in METRICS}
     for i in range(graded):
         u_ref, u_cand = comm.bcast((ref.displacements[i], cand.displacements[i][match])
                                    if comm.rank == 0 else None, root=0)
@@ -199,9 +200,9 @@ def write_csv(path: Path, algorithm: str, times: np.ndarray, curves: dict[str, n
     """metrics.csv: one row per step (time in s, dimensionless metrics, the step's status)."""
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(COLUMNS)
+        writer.writerow(columns())
         for i, t in enumerate(times):
-            writer.writerow([algorithm, i, repr(float(t)), *(repr(float(curves[n][i])) for n in NAMES), status[i]])
+            writer.writerow([algorithm, i, repr(float(t)), *(repr(float(curves[n][i])) for n in METRICS), status[i]])
 
 
 def spans_decades(values):
@@ -211,18 +212,19 @@ def spans_decades(values):
 
 
 def plot(path, title, times, curves):
-    """Three panels against time: E_n, E_s, E_i (quadrature solid, nodal form dashed)."""
+    """One panel per metric against time (E_n, E_s, E_i; a variant such as E_i's nodal form
+    dashed in its metric's panel)."""
     from matplotlib.figure import Figure  # no pyplot: no global backend state
 
-    fig = Figure(figsize=(7, 8), layout="constrained")
-    axes = fig.subplots(3, 1, sharex=True)
-    panels = [["relative_error"], ["surface_error"], ["interior_error", "interior_error_nodal"]]
-    for ax, names in zip(axes, panels):
+    groups = panels()
+    fig = Figure(figsize=(7, 2.7 * len(groups)), layout="constrained")
+    axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, names in zip(axes, groups):
         for name, style in zip(names, ["-", "--"]):
-            ax.plot(times, curves[name], style, label=LABELS[name])
+            ax.plot(times, curves[name], style, label=METRICS[name].label)
         if spans_decades(np.concatenate([curves[n] for n in names])):
             ax.set_yscale("log")
-        ax.set_ylabel(LABELS[names[0]])
+        ax.set_ylabel(METRICS[names[0]].label)
         ax.grid(True, alpha=0.3)
         if len(names) > 1:
             ax.legend()
@@ -260,7 +262,7 @@ def compare(reference: str | Path, candidate: str | Path, out_dir: str | Path, f
     out_dir/metrics.csv and out_dir/metrics.png, and return one-line summaries: under
     "reference" and "candidate" (first, and only when it happens) where that series diverged
     (its first step with a non-finite displacement) or where a shorter candidate ends, then
-    one per metric of NAMES (max and time-mean of the dimensionless metric over the graded
+    one per metric of METRICS (max and time-mean of the dimensionless metric over the graded
     steps). Times are in s.
 
     Collective over comm. Raises InputError (on every rank, before anything is written) for
@@ -320,7 +322,7 @@ def compare(reference: str | Path, candidate: str | Path, out_dir: str | Path, f
     scope = f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
     if graded <= 1:
         scope = f"no step of 1..{steps - 1} graded"
-    for name in NAMES:
+    for name in METRICS:
         peak, mean = summarize(curves[name])
         summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {algorithm})"
     return summaries

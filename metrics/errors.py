@@ -1,5 +1,7 @@
-"""The three metrics of SPEC section 6 on one vector Q1 function space, for one pair of
-displacement fields or for whole histories.
+"""The metrics of SPEC section 6 on one vector Q1 function space, for one pair of
+displacement fields or for whole histories, and METRICS, the one table of them: every
+consumer (run and compare CSVs, summaries, report, figures, convergence) iterates it, so a
+metric is added by one line there.
 
 Displacements are numpy arrays of the owned dofs of V, unrolled with block size d (the first
 `V.dofmap.index_map.size_local * d` entries of a Function's x.array). Every method is
@@ -7,6 +9,9 @@ collective and returns the same numbers on every rank.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from dolfinx import fem
@@ -16,7 +21,38 @@ from tissuebench.metrics.interior import InteriorError
 from tissuebench.metrics.relative import relative_error
 from tissuebench.metrics.surface import domain, surface_error
 
-NAMES = ("relative_error", "surface_error", "interior_error", "interior_error_nodal")
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric: its symbol (tables), its label (figures; Unicode subscripts, since
+    matplotlib's mathtext is slow to load), and its value for a pair of owned displacement
+    arrays, `value(metrics, u_ref, u_cand)`. A variant (E_i's nodal form) names the metric
+    whose figure panel it shares, and is left out of convergence studies."""
+
+    symbol: str
+    label: str
+    value: Callable[[Metrics, np.ndarray, np.ndarray], float]
+    variant_of: str | None = None
+
+
+METRICS: dict[str, Metric] = {
+    "relative_error": Metric("E_n", "relative error E\u2099",
+                             lambda m, u_ref, u_cand: relative_error(u_ref, u_cand, m.comm)),
+    "surface_error": Metric("E_s", "surface error E\u209b", lambda m, u_ref, u_cand: m.surface(u_ref, u_cand)),
+    "interior_error": Metric("E_i", "interior error E\u1d62",
+                             lambda m, u_ref, u_cand: m.interior.quadrature(u_ref, u_cand)),
+    "interior_error_nodal": Metric("E_i nodal", "interior error, nodal form",
+                                   lambda m, u_ref, u_cand: m.interior.nodal(u_ref, u_cand),
+                                   variant_of="interior_error"),
+}
+NAMES = tuple(METRICS)  # the SPEC's four, in order (METRICS itself holds any added later)
+
+
+def panels() -> list[list[str]]:
+    """The metrics grouped for figures: each metric that is no variant, followed by its variants."""
+    return [[name, *(v for v, m in METRICS.items() if m.variant_of == name)]
+            for name, metric in METRICS.items() if metric.variant_of is None]
 
 
 class Metrics:
@@ -52,20 +88,14 @@ class Metrics:
         return self.comm.bcast(value, root=0)
 
     def evaluate(self, u_ref: np.ndarray, u_cand: np.ndarray) -> dict[str, float]:
-        """The metrics of candidate u_cand against reference u_ref, as a dict keyed by NAMES."""
+        """The metrics of candidate u_cand against reference u_ref, a dict keyed as METRICS."""
         u_ref, u_cand = self._check(u_ref), self._check(u_cand)
-        values = {
-            "relative_error": relative_error(u_ref, u_cand, self.comm),
-            "surface_error": self.surface(u_ref, u_cand),
-            "interior_error": self.interior.quadrature(u_ref, u_cand),
-            "interior_error_nodal": self.interior.nodal(u_ref, u_cand),
-        }
-        return {name: float(value) for name, value in values.items()}
+        return {name: float(metric.value(self, u_ref, u_cand)) for name, metric in METRICS.items()}
 
     def history(self, ref: list[np.ndarray], cand: list[np.ndarray]) -> dict[str, np.ndarray]:
-        """One value per reference step for each metric (numpy arrays keyed by NAMES); NaN
+        """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN
         for the steps a shorter candidate (a diverged run) does not have."""
-        curves = {name: np.full(len(ref), np.nan) for name in NAMES}
+        curves = {name: np.full(len(ref), np.nan) for name in METRICS}
         for i in range(min(len(ref), len(cand))):
             for name, value in self.evaluate(ref[i], cand[i]).items():
                 curves[name][i] = value

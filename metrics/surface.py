@@ -5,12 +5,19 @@ boundary nodes x = X + u of a `Boundary`.
 shapely (a boundary that crosses itself is split at its crossings, never dropped).
 3D: each deformed quadrilateral face is split into four triangles through its centre, and
 the closed triangle surface becomes a manifold3d solid (double precision, Mesh64);
-|A ⊕ B| = |A| + |B| - 2 |A ∩ B|.
+|A ⊕ B| = |A| + |B| - 2 |A ∩ B|. That difference of volumes carries round-off of a few
+machine epsilons relative to |A| (identical shapes gave -4.4e-16 and +4.4e-16): 3D values
+below ROUND_OFF are reported as 0, so E_s is never negative (a volume cannot be) and
+identical shapes give exactly 0.
 """
 
 import manifold3d
 import numpy as np
 import shapely
+
+# 3D: |A| + |B| - 2 |A ∩ B| subtracts volumes of about 2 |A|; below this (relative to |A|)
+# the result is round-off of that subtraction, not a volume.
+ROUND_OFF = 16 * np.finfo(np.float64).eps
 
 
 def signed_area(points):
@@ -88,10 +95,15 @@ class Solid:
         return solid
 
     def error(self, x_ref, x_cand):
-        """|A ⊕ B| / |A| for the solids through x_ref (A) and x_cand (B)."""
+        """|A ⊕ B| / |A| for the solids through x_ref (A) and x_cand (B), from
+        |A| + |B| - 2 |A ∩ B|. That difference has round-off of a few eps relative to |A| and
+        can come out negative (-4.4e-16 for identical shapes): a value below ROUND_OFF
+        (16 eps, 3.6e-15), negative ones included, is clipped to 0, since a volume cannot be
+        negative; identical shapes thus give exactly 0."""
         ref, cand = self.region(x_ref), self.region(x_cand)
         common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
-        return np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
+        value = np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
+        return np.float64(0.0) if value < ROUND_OFF else value
 
 
 def domain(X, facets):

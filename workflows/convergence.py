@@ -25,6 +25,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark
+from tissuebench.metrics import METRICS as ALL_METRICS
 from tissuebench.solvers.convergence import (LEVELS, METRICS, REFINEMENT, SPACE_TIME,
                                              difference_orders, orders, space_study, time_study)
 from tissuebench.solvers.stability import explicit_schemes, stability_limits
@@ -32,7 +33,6 @@ from tissuebench.solvers.system import System
 from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.output import check_writable, collective
 
-SYMBOL = {"relative_error": "E_n", "surface_error": "E_s", "interior_error": "E_i"}
 # every benchmark at its defaults (time), and on its study meshes with its refinement options (space)
 TIME_CASES = [(name, e.material, e.mesh_size) for name, e in BENCHMARKS.items()]
 SPACE_CASES = [(name, e.material, e.study_sizes, e.refinement_options) for name, e in BENCHMARKS.items()]
@@ -61,7 +61,7 @@ def order_table(title, label, refinements, results, fine_label):
             d = [x[name] for x in r["differences"]]
             p = orders(refinements[:n], e)
             q = difference_orders(refinements[: len(d) + 1], d)
-            lines.append(f"| {run} | {SYMBOL[name]} | {' | '.join(fmt(x) for x in e)} | "
+            lines.append(f"| {run} | {ALL_METRICS[name].symbol} | {' | '.join(fmt(x) for x in e)} | "
                          f"{', '.join(fmt_order(x) for x in p)} | {', '.join(fmt_order(x) for x in q)} |")
     return lines + [""]
 
@@ -93,7 +93,7 @@ def plot(path, title, panels, xlabel, guides):
             ax.set_yscale("log")
             ax.set_xticks(sorted(x), [f"{v:.3g}" for v in sorted(x)])
             ax.xaxis.set_minor_formatter(NullFormatter())
-            ax.set_title(f"{name_of_case}: {SYMBOL[name]}", fontsize=10)
+            ax.set_title(f"{name_of_case}: {ALL_METRICS[name].symbol}", fontsize=10)
             ax.set_xlabel(xlabel)
             ax.grid(True, which="both", alpha=0.3)
         row[0].set_ylabel("error")

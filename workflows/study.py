@@ -18,8 +18,8 @@ from tqdm import tqdm
 from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
-from tissuebench.metrics.compare import COLUMNS, summarize
-from tissuebench.metrics.errors import NAMES
+from tissuebench.metrics.compare import columns, summarize
+from tissuebench.metrics.errors import METRICS
 from tissuebench.solvers import REFERENCE, get_integrator
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.materials import get_material
@@ -155,7 +155,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
     times = np.arange(n_steps + 1) * h
     curves, status = {}, {}
     for label, (run, _, _) in results.items():
-        curves[label] = {name: np.full(n_steps + 1, np.nan) for name in NAMES}
+        curves[label] = {name: np.full(n_steps + 1, np.nan) for name in METRICS}
         for name, values in metrics.history(ref_run.u, run.u).items():  # the steps both have
             curves[label][name][: len(values)] = values
         status[label] = np.full(n_steps + 1, "ok", dtype=object)
@@ -163,7 +163,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
             status[label][ref_run.diverged_step:] = "reference diverged"
         if run.status == "diverged":
             status[label][run.diverged_step:] = "diverged"
-        for name in NAMES:
+        for name in METRICS:
             curves[label][name][status[label] != "ok"] = np.nan
 
     summary = {
@@ -177,7 +177,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         entry = {"algorithm": algorithm, "material": systems[material].material.name, "status": run.status,
                  "diverged_step": run.diverged_step, "diverged_time": run.diverged_time, "reason": run.reason,
                  "steps": run.steps, "wall_time_s": run.wall_time_s}
-        for name in NAMES:
+        for name in METRICS:
             peak, mean = summarize(curves[label][name])
             entry[f"{name}_max"], entry[f"{name}_mean"] = nan_to_none(peak), nan_to_none(mean)
         if label in tips:
@@ -205,10 +205,10 @@ def write_metrics_csv(path, times, curves, status):
     """metrics.csv: one row per run and step; `status` says ok, diverged or reference diverged."""
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(COLUMNS)
+        writer.writerow(columns())
         for label, curve in curves.items():
             for i, t in enumerate(times):
-                writer.writerow([label, i, repr(float(t)), *(repr(float(curve[n][i])) for n in NAMES),
+                writer.writerow([label, i, repr(float(t)), *(repr(float(curve[n][i])) for n in METRICS),
                                  status[label][i]])
 
 
