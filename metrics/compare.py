@@ -1,10 +1,9 @@
-"""`compare`: the metrics of SPEC section 6 for two displacement time series on one mesh,
-read from files (how a user grades any simulator against our reference).
+"""`grade`: the metrics of SPEC section 6 for two displacement time series on one mesh,
+read from files (how a user grades any simulator against our reference). The files that
+`tissuebench compare` writes are written by workflows/grading.py.
 
 Rank 0 reads and checks both series; the reference mesh is then distributed over `comm`
-and every step is measured in parallel. Only rank 0 writes, and only once everything has
-been checked and computed: metrics.csv and metrics.png go to temporary names first and are
-renamed into place.
+and every step is measured in parallel.
 
 A series whose displacement has a non-finite value (NaN or inf) at step k has diverged
 there: the metrics are not evaluated from step k on (NaN), and metrics.csv's `status` column
@@ -12,9 +11,8 @@ says so ("diverged" for the candidate, "reference diverged" for the reference, a
 metrics.csv; "missing" for the steps after a shorter candidate's last one).
 """
 
-import csv
 import itertools
-import os
+from dataclasses import dataclass
 from pathlib import Path
 
 from mpi4py import MPI
@@ -26,7 +24,7 @@ import ufl
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
 
-from tissuebench.metrics.errors import METRICS, Metrics, panels
+from tissuebench.metrics.errors import METRICS, Metrics
 from tissuebench.metrics.series import InputError, Series, read_series
 
 
@@ -128,16 +126,6 @@ def check_times(ref, cand):
                          f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s")
 
 
-def check_output(out_dir):
-    """The output directory exists or can be created, and can be written."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: exists and is not a directory")
-    existing = next(p for p in [out, *out.parents] if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise InputError(f"{out}: cannot write there ({existing} is not writable)")
-
-
 def first_non_finite(series: Series) -> int | None:
     """The first step at which the series' displacement has a non-finite value (NaN or inf),
     None if it has none."""
@@ -195,87 +183,41 @@ def _curves(comm: MPI.Comm, V: fem.FunctionSpace, points: np.ndarray, ref: Serie
 # --- output ---------------------------------------------------------------------------------
 
 
-def write_csv(path: Path, algorithm: str, times: np.ndarray, curves: dict[str, np.ndarray],
-              status: list[str]) -> None:
-    """metrics.csv: one row per step (time in s, dimensionless metrics, the step's status)."""
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns())
-        for i, t in enumerate(times):
-            writer.writerow([algorithm, i, repr(float(t)), *(repr(float(curves[n][i])) for n in METRICS), status[i]])
-
-
-def spans_decades(values):
-    values = np.asarray(values)
-    positive = values[np.isfinite(values) & (values > 0)]
-    return len(positive) > 1 and positive.max() >= 10 * positive.min()
-
-
-def plot(path, title, times, curves):
-    """One panel per metric against time (E_n, E_s, E_i; a variant such as E_i's nodal form
-    dashed in its metric's panel)."""
-    from matplotlib.figure import Figure  # no pyplot: no global backend state
-
-    groups = panels()
-    fig = Figure(figsize=(7, 2.7 * len(groups)), layout="constrained")
-    axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, names in zip(axes, groups):
-        for name, style in zip(names, ["-", "--"]):
-            ax.plot(times, curves[name], style, label=METRICS[name].label)
-        if spans_decades(np.concatenate([curves[n] for n in names])):
-            ax.set_yscale("log")
-        ax.set_ylabel(METRICS[names[0]].label)
-        ax.grid(True, alpha=0.3)
-        if len(names) > 1:
-            ax.legend()
-    axes[-1].set_xlabel("time (s)")
-    axes[0].set_title(title)
-    fig.savefig(path, format="png", dpi=120)
-
-
-def _write(out_dir: Path, algorithm: str, title: str, times: np.ndarray, curves: dict[str, np.ndarray],
-           status: list[str]) -> None:
-    """metrics.csv and metrics.png in out_dir, each renamed into place once complete."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    final = [out / "metrics.csv", out / "metrics.png"]
-    temporary = [p.with_name(f".{p.name}.{os.getpid()}.tmp") for p in final]
-    try:
-        write_csv(temporary[0], algorithm, times, curves, status)
-        plot(temporary[1], title, times, curves)
-        for tmp, path in zip(temporary, final):
-            os.replace(tmp, path)
-    finally:
-        for tmp in temporary:
-            tmp.unlink(missing_ok=True)
-
-
 def _divergence(who: str, step: int, time: float, field: str) -> str:
     """One line: `who` ("candidate" or "reference") diverged at `step` (time in s)."""
     what = "displacement" if field == "displacement" else f"displacement (field {field!r})"
     return f"{who} diverged at step {step} (t = {time:.6g} s): non-finite {what}"
 
 
-def compare(reference: str | Path, candidate: str | Path, out_dir: str | Path, field: str = "displacement",
-            comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, str]:
-    """Measure the candidate series against the reference series (XDMF or PVD files), write
-    out_dir/metrics.csv and out_dir/metrics.png, and return one-line summaries: under
-    "reference" and "candidate" (first, and only when it happens) where that series diverged
-    (its first step with a non-finite displacement) or where a shorter candidate ends, then
-    one per metric of METRICS (max and time-mean of the dimensionless metric over the graded
-    steps). Times are in s.
+@dataclass
+class Grading:
+    """A candidate series graded against a reference: `times` (s), the metric `curves` keyed as
+    METRICS (NaN where a step was not graded), each step's `status` (ok, diverged, reference
+    diverged, missing), the one-line `summaries` (where a series diverged or ends, then one per
+    metric: max and time-mean over the graded steps), the candidate's `label` and a `title`."""
 
-    Collective over comm. Raises InputError (on every rank, before anything is written) for
-    unreadable files, meshes or time stamps that do not match, degenerate cells, a mesh
-    boundary that touches itself, a missing field, or an output directory that cannot be
-    written.
+    label: str
+    title: str
+    times: np.ndarray
+    curves: dict[str, np.ndarray]
+    status: list[str]
+    summaries: dict[str, str]
+
+
+def grade(reference: str | Path, candidate: str | Path, field: str = "displacement",
+          comm: MPI.Comm = MPI.COMM_WORLD) -> Grading:
+    """Measure the candidate series against the reference series (XDMF or PVD files). A
+    series' first step with a non-finite displacement is its divergence: nothing is graded
+    from there on. Collective over comm; the same Grading on every rank.
+
+    Raises InputError on every rank for unreadable files, meshes or time stamps that do not
+    match, degenerate cells, a mesh boundary that touches itself, or a missing field.
     """
     ref = cand = match = plan = None
     error = None
     if comm.rank == 0:
         reading = reference
         try:
-            check_output(out_dir)
             ref = read_series(reference, field)
             reading = candidate
             cand = read_series(candidate, field)
@@ -306,23 +248,14 @@ def compare(reference: str | Path, candidate: str | Path, out_dir: str | Path, f
         summaries["candidate"] = (f"candidate ends at step {cand_steps - 1} (t = {times[cand_steps - 1]:.6g} s): "
                                   f"steps {cand_steps}..{steps - 1} missing")
 
-    algorithm = Path(candidate).stem
-    if comm.rank == 0:
-        title = f"{algorithm} against {Path(reference).stem}"
-        if "candidate" in summaries or "reference" in summaries:
-            title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
-        try:
-            _write(out_dir, algorithm, title, times, curves, status)
-        except OSError as exc:
-            error = f"{out_dir}: cannot write the results ({exc.strerror or exc})"
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise InputError(error)
-
+    label = Path(candidate).stem
+    title = f"{label} against {Path(reference).stem}"
+    if "candidate" in summaries or "reference" in summaries:
+        title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
     scope = f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
     if graded <= 1:
         scope = f"no step of 1..{steps - 1} graded"
     for name in METRICS:
         peak, mean = summarize(curves[name])
-        summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {algorithm})"
-    return summaries
+        summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
+    return Grading(label, title, np.asarray(times), curves, status, summaries)

@@ -13,7 +13,8 @@ from dolfinx import fem
 
 from tissuebench.meshes.block import block_mesh
 from tissuebench.meshes.rod import rod_mesh
-from tissuebench.metrics import Metrics, compare
+from tissuebench.metrics import Metrics
+from tissuebench.workflows.grading import compare
 
 
 def reference(x):

@@ -17,7 +17,9 @@ from dolfinx import fem, io, mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
 
 from helpers import mpiexec, run_script
-from tissuebench.metrics import NAMES, InputError, Metrics, compare, read_series
+from tissuebench.metrics import NAMES, InputError, Metrics, read_series
+from tissuebench.workflows.errors import UserError
+from tissuebench.workflows.grading import compare
 from tissuebench.metrics.compare import COLUMNS
 
 TIMES = [0.0, 0.1, 0.2, 0.3]
@@ -254,7 +256,7 @@ def test_refuses_truncated_and_missing_files(tmp_path, reference):
 def test_refuses_an_output_path_that_is_a_file(tmp_path, reference):
     ref, _ = reference
     (tmp_path / "taken").write_text("")
-    with pytest.raises(InputError, match="not a directory"):
+    with pytest.raises(UserError, match="not a folder"):
         compare(ref, ref, tmp_path / "taken")
 
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.metrics.compare import compare
+from tissuebench.workflows.grading import compare
 
 
 def add_parser(sub):

@@ -4,7 +4,6 @@ A case directory holds, for every run `label`: label.xdmf + label.h5 (displaceme
 velocity at every step), and for the case: metrics.csv, summary.json and the figures.
 """
 
-import csv
 import json
 import math
 import platform
@@ -18,7 +17,7 @@ from tqdm import tqdm
 from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
-from tissuebench.metrics.compare import columns, summarize
+from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.errors import METRICS
 from tissuebench.solvers import REFERENCE, get_integrator
 from tissuebench.solvers.simulate import simulate
@@ -26,6 +25,7 @@ from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System, probe
 from tissuebench.workflows.limits import check as check_limits, estimate, step_count
 from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
+from tissuebench.workflows.files import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.xdmf import gather_series, write_series
 
 
@@ -199,24 +199,3 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         return summary
 
     return collective(comm, write, target)
-
-
-def write_metrics_csv(path, times, curves, status):
-    """metrics.csv: one row per run and step; `status` says ok, diverged or reference diverged."""
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns())
-        for label, curve in curves.items():
-            for i, t in enumerate(times):
-                writer.writerow([label, i, repr(float(t)), *(repr(float(curve[n][i])) for n in METRICS),
-                                 status[label][i]])
-
-
-def write_tip_csv(path, times, tips):
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
-        d = next(iter(tips.values())).shape[1]
-        writer.writerow(["algorithm", "step", "time", *("u_" + "xyz"[k] for k in range(d))])
-        for label, tip in tips.items():
-            for i, t in enumerate(times[: len(tip)]):
-                writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in tip[i])])
