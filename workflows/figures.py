@@ -5,7 +5,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
-from tissuebench.metrics.compare import spans_decades
+from tissuebench.workflows.files import spans_decades
 
 # Unicode subscripts, and plain log tick labels: matplotlib's mathtext parser takes seconds to load
 PANELS = [("relative_error", "relative error E\u2099"), ("surface_error", "surface error E\u209b"),
