@@ -56,7 +56,9 @@ class Entry:
     cell_size: Callable[[int], float]  # the edge of one cell for a mesh size, m
     materials: tuple[str, ...]  # the SPEC's materials for it, the default first
     study_sizes: tuple[int, ...]  # mesh sizes of the stability sweep and the space-convergence study
-    options: tuple[str, ...] = ()  # keyword options of build beyond mesh_size, comm, msh_path
+    # keyword options of build beyond mesh_size, comm, msh_path: {name: help}; numbers, which
+    # build validates (raising MeshError); `run` offers each as --name
+    options: dict[str, str] = field(default_factory=dict)
     refinement_options: dict = field(default_factory=dict)  # options for mesh-refinement studies
     probe: tuple[float, ...] | None = None  # a point whose displacement is reported, m
     probe_label: str = ""  # its name in tables and figures

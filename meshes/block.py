@@ -92,6 +92,7 @@ def benchmark(mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = M
 
 ENTRY = Entry(build=benchmark, gdim=2, material="MP1", mesh_size=20, dt=1 / 30, end_time=10.0,
               nodes=lambda N: (N + 1) ** 2, cell_size=lambda N: LENGTH / N, materials=("MP1", "MP2"),
-              study_sizes=(10, 20, 40, 80), options=("needle_width",),
+              study_sizes=(10, 20, 40, 80),
+              options={"needle_width": "needle tip width w in m, 0 <= w < 1 (default 0)"},
               # a point load is singular: refinement studies spread the needle over w = 0.2 m (SPEC 4)
               refinement_options={"needle_width": 0.2})

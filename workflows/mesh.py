@@ -1,4 +1,4 @@
-"""`tissuebench mesh {block,rod} --mesh-size N --out FILE.msh`: save a benchmark's gmsh mesh."""
+"""`tissuebench mesh BENCHMARK --mesh-size N --out FILE.msh`: save a benchmark's gmsh mesh."""
 
 import os
 from pathlib import Path
@@ -16,7 +16,7 @@ def add_parser(sub):
     p = sub.add_parser("mesh", help="save a benchmark's mesh as a gmsh .msh file",
                        description="Build a benchmark's mesh with gmsh and save it (.msh) for inspection.")
     p.add_argument("benchmark", help=" or ".join(BENCHMARKS))
-    p.add_argument("--mesh-size", type=int, help="block: N (even, default 20); rod: n (default 3)")
+    p.add_argument("--mesh-size", type=int, help="mesh size (default: the benchmark's)")
     p.add_argument("--out", required=True, type=Path, help="the .msh file to write (a new one, unless --force)")
     p.add_argument("--force", action="store_true", help="replace an existing file")
     p.set_defaults(func=main)

@@ -1,0 +1,77 @@
+"""Command-line options that several commands share, and their checks (bad values raise
+UserError). Commands import these; no command imports another command."""
+
+from __future__ import annotations
+
+import argparse
+
+from tissuebench.meshes.benchmark import Entry
+from tissuebench.solvers import ALGORITHMS
+from tissuebench.solvers.linear import SOLVERS, set_petsc_options
+from tissuebench.workflows.errors import UserError
+
+
+def positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0 or value == float("inf"):
+        raise UserError(f"expected a positive number of seconds, got {text!r}")
+    return value
+
+
+def add_common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--solver", default="direct", help=f"linear solver: {', '.join(SOLVERS)} (default direct)")
+    p.add_argument("--petsc", default="", metavar="OPTIONS",
+                   help='PETSc options, prefixed per integrator, e.g. "-implicit_ksp_type cg -implicit_pc_type gamg"')
+    p.add_argument("--force", action="store_true",
+                   help="rerun and replace results that tissuebench wrote, even complete ones or ones of other inputs")
+
+
+def parse_algorithms(text: str) -> list[str]:
+    names = [a.strip() for a in text.split(",") if a.strip()]
+    unknown = [a for a in names if a not in ALGORITHMS]
+    if unknown or not names:
+        raise UserError(f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}")
+    return names
+
+
+def check_common(args: argparse.Namespace) -> None:
+    if args.solver not in SOLVERS:
+        raise UserError(f"unknown solver {args.solver!r}: use one of {', '.join(SOLVERS)}")
+    if args.petsc:
+        set_petsc_options(args.petsc)
+
+
+def add_benchmark_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entry]) -> None:
+    """--mesh-size, and every benchmark's own options (numbers) as --name, from the registry."""
+    sizes = ", ".join(f"{name} {e.mesh_size}" for name, e in benchmarks.items())
+    p.add_argument("--mesh-size", type=int, help=f"mesh size (default: {sizes})")
+    takers: dict[str, list[str]] = {}
+    helps: dict[str, str] = {}
+    for name, entry in benchmarks.items():
+        for option, text in entry.options.items():
+            takers.setdefault(option, []).append(name)
+            helps[option] = text
+    for option, names in takers.items():
+        p.add_argument(f"--{option.replace('_', '-')}", type=float, dest=option,
+                       help=f"{' and '.join(names)} only: {helps[option]}")
+
+
+def benchmark_options(args: argparse.Namespace, benchmark: str, benchmarks: dict[str, Entry]) -> dict:
+    """The benchmark's own options given on the command line; refuse those it does not take,
+    and --plane for a benchmark that is not 2D."""
+    entry = benchmarks[benchmark]
+    every = {option for e in benchmarks.values() for option in e.options}
+    options = {}
+    for option in sorted(every):
+        value = getattr(args, option, None)
+        if value is None:
+            continue
+        if option not in entry.options:
+            raise UserError(f"--{option.replace('_', '-')} does not apply to {benchmark}")
+        options[option] = value
+    if getattr(args, "plane", None) is not None and entry.gdim != 2:
+        raise UserError(f"--plane applies to 2D benchmarks only, not to {benchmark}")
+    return options
