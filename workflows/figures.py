@@ -10,11 +10,12 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
+from tissuebench.meshes import BENCHMARKS
+from tissuebench.metrics.errors import METRICS, panels
 from tissuebench.workflows.files import spans_decades
 
-# Unicode subscripts, and plain log tick labels: matplotlib's mathtext parser takes seconds to load
-PANELS = [("relative_error", "relative error E\u2099"), ("surface_error", "surface error E\u209b"),
-          ("interior_error", "interior error E\u1d62")]
+# Plain log tick labels: matplotlib's mathtext parser takes seconds to load. One panel per
+# metric of the table that is no variant, labelled as the table says.
 # One line style per run, widest first: a run drawn later lies on top of the earlier ones with
 # a narrower, differently dashed line, so curves that coincide all stay visible.
 STYLES = [("-", 3.4), ("--", 2.5), ("-.", 1.9), (":", 2.2), ("-", 1.1), ("--", 1.1), ("-.", 1.1), (":", 1.1)]
@@ -65,15 +66,16 @@ def static_label(summary, reference):
 
 
 def error_figure(case, summary, times, curves):
-    """Three panels against time, one line per run but the reference (colour, dash pattern,
+    """One panel per metric against time, one line per run but the reference (colour, dash pattern,
     width and staggered markers differ from run to run). A diverged run's curve ends at its
     last finite step; a dotted vertical line in its colour (gid "diverged:<label>") marks the
     time at which it diverged, the time its legend entry gives."""
-    fig = Figure(figsize=(8, 9.6), layout="constrained")
-    axes = fig.subplots(3, 1, sharex=True)
+    shown = [(group[0], METRICS[group[0]].label) for group in panels()]
+    fig = Figure(figsize=(8, 3.2 * len(shown)), layout="constrained")
+    axes = fig.subplots(len(shown), 1, sharex=True, squeeze=False)[:, 0]
     labels = [label for label in curves if label != case.reference]
     every = max(1, (len(times) - 1) // 8)
-    for ax, (name, title) in zip(axes, PANELS):
+    for ax, (name, title) in zip(axes, shown):
         values = []
         for k, label in enumerate(labels):
             run = summary["runs"][label]
@@ -140,7 +142,7 @@ def tip_figure(case, summary, times, tips):
                     zorder=2 + k, label=label)
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel("tip displacement u_y (m)")
-    axes[0].set_title(f"{case.name}: vertical displacement of the tip (0.5, 0.25, 0.125) m")
+    axes[0].set_title(f"{case.name}: vertical displacement of the {BENCHMARKS[case.benchmark].probe_label}")
     if level is not None:
         tip = tips[ref]
         axes[0].plot(times[: len(tips[static])], tips[static][:, 1], "--", color="k", lw=1.1, zorder=10,

@@ -10,14 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.metrics.errors import NAMES
+from tissuebench.metrics.errors import METRICS as TABLE
 from tissuebench.metrics.series import InputError
 from tissuebench.workflows.figures import crossings, shape_rows, shown_steps, static_label
 
 MARKER = "# tissuebench: the paper's study"  # the report's first line: a README.md the paper may replace
-SHORT = {"relative_error": "E_n", "surface_error": "E_s", "interior_error": "E_i",
-         "interior_error_nodal": "E_i nodal"}
-METRICS = ("relative_error", "surface_error", "interior_error")
+# the claims are read on the metrics of the table that are no variant (E_n, E_s, E_i)
+METRICS = tuple(name for name, m in TABLE.items() if m.variant_of is None)
 READINGS = {"mean": "time-mean", "max": "maximum"}
 FAR = 10  # 'far less' taken as ten times less
 ROUGHLY = 2  # 'roughly the sum' taken as within a factor 2
@@ -30,12 +29,15 @@ def fmt(x):
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def metric_table(summary):
-    head = "| run | status | " + " | ".join(f"{SHORT[n]} max | {SHORT[n]} mean" for n in NAMES) + " | wall time (s) |"
-    lines = [head, "|" + "---|" * (3 + 2 * len(NAMES))]
+def metric_table(summary: dict) -> str:
+    """A case's runs: status, and each metric of the table's max and time-mean, wall time."""
+    names = [n for n in TABLE if f"{n}_max" in next(iter(summary["runs"].values()))]
+    head = "| run | status | " + " | ".join(f"{TABLE[n].symbol} max | {TABLE[n].symbol} mean" for n in names)
+    head += " | wall time (s) |"
+    lines = [head, "|" + "---|" * (3 + 2 * len(names))]
     for label, run in summary["runs"].items():
         status = run["status"] if run["status"] == "ok" else f"diverged at step {run['diverged_step']} (t = {run['diverged_time']:.3g} s)"
-        cells = " | ".join(f"{fmt(run[n + '_max'])} | {fmt(run[n + '_mean'])}" for n in NAMES)
+        cells = " | ".join(f"{fmt(run[n + '_max'])} | {fmt(run[n + '_mean'])}" for n in names)
         ref = " (reference)" if label == summary["reference"] else ""
         lines.append(f"| {label}{ref} | {status} | {cells} | {run['wall_time_s']:.2f} |")
     return "\n".join(lines)
@@ -69,9 +71,9 @@ def read_curves(path):
     rows = read_csv(path)
     curves = {}
     for r in rows:
-        c = curves.setdefault(r["algorithm"], {"time": [], **{m: [] for m in NAMES}})
+        c = curves.setdefault(r["algorithm"], {"time": [], **{m: [] for m in TABLE}})
         c["time"].append(float(r["time"]))
-        for m in NAMES:
+        for m in TABLE:
             c[m].append(float(r[m]))
     curves = {label: {k: np.array(v) for k, v in c.items()} for label, c in curves.items()}
     times = next(iter(curves.values()))["time"]
@@ -136,7 +138,7 @@ def claim_order(summary, curves):
                     text += (f"; the maxima over steps {start}..{len(times) - 1} (from t = {times[start]:.3g} s) "
                              f"are in order: {tail}")
             parts.append(text)
-        lines.append(f"   - {SHORT[m]}: " + "; ".join(parts) + ".")
+        lines.append(f"   - {TABLE[m].symbol}: " + "; ".join(parts) + ".")
     return lines, results, starts
 
 
@@ -149,13 +151,13 @@ def claims(out, s):
         times, curves = read_curves(out / "block-MP1" / "metrics.csv")
         rows, ok, starts = claim_order(b1, curves)
         by_mean = all(ok[m, "mean"] for m in METRICS)
-        fail_max = [SHORT[m] for m in METRICS if not ok[m, "max"]]
-        hold_max = [SHORT[m] for m in METRICS if ok[m, "max"]]
+        fail_max = [TABLE[m].symbol for m in METRICS if not ok[m, "max"]]
+        hold_max = [TABLE[m].symbol for m in METRICS if ok[m, "max"]]
         ratios = {r: [value(b1, "quasi-static", m, r) / max(value(b1, "implicit-lumped", m, r),
                                                             value(b1, "explicit-lumped", m, r)) for m in METRICS]
                   for r in ("mean", "max")}
         if fail_max:
-            early = [(SHORT[m], starts[m]) for m in METRICS if not ok[m, "max"] and starts.get(m)]
+            early = [(TABLE[m].symbol, starts[m]) for m in METRICS if not ok[m, "max"] and starts.get(m)]
             where = "; ".join(f"for {name} only {first_steps(k - 1)} (to t = {times[k - 1]:.3g} s) "
                               f"{'breaks' if k == 2 else 'break'} it: the maxima over steps {k}..{b1['steps']} "
                               "are in order" for name, k in early)
@@ -292,13 +294,13 @@ def claim_material(out, vs):
                     text += (f"; over steps {start}..{len(times) - 1} the maxima are {q2:.3g} and {s2:.3g}, "
                              f"{s2 / q2:.3g} times larger")
             row.append(text)
-        parts.append(f"   - {SHORT[m]}: " + "; ".join(row) + ".")
+        parts.append(f"   - {TABLE[m].symbol}: " + "; ".join(row) + ".")
     by_mean = all(ok[m, "mean"] for m in METRICS)
-    fail_max = [SHORT[m] for m in METRICS if not ok[m, "max"]]
+    fail_max = [TABLE[m].symbol for m in METRICS if not ok[m, "max"]]
     if fail_max:
-        hold = [SHORT[m] for m in METRICS if ok[m, "max"]]
+        hold = [TABLE[m].symbol for m in METRICS if ok[m, "max"]]
         smallest = np.nanmin([curves[a]["relative_error"][1:] for a in mp1], axis=0)
-        early = "; ".join(f"for {SHORT[m]} quasi-static MP2's maximum is at step {q} (t = {times[q]:.3g} s) and "
+        early = "; ".join(f"for {TABLE[m].symbol} quasi-static MP2's maximum is at step {q} (t = {times[q]:.3g} s) and "
                           + (f"from step {k} on the maxima are more than {FAR} times apart" if k else
                              "no later start clears the margin")
                           for m, (q, k) in starts.items())
@@ -416,7 +418,7 @@ def caption_errors(out, name, s):
             c = np.array([curves[k][m][1:] for k in group])
             with np.errstate(invalid="ignore", divide="ignore"):
                 spread = (c.max(axis=0) - c.min(axis=0)) / c.mean(axis=0)
-            spreads.append(f"{SHORT[m]} {100 * np.nanmax(spread):.2g} %")
+            spreads.append(f"{TABLE[m].symbol} {100 * np.nanmax(spread):.2g} %")
         mat = runs[group[0]]["material"]
         text += (f" The {len(group)} dynamic {mat} runs ({', '.join(group)}) differ from one another by at most "
                  f"{', '.join(spreads)} of their mean at any step: on these log axes their curves overlap; each is "
