@@ -24,6 +24,7 @@ paper: setup
 
 test: setup
 	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 	$(BIN)/pytest
 	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
 

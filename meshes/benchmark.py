@@ -55,7 +55,9 @@ class Entry:
     nodes: Callable[[int], int]  # the number of mesh nodes for a mesh size
     cell_size: Callable[[int], float]  # the edge of one cell for a mesh size, m
     materials: tuple[str, ...]  # the SPEC's materials for it, the default first
-    study_sizes: tuple[int, ...]  # mesh sizes of the stability sweep and the space-convergence study
+    study_sizes: tuple[
+        int, ...
+    ]  # mesh sizes of the stability sweep and the space-convergence study
     # keyword options of build beyond mesh_size, comm, msh_path: {name: help}; numbers, which
     # build validates (raising MeshError); `run` offers each as --name
     options: dict[str, str] = field(default_factory=dict)

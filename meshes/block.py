@@ -13,7 +13,13 @@ import gmsh
 import numpy as np
 
 from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
-from tissuebench.meshes.gmshio import MeshError, TaggedMesh, check_positive_int, start_gmsh, to_dolfinx
+from tissuebench.meshes.gmshio import (
+    MeshError,
+    TaggedMesh,
+    check_positive_int,
+    start_gmsh,
+    to_dolfinx,
+)
 
 LENGTH = 1.0  # m, both sides
 NEEDLE = (1.0, 0.5)  # m
@@ -31,7 +37,13 @@ def gmsh_block(N: int) -> None:
     loop = geo.addCurveLoop([bottom, right_low, right_high, top, left])
     surface = geo.addPlaneSurface([loop])
     geo.synchronize()
-    for curve, cells in [(bottom, N), (top, N), (left, N), (right_low, N // 2), (right_high, N // 2)]:
+    for curve, cells in [
+        (bottom, N),
+        (top, N),
+        (left, N),
+        (right_low, N // 2),
+        (right_high, N // 2),
+    ]:
         gmsh.model.mesh.setTransfiniteCurve(curve, cells + 1)
     gmsh.model.mesh.setTransfiniteSurface(surface, cornerTags=[p[0], p[1], p[3], p[4]])
     gmsh.model.mesh.setRecombine(2, surface)
@@ -48,7 +60,9 @@ def block_mesh(N: int = 20, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> T
     """The N x N block as a TaggedMesh distributed over `comm` (N even, cell size 1/N m)."""
     check_positive_int("mesh size N", N)
     if N % 2:
-        raise MeshError(f"mesh size N must be even so that the needle (1, 0.5) sits on a node, got {N}")
+        raise MeshError(
+            f"mesh size N must be even so that the needle (1, 0.5) sits on a node, got {N}"
+        )
     if comm.rank == 0:
         start_gmsh()
         gmsh.model.add(f"block-{N}")
@@ -65,8 +79,9 @@ def needle_motion(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return u, v, np.zeros(2)
 
 
-def benchmark(mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = MPI.COMM_WORLD,
-              msh_path=None) -> Benchmark:
+def benchmark(
+    mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None
+) -> Benchmark:
     """Benchmark A: the block fixed on its left, bottom and top edges, pushed by the needle at
     (1, 0.5). With needle_width w > 0 (m) every right-edge node with |y - 0.5| <= w/2 moves."""
     if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):
@@ -75,8 +90,12 @@ def benchmark(mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = M
     mesh = tagged.mesh
     if needle_width > 0:
         half = needle_width / 2 + 1e-10
-        needle = (0, dolfinx.mesh.locate_entities_boundary(
-            mesh, 0, lambda x: np.isclose(x[0], 1.0) & (np.abs(x[1] - 0.5) <= half)))
+        needle = (
+            0,
+            dolfinx.mesh.locate_entities_boundary(
+                mesh, 0, lambda x: np.isclose(x[0], 1.0) & (np.abs(x[1] - 0.5) <= half)
+            ),
+        )
     else:
         needle = tagged.entities("needle")
     constraints = [
@@ -84,15 +103,31 @@ def benchmark(mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = M
         *(Constraint(edge, *tagged.entities(edge), fixed(2)) for edge in ("left", "bottom", "top")),
     ]
     return Benchmark(
-        name="block", tagged=tagged, constraints=constraints, gravity=(0.0, 0.0), material=ENTRY.material,
-        dt=ENTRY.dt, end_time=ENTRY.end_time, extent=LENGTH, mesh_size=mesh_size,
+        name="block",
+        tagged=tagged,
+        constraints=constraints,
+        gravity=(0.0, 0.0),
+        material=ENTRY.material,
+        dt=ENTRY.dt,
+        end_time=ENTRY.end_time,
+        extent=LENGTH,
+        mesh_size=mesh_size,
         options={"needle_width": needle_width},
     )
 
 
-ENTRY = Entry(build=benchmark, gdim=2, material="MP1", mesh_size=20, dt=1 / 30, end_time=10.0,
-              nodes=lambda N: (N + 1) ** 2, cell_size=lambda N: LENGTH / N, materials=("MP1", "MP2"),
-              study_sizes=(10, 20, 40, 80),
-              options={"needle_width": "needle tip width w in m, 0 <= w < 1 (default 0)"},
-              # a point load is singular: refinement studies spread the needle over w = 0.2 m (SPEC 4)
-              refinement_options={"needle_width": 0.2})
+ENTRY = Entry(
+    build=benchmark,
+    gdim=2,
+    material="MP1",
+    mesh_size=20,
+    dt=1 / 30,
+    end_time=10.0,
+    nodes=lambda N: (N + 1) ** 2,
+    cell_size=lambda N: LENGTH / N,
+    materials=("MP1", "MP2"),
+    study_sizes=(10, 20, 40, 80),
+    options={"needle_width": "needle tip width w in m, 0 <= w < 1 (default 0)"},
+    # a point load is singular: refinement studies spread the needle over w = 0.2 m (SPEC 4)
+    refinement_options={"needle_width": 0.2},
+)

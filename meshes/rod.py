@@ -31,7 +31,9 @@ def gmsh_rod(n: int) -> None:
     volume = [tag for dim, tag in out if dim == 3]
     eps = 1e-9
     clamped = gmsh.model.getEntitiesInBoundingBox(-eps, -eps, -eps, eps, H + eps, D + eps, 2)
-    free_end = gmsh.model.getEntitiesInBoundingBox(L - eps, -eps, -eps, L + eps, H + eps, D + eps, 2)
+    free_end = gmsh.model.getEntitiesInBoundingBox(
+        L - eps, -eps, -eps, L + eps, H + eps, D + eps, 2
+    )
     gmsh.model.addPhysicalGroup(3, volume, 1, name="rod")
     gmsh.model.addPhysicalGroup(2, [t for _, t in clamped], 1, name="clamped")
     gmsh.model.addPhysicalGroup(2, [t for _, t in free_end], 2, name="free_end")
@@ -55,12 +57,30 @@ def benchmark(mesh_size: int = 3, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None
     """Benchmark B: the rod clamped at x = 0, bending under gravity 0.05 m/s^2 in -y."""
     tagged = rod_mesh(mesh_size, comm, msh_path)
     return Benchmark(
-        name="rod", tagged=tagged, constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(3))],
-        gravity=GRAVITY, material=ENTRY.material, dt=ENTRY.dt, end_time=ENTRY.end_time, extent=max(SIZE),
-        mesh_size=mesh_size, probe=ENTRY.probe,
+        name="rod",
+        tagged=tagged,
+        constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(3))],
+        gravity=GRAVITY,
+        material=ENTRY.material,
+        dt=ENTRY.dt,
+        end_time=ENTRY.end_time,
+        extent=max(SIZE),
+        mesh_size=mesh_size,
+        probe=ENTRY.probe,
     )
 
 
-ENTRY = Entry(build=benchmark, gdim=3, material="MP3", mesh_size=3, dt=1 / 30, end_time=10.0,
-              nodes=lambda n: (2 * n + 1) * (n + 1) ** 2, cell_size=lambda n: SIZE[1] / n, materials=("MP3",),
-              study_sizes=(2, 3, 6, 12), probe=TIP, probe_label="tip (0.5, 0.25, 0.125) m")
+ENTRY = Entry(
+    build=benchmark,
+    gdim=3,
+    material="MP3",
+    mesh_size=3,
+    dt=1 / 30,
+    end_time=10.0,
+    nodes=lambda n: (2 * n + 1) * (n + 1) ** 2,
+    cell_size=lambda n: SIZE[1] / n,
+    materials=("MP3",),
+    study_sizes=(2, 3, 6, 12),
+    probe=TIP,
+    probe_label="tip (0.5, 0.25, 0.125) m",
+)

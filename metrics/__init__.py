@@ -4,4 +4,15 @@ from tissuebench.metrics.errors import METRICS, NAMES, Metric, Metrics
 from tissuebench.metrics.series import InputError, Series, read_series
 from tissuebench.metrics.compare import Grading, grade, summarize
 
-__all__ = ["METRICS", "NAMES", "Metric", "InputError", "Metrics", "Series", "Grading", "grade", "read_series", "summarize"]
+__all__ = [
+    "METRICS",
+    "NAMES",
+    "Metric",
+    "InputError",
+    "Metrics",
+    "Series",
+    "Grading",
+    "grade",
+    "read_series",
+    "summarize",
+]

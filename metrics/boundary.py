@@ -25,7 +25,9 @@ def _oriented_facets(V):
     c2f = topology.connectivity(tdim, tdim - 1)
     cells = f2c.array[f2c.offsets[facets]]
     facets_per_cell = c2f.offsets[1] - c2f.offsets[0]
-    local_facet = np.argmax(c2f.array.reshape(-1, facets_per_cell)[cells] == facets[:, None], axis=1)
+    local_facet = np.argmax(
+        c2f.array.reshape(-1, facets_per_cell)[cells] == facets[:, None], axis=1
+    )
 
     # Lagrange degree 1: the cell's i-th dof sits at the reference cell's i-th vertex.
     reference = np.array(basix.topology(basix.CellType[topology.cell_name()])[tdim - 1])
@@ -60,7 +62,9 @@ class Boundary:
         index_map = V.dofmap.index_map
         first, last = index_map.local_range
         local = _oriented_facets(V)
-        global_facets = index_map.local_to_global(local.ravel().astype(np.int32)).reshape(local.shape)
+        global_facets = index_map.local_to_global(local.ravel().astype(np.int32)).reshape(
+            local.shape
+        )
         gathered = comm.gather(global_facets, root=0)
         nodes = np.unique(np.concatenate(gathered)) if comm.rank == 0 else None
         nodes = comm.bcast(nodes, root=0)

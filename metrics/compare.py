@@ -28,7 +28,6 @@ from tissuebench.metrics.errors import METRICS, Metrics
 from tissuebench.metrics.series import InputError, Series, read_series
 
 
-
 def columns() -> tuple[str, ...]:
     """The columns of a metrics.csv: one per metric of METRICS, then the step's status."""
     return ("algorithm", "step", "time", *METRICS, "status")
@@ -68,7 +67,9 @@ def match_points(a, b, tol):
     order = np.argsort(keys_b, kind="stable")
     sorted_b = keys_b[order]
     match = np.full(len(a), -1, dtype=np.int64)
-    offsets = sorted(itertools.product((-1, 0, 1), repeat=a.shape[1]), key=lambda o: np.abs(o).sum())
+    offsets = sorted(
+        itertools.product((-1, 0, 1), repeat=a.shape[1]), key=lambda o: np.abs(o).sum()
+    )
     for offset in offsets:
         todo = np.flatnonzero(match < 0)
         if len(todo) == 0:
@@ -85,23 +86,33 @@ def check_meshes(ref, cand):
     """For each reference node, the index of the candidate node at its coordinates."""
     where = f"{cand.path}: mesh differs from {ref.path}"
     if ref.cell_type != cand.cell_type or ref.dim != cand.dim:
-        raise InputError(f"{where}: {cand.dim}D {cand.cell_type} cells vs {ref.dim}D {ref.cell_type} cells")
+        raise InputError(
+            f"{where}: {cand.dim}D {cand.cell_type} cells vs {ref.dim}D {ref.cell_type} cells"
+        )
     if len(ref.points) != len(cand.points) or len(ref.cells) != len(cand.cells):
-        raise InputError(f"{where}: {len(cand.points)} nodes and {len(cand.cells)} cells "
-                         f"vs {len(ref.points)} nodes and {len(ref.cells)} cells")
+        raise InputError(
+            f"{where}: {len(cand.points)} nodes and {len(cand.cells)} cells "
+            f"vs {len(ref.points)} nodes and {len(ref.cells)} cells"
+        )
     extent = np.ptp(ref.points, axis=0).max()
     tol = POINT_TOLERANCE * extent
     for bound in (np.min, np.max):
         if np.abs(bound(ref.points, axis=0) - bound(cand.points, axis=0)).max() > tol:
-            raise InputError(f"{where}: the bounding boxes of the nodes differ by more than {tol:.3g}")
+            raise InputError(
+                f"{where}: the bounding boxes of the nodes differ by more than {tol:.3g}"
+            )
     match = match_points(ref.points, cand.points, tol)
     if np.any(match < 0):
         missing = np.flatnonzero(match < 0)
         node = ", ".join(f"{x:.9g}" for x in ref.points[missing[0]])
-        raise InputError(f"{where}: {len(missing)} reference node(s) have no candidate node within {tol:.3g}, "
-                         f"e.g. the node at ({node})")
+        raise InputError(
+            f"{where}: {len(missing)} reference node(s) have no candidate node within {tol:.3g}, "
+            f"e.g. the node at ({node})"
+        )
     if len(np.unique(match)) != len(match):
-        raise InputError(f"{where}: nodes closer than {tol:.3g} to each other cannot be matched one to one")
+        raise InputError(
+            f"{where}: nodes closer than {tol:.3g} to each other cannot be matched one to one"
+        )
     in_ref = np.empty_like(match)
     in_ref[match] = np.arange(len(match))
 
@@ -117,13 +128,17 @@ def check_meshes(ref, cand):
 def check_times(ref, cand):
     """The candidate's times are the reference's, or a prefix of them (a run that stopped)."""
     if len(cand.times) > len(ref.times):
-        raise InputError(f"{cand.path}: {len(cand.times)} time steps, more than the {len(ref.times)} of {ref.path}")
+        raise InputError(
+            f"{cand.path}: {len(cand.times)} time steps, more than the {len(ref.times)} of {ref.path}"
+        )
     t_ref = ref.times[: len(cand.times)]
     bad = np.flatnonzero(~np.isclose(cand.times, t_ref, rtol=TIME_RTOL, atol=TIME_ATOL))
     if len(bad):
         k = bad[0]
-        raise InputError(f"{cand.path}: time stamps do not match {ref.path}: step {k} is at "
-                         f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s")
+        raise InputError(
+            f"{cand.path}: time stamps do not match {ref.path}: step {k} is at "
+            f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s"
+        )
 
 
 def first_non_finite(series: Series) -> int | None:
@@ -132,12 +147,18 @@ def first_non_finite(series: Series) -> int | None:
     return next((i for i, u in enumerate(series.displacements) if not np.isfinite(u).all()), None)
 
 
-def statuses(steps: int, cand_steps: int, ref_diverged: int | None, cand_diverged: int | None) -> list[str]:
+def statuses(
+    steps: int, cand_steps: int, ref_diverged: int | None, cand_diverged: int | None
+) -> list[str]:
     """The status of each of `steps` steps: "ok", or from the reference's divergence step on
     "reference diverged", from the candidate's last step on "missing", from the candidate's
     divergence step on "diverged" (the later of these rules overrides the earlier)."""
     status = ["ok"] * steps
-    for start, name in ((ref_diverged, "reference diverged"), (cand_steps, "missing"), (cand_diverged, "diverged")):
+    for start, name in (
+        (ref_diverged, "reference diverged"),
+        (cand_steps, "missing"),
+        (cand_diverged, "diverged"),
+    ):
         if start is not None:
             status[start:] = [name] * (steps - min(start, steps))
     return status
@@ -150,7 +171,8 @@ def function_space(comm, series):
     """The vector Q1 space on the series' mesh, read on rank 0 and distributed over comm, and
     for each owned node of the space the index of its point in the series."""
     cell_type, dim, per_cell = comm.bcast(
-        (series.cell_type, series.dim, series.cells.shape[1]) if comm.rank == 0 else None, root=0)
+        (series.cell_type, series.dim, series.cells.shape[1]) if comm.rank == 0 else None, root=0
+    )
     if comm.rank == 0:
         cells = series.cells[:, cell_perm_vtk(dolfinx.mesh.CellType[cell_type], per_cell)]
         x = series.points
@@ -162,19 +184,30 @@ def function_space(comm, series):
     # Cell by cell the P1 dofs sit at the geometry nodes, which know their input index.
     index_map = V.dofmap.index_map
     point = np.empty(index_map.size_local + index_map.num_ghosts, dtype=np.int64)
-    point[V.dofmap.list.ravel()] = mesh.geometry.input_global_indices[mesh.geometry.dofmaps[0].ravel()]
+    point[V.dofmap.list.ravel()] = mesh.geometry.input_global_indices[
+        mesh.geometry.dofmaps[0].ravel()
+    ]
     return V, point[: index_map.size_local]
 
 
-def _curves(comm: MPI.Comm, V: fem.FunctionSpace, points: np.ndarray, ref: Series | None, cand: Series | None,
-            steps: int, graded: int, match: np.ndarray | None) -> dict[str, np.ndarray]:
+def _curves(
+    comm: MPI.Comm,
+    V: fem.FunctionSpace,
+    points: np.ndarray,
+    ref: Series | None,
+    cand: Series | None,
+    steps: int,
+    graded: int,
+    match: np.ndarray | None,
+) -> dict[str, np.ndarray]:
     """The metric curves (dimensionless, one value per step, keyed as METRICS), evaluated on the
     first `graded` steps only and NaN on the others. Collective; the series are rank 0's."""
     metrics = Metrics(V)
     curves = {name: np.full(steps, np.nan) for name in METRICS}
     for i in range(graded):
-        u_ref, u_cand = comm.bcast((ref.displacements[i], cand.displacements[i][match])
-                                   if comm.rank == 0 else None, root=0)
+        u_ref, u_cand = comm.bcast(
+            (ref.displacements[i], cand.displacements[i][match]) if comm.rank == 0 else None, root=0
+        )
         for name, value in metrics.evaluate(u_ref[points].ravel(), u_cand[points].ravel()).items():
             curves[name][i] = value
     return curves
@@ -204,8 +237,12 @@ class Grading:
     summaries: dict[str, str]
 
 
-def grade(reference: str | Path, candidate: str | Path, field: str = "displacement",
-          comm: MPI.Comm = MPI.COMM_WORLD) -> Grading:
+def grade(
+    reference: str | Path,
+    candidate: str | Path,
+    field: str = "displacement",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> Grading:
     """Measure the candidate series against the reference series (XDMF or PVD files). A
     series' first step with a non-finite displacement is its divergence: nothing is graded
     from there on. Collective over comm; the same Grading on every rank.
@@ -227,7 +264,9 @@ def grade(reference: str | Path, candidate: str | Path, field: str = "displaceme
         except InputError as exc:
             error = str(exc)
         except Exception as exc:  # never leave the other ranks waiting
-            error = f"{reading}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
+            error = (
+                f"{reading}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
+            )
     error, plan = comm.bcast((error, plan), root=0)
     if error is not None:
         raise InputError(error)
@@ -235,7 +274,9 @@ def grade(reference: str | Path, candidate: str | Path, field: str = "displaceme
     times, cand_steps, ref_diverged, cand_diverged = plan
     steps = len(times)
     status = statuses(steps, cand_steps, ref_diverged, cand_diverged)
-    graded = status.count("ok")  # the steps before the first that is not "ok" (statuses only get worse)
+    graded = status.count(
+        "ok"
+    )  # the steps before the first that is not "ok" (statuses only get worse)
     V, points = function_space(comm, ref)
     curves = _curves(comm, V, points, ref, cand, steps, graded, match)
 
@@ -243,16 +284,22 @@ def grade(reference: str | Path, candidate: str | Path, field: str = "displaceme
     if ref_diverged is not None:
         summaries["reference"] = _divergence("reference", ref_diverged, times[ref_diverged], field)
     if cand_diverged is not None:
-        summaries["candidate"] = _divergence("candidate", cand_diverged, times[cand_diverged], field)
+        summaries["candidate"] = _divergence(
+            "candidate", cand_diverged, times[cand_diverged], field
+        )
     elif cand_steps < steps:
-        summaries["candidate"] = (f"candidate ends at step {cand_steps - 1} (t = {times[cand_steps - 1]:.6g} s): "
-                                  f"steps {cand_steps}..{steps - 1} missing")
+        summaries["candidate"] = (
+            f"candidate ends at step {cand_steps - 1} (t = {times[cand_steps - 1]:.6g} s): "
+            f"steps {cand_steps}..{steps - 1} missing"
+        )
 
     label = Path(candidate).stem
     title = f"{label} against {Path(reference).stem}"
     if "candidate" in summaries or "reference" in summaries:
         title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
-    scope = f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
+    scope = (
+        f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
+    )
     if graded <= 1:
         scope = f"no step of 1..{steps - 1} graded"
     for name in METRICS:

@@ -22,7 +22,6 @@ from tissuebench.metrics.relative import relative_error
 from tissuebench.metrics.surface import domain, surface_error
 
 
-
 @dataclass(frozen=True)
 class Metric:
     """One metric: its symbol (tables), its label (figures; Unicode subscripts, since
@@ -37,22 +36,36 @@ class Metric:
 
 
 METRICS: dict[str, Metric] = {
-    "relative_error": Metric("E_n", "relative error E\u2099",
-                             lambda m, u_ref, u_cand: relative_error(u_ref, u_cand, m.comm)),
-    "surface_error": Metric("E_s", "surface error E\u209b", lambda m, u_ref, u_cand: m.surface(u_ref, u_cand)),
-    "interior_error": Metric("E_i", "interior error E\u1d62",
-                             lambda m, u_ref, u_cand: m.interior.quadrature(u_ref, u_cand)),
-    "interior_error_nodal": Metric("E_i nodal", "interior error, nodal form",
-                                   lambda m, u_ref, u_cand: m.interior.nodal(u_ref, u_cand),
-                                   variant_of="interior_error"),
+    "relative_error": Metric(
+        "E_n",
+        "relative error E\u2099",
+        lambda m, u_ref, u_cand: relative_error(u_ref, u_cand, m.comm),
+    ),
+    "surface_error": Metric(
+        "E_s", "surface error E\u209b", lambda m, u_ref, u_cand: m.surface(u_ref, u_cand)
+    ),
+    "interior_error": Metric(
+        "E_i",
+        "interior error E\u1d62",
+        lambda m, u_ref, u_cand: m.interior.quadrature(u_ref, u_cand),
+    ),
+    "interior_error_nodal": Metric(
+        "E_i nodal",
+        "interior error, nodal form",
+        lambda m, u_ref, u_cand: m.interior.nodal(u_ref, u_cand),
+        variant_of="interior_error",
+    ),
 }
 NAMES = tuple(METRICS)  # the SPEC's four, in order (METRICS itself holds any added later)
 
 
 def panels() -> list[list[str]]:
     """The metrics grouped for figures: each metric that is no variant, followed by its variants."""
-    return [[name, *(v for v, m in METRICS.items() if m.variant_of == name)]
-            for name, metric in METRICS.items() if metric.variant_of is None]
+    return [
+        [name, *(v for v, m in METRICS.items() if m.variant_of == name)]
+        for name, metric in METRICS.items()
+        if metric.variant_of is None
+    ]
 
 
 class Metrics:

@@ -17,7 +17,8 @@ from tissuebench.workflows.errors import UserError
 
 # file cell names -> (our cell type, nodes per cell)
 CELLS = {
-    "quadrilateral": ("quadrilateral", 4), "quad": ("quadrilateral", 4),
+    "quadrilateral": ("quadrilateral", 4),
+    "quad": ("quadrilateral", 4),
     "hexahedron": ("hexahedron", 8),
 }
 
@@ -51,7 +52,9 @@ def read_series(path, field="displacement"):
         raise InputError(f"{path}: no such file")
     readers = {".xdmf": _read_xdmf, ".pvd": _read_pvd}
     if path.suffix.lower() not in readers:
-        raise InputError(f"{path}: unknown format {path.suffix!r}; expected .xdmf (with .h5) or .pvd (with .vtu)")
+        raise InputError(
+            f"{path}: unknown format {path.suffix!r}; expected .xdmf (with .h5) or .pvd (with .vtu)"
+        )
     points, cells, cell_type, times, values = readers[path.suffix.lower()](path, field)
     return _finish(path, field, points, cells, cell_type, times, values)
 
@@ -59,15 +62,21 @@ def read_series(path, field="displacement"):
 def _finish(path, field, points, cells, cell_type, times, values):
     """Check shapes, reduce 2D data stored in 3D to d columns and build the Series."""
     if cell_type not in CELLS:
-        raise InputError(f"{path}: cells of type {cell_type!r}; only quadrilaterals and hexahedra are supported")
+        raise InputError(
+            f"{path}: cells of type {cell_type!r}; only quadrilaterals and hexahedra are supported"
+        )
     cell_type, per_cell = CELLS[cell_type]
     points = np.asarray(points, dtype=np.float64)
     cells = np.asarray(cells, dtype=np.int64)
     n = len(points)
     if points.ndim != 2 or points.shape[1] not in (2, 3) or n == 0:
-        raise InputError(f"{path}: point coordinates of shape {points.shape}, expected (n, 2) or (n, 3)")
+        raise InputError(
+            f"{path}: point coordinates of shape {points.shape}, expected (n, 2) or (n, 3)"
+        )
     if cells.ndim != 2 or cells.shape[1] != per_cell or len(cells) == 0:
-        raise InputError(f"{path}: {cell_type} cells of shape {cells.shape}, expected (cells, {per_cell})")
+        raise InputError(
+            f"{path}: {cell_type} cells of shape {cells.shape}, expected (cells, {per_cell})"
+        )
     if cells.min() < 0 or cells.max() >= n:
         raise InputError(f"{path}: cells refer to points outside 0..{n - 1}")
     if not np.isfinite(points).all():
@@ -76,7 +85,9 @@ def _finish(path, field, points, cells, cell_type, times, values):
     if points.shape[1] < dim:
         raise InputError(f"{path}: hexahedra with 2D points")
     if points.shape[1] > dim and np.any(points[:, dim:] != 0):
-        raise InputError(f"{path}: quadrilaterals with a non-zero third coordinate (a surface in 3D is not supported)")
+        raise InputError(
+            f"{path}: quadrilaterals with a non-zero third coordinate (a surface in 3D is not supported)"
+        )
     points = np.ascontiguousarray(points[:, :dim])
     check_cells(path, points, cells)
     check_boundary(path, points, cells)
@@ -89,9 +100,13 @@ def _finish(path, field, points, cells, cell_type, times, values):
     for t, u in zip(times, values):
         u = np.asarray(u, dtype=np.float64)
         if u.ndim != 2 or u.shape[0] != n or u.shape[1] < dim or u.shape[1] > 3:
-            raise InputError(f"{path}: field {field!r} at time {t:g} has shape {u.shape}, expected ({n}, {dim})")
+            raise InputError(
+                f"{path}: field {field!r} at time {t:g} has shape {u.shape}, expected ({n}, {dim})"
+            )
         if u.shape[1] > dim and np.any(u[:, dim:] != 0):
-            raise InputError(f"{path}: 2D mesh but field {field!r} at time {t:g} has a non-zero third component")
+            raise InputError(
+                f"{path}: 2D mesh but field {field!r} at time {t:g} has a non-zero third component"
+            )
         displacements.append(np.ascontiguousarray(u[:, :dim]))
     return Series(path, points, cells, cell_type, times, displacements)
 
@@ -99,7 +114,9 @@ def _finish(path, field, points, cells, cell_type, times, values):
 # --- mesh checks ----------------------------------------------------------------------------
 
 # Faces of a VTK hexahedron, each a cycle of its four corners; edges of a VTK quadrilateral.
-HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
+HEX_FACES = np.array(
+    [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
+)
 QUAD_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
 # A VTK hexahedron as six tetrahedra (0, 6, a, b) around its diagonal 0-6, (a, b) going round
 # the cycle 1-2-3-7-4-5 of the corners that are neither 0 nor 6.
@@ -132,8 +149,10 @@ def check_cells(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
     if len(repeated):
         c = repeated[0]
         node = ordered[c, 1:][ordered[c, 1:] == ordered[c, :-1]][0]
-        raise InputError(f"{path}: {len(repeated)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
-                         f"repeats node {node}")
+        raise InputError(
+            f"{path}: {len(repeated)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
+            f"repeats node {node}"
+        )
     dim = points.shape[1]
     extent = float(np.ptp(points, axis=0).max())
     measures = cell_measures(points, cells)
@@ -141,8 +160,10 @@ def check_cells(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
     if len(flat):
         c = flat[0]
         what = "area" if dim == 2 else "volume"
-        raise InputError(f"{path}: {len(flat)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
-                         f"has zero {what} ({measures[c]:.3g}; its nodes are collinear or coplanar or coincide)")
+        raise InputError(
+            f"{path}: {len(flat)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
+            f"has zero {what} ({measures[c]:.3g}; its nodes are collinear or coplanar or coincide)"
+        )
 
 
 def _count_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -169,8 +190,10 @@ def check_boundary(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
     if np.any(counts > 2):
         f = np.flatnonzero(counts > 2)[0]
         name = "edge" if dim == 2 else "face"
-        raise InputError(f"{path}: the {name} through nodes {' '.join(map(str, unique[f]))} is shared by "
-                         f"{counts[f]} cells (the mesh is not a manifold)")
+        raise InputError(
+            f"{path}: the {name} through nodes {' '.join(map(str, unique[f]))} is shared by "
+            f"{counts[f]} cells (the mesh is not a manifold)"
+        )
     boundary = facets[counts[inverse] == 1]
     touching = f"{path}: the mesh boundary touches itself at"
     why = f"the boundary {'loops' if dim == 2 else 'surface'} that the surface error E_s needs would be ambiguous"
@@ -182,12 +205,15 @@ def check_boundary(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
     # 3D: each boundary edge lies on exactly two boundary faces, and around each boundary node
     # its faces form one fan, connected through the edges at that node.
     corners = boundary.shape[1]
-    edges = np.stack([boundary, np.roll(boundary, -1, axis=1)], axis=2).reshape(-1, 2)  # face by face
+    edges = np.stack([boundary, np.roll(boundary, -1, axis=1)], axis=2).reshape(
+        -1, 2
+    )  # face by face
     unique, inverse, counts = _count_rows(edges)
     if np.any(counts != 2):
         e = unique[np.flatnonzero(counts != 2)[0]]
-        raise InputError(f"{touching} the edge from {_node(points, e[0])} to {_node(points, e[1])} "
-                         f"({why})")
+        raise InputError(
+            f"{touching} the edge from {_node(points, e[0])} to {_node(points, e[1])} ({why})"
+        )
     # Half-edge (edge e seen from its end v) = 2 e + (v is the edge's larger node). At each
     # corner v of a face, the face joins the half-edges of its two edges at v.
     edge_id = inverse.reshape(-1, corners)  # edge_id[f, j]: edge from corner j to corner j + 1
@@ -204,7 +230,9 @@ def check_boundary(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
         if np.array_equal(new, label):
             break
         label = new
-    node = np.where(np.arange(2 * len(unique)) % 2 == 0, unique[:, 0].repeat(2), unique[:, 1].repeat(2))
+    node = np.where(
+        np.arange(2 * len(unique)) % 2 == 0, unique[:, 0].repeat(2), unique[:, 1].repeat(2)
+    )
     fans = np.unique(node * len(label) + label) // len(label)  # one entry per (node, fan)
     several = np.flatnonzero(np.bincount(fans, minlength=len(points)) > 1)
     if len(several):
@@ -245,9 +273,13 @@ class _HDF:
                 data = np.array(text.split(), dtype=np.float64)
                 return data.reshape(shape) if shape else data
             except ValueError:
-                raise InputError(f"{self.xdmf}: {what}: inline data does not match Dimensions {shape}") from None
+                raise InputError(
+                    f"{self.xdmf}: {what}: inline data does not match Dimensions {shape}"
+                ) from None
         if form != "HDF":
-            raise InputError(f"{self.xdmf}: {what}: DataItem format {form!r} is not supported (HDF or XML)")
+            raise InputError(
+                f"{self.xdmf}: {what}: DataItem format {form!r} is not supported (HDF or XML)"
+            )
         filename, _, dataset = text.partition(":")
         h5 = self.xdmf.parent / filename
         if h5 not in self.files:
@@ -256,25 +288,38 @@ class _HDF:
             try:
                 self.files[h5] = h5py.File(h5, "r")
             except OSError:
-                raise InputError(f"{h5}: not a readable HDF5 file (truncated or corrupt?)") from None
+                raise InputError(
+                    f"{h5}: not a readable HDF5 file (truncated or corrupt?)"
+                ) from None
         try:
             data = self.files[h5][dataset][()]
         except KeyError:
             raise InputError(f"{h5}: no dataset {dataset!r} ({what})") from None
         except OSError:
-            raise InputError(f"{h5}: dataset {dataset!r} cannot be read (truncated or corrupt?)") from None
+            raise InputError(
+                f"{h5}: dataset {dataset!r} cannot be read (truncated or corrupt?)"
+            ) from None
         if shape and data.shape != shape:
-            raise InputError(f"{h5}: dataset {dataset!r} has shape {data.shape}, {self.xdmf} says {shape}")
+            raise InputError(
+                f"{h5}: dataset {dataset!r} has shape {data.shape}, {self.xdmf} says {shape}"
+            )
         return data
 
 
 def _read_xdmf(path, field):
     root = _parse_xml(path)
     grids = list(root.iter("Grid"))
-    mesh = next((g for g in grids if g.find("Topology") is not None and g.find("Geometry") is not None), None)
+    mesh = next(
+        (g for g in grids if g.find("Topology") is not None and g.find("Geometry") is not None),
+        None,
+    )
     if mesh is None:
         raise InputError(f"{path}: no grid with a Topology and a Geometry")
-    steps = [g for g in grids if g.get("GridType", "Uniform") == "Uniform" and g.find("Attribute") is not None]
+    steps = [
+        g
+        for g in grids
+        if g.get("GridType", "Uniform") == "Uniform" and g.find("Attribute") is not None
+    ]
     names = sorted({a.get("Name") for g in steps for a in g.findall("Attribute")})
     steps = [g for g in steps if _attribute(g, field) is not None]
     if not steps:
@@ -284,7 +329,9 @@ def _read_xdmf(path, field):
         topology, geometry = mesh.find("Topology"), mesh.find("Geometry")
         cell_type = topology.get("TopologyType", topology.get("Type", "")).lower()
         if geometry.get("GeometryType", geometry.get("Type", "XYZ")).upper() not in ("XY", "XYZ"):
-            raise InputError(f"{path}: geometry type {geometry.get('GeometryType')!r} is not supported (XY or XYZ)")
+            raise InputError(
+                f"{path}: geometry type {geometry.get('GeometryType')!r} is not supported (XY or XYZ)"
+            )
         points = hdf.read(geometry.find("DataItem"), "the geometry")
         cells = hdf.read(topology.find("DataItem"), "the topology")
         times, values = [], []
@@ -293,11 +340,15 @@ def _read_xdmf(path, field):
             try:
                 times.append(float(time.get("Value")) if time is not None else float(k))
             except (TypeError, ValueError):
-                raise InputError(f"{path}: time value {time.get('Value')!r} is not a number") from None
+                raise InputError(
+                    f"{path}: time value {time.get('Value')!r} is not a number"
+                ) from None
             attribute = _attribute(grid, field)
             if attribute.get("Center", "Node") != "Node":
                 raise InputError(f"{path}: field {field!r} is not a point (Node) field")
-            values.append(hdf.read(attribute.find("DataItem"), f"field {field!r} at time {times[-1]:g}"))
+            values.append(
+                hdf.read(attribute.find("DataItem"), f"field {field!r} at time {times[-1]:g}")
+            )
     finally:
         hdf.close()
     return points, cells, cell_type, times, values
@@ -318,13 +369,17 @@ def _read_pvd(path, field):
     if not datasets:
         raise InputError(f"{path}: no DataSet entries in the collection")
     if len({d.get("part", "0") for d in datasets}) > 1:
-        raise InputError(f"{path}: multi-part (parallel) collections are not supported; write one .vtu per step")
+        raise InputError(
+            f"{path}: multi-part (parallel) collections are not supported; write one .vtu per step"
+        )
     points = cells = cell_type = None
     times, values = [], []
     for k, dataset in enumerate(sorted(datasets, key=lambda d: float(d.get("timestep", 0)))):
         vtu = path.parent / (dataset.get("file") or "")
         if vtu.suffix.lower() != ".vtu":
-            raise InputError(f"{path}: step {k} refers to {vtu.name!r}; only .vtu files are supported")
+            raise InputError(
+                f"{path}: step {k} refers to {vtu.name!r}; only .vtu files are supported"
+            )
         if not vtu.is_file():
             raise InputError(f"{vtu}: no such file (step {k} of {path})")
         try:
@@ -333,19 +388,25 @@ def _read_pvd(path, field):
             message = " ".join(str(exc).split()) or "truncated or corrupt?"
             raise InputError(f"{vtu}: not a readable VTU file ({message})") from None
         if field not in mesh.point_data:
-            raise InputError(f"{vtu}: no point field {field!r}; fields: {', '.join(mesh.point_data) or 'none'}")
+            raise InputError(
+                f"{vtu}: no point field {field!r}; fields: {', '.join(mesh.point_data) or 'none'}"
+            )
         if points is None:
             points = mesh.points
             blocks = [block for block in mesh.cells if len(block.data)]
             if len(blocks) != 1:
-                raise InputError(f"{vtu}: cells of types {[b.type for b in blocks]}; "
-                                 "expected one of quad or hexahedron")
+                raise InputError(
+                    f"{vtu}: cells of types {[b.type for b in blocks]}; "
+                    "expected one of quad or hexahedron"
+                )
             cells, cell_type = blocks[0].data, blocks[0].type
         elif len(mesh.points) != len(points):
             raise InputError(f"{vtu}: {len(mesh.points)} points, the first step has {len(points)}")
         try:
             times.append(float(dataset.get("timestep", k)))
         except ValueError:
-            raise InputError(f"{path}: timestep {dataset.get('timestep')!r} is not a number") from None
+            raise InputError(
+                f"{path}: timestep {dataset.get('timestep')!r} is not a number"
+            ) from None
         values.append(mesh.point_data[field])
     return points, cells, cell_type, times, values

@@ -56,8 +56,11 @@ class Polygon:
         areas = [signed_area(X[shell]) for shell in shells]
         self.parts = [(shell, []) for shell in shells]
         for hole in holes:
-            around = [i for i, shell in enumerate(shells)
-                      if shapely.Polygon(X[shell]).contains(shapely.Point(X[hole[0]]))]
+            around = [
+                i
+                for i, shell in enumerate(shells)
+                if shapely.Polygon(X[shell]).contains(shapely.Point(X[hole[0]]))
+            ]
             self.parts[min(around, key=areas.__getitem__)][1].append(hole)
 
     def region(self, x):
@@ -65,7 +68,9 @@ class Polygon:
         pieces = []
         for shell, holes in self.parts:
             valid = shapely.make_valid(shapely.Polygon(x[shell], [x[hole] for hole in holes]))
-            pieces += [p for p in shapely.get_parts(valid) if p.geom_type in ("Polygon", "MultiPolygon")]
+            pieces += [
+                p for p in shapely.get_parts(valid) if p.geom_type in ("Polygon", "MultiPolygon")
+            ]
         return shapely.union_all(pieces)
 
     def error(self, x_ref, x_cand):
@@ -88,10 +93,16 @@ class Solid:
     def region(self, x):
         """The manifold3d solid bounded by the split faces through x."""
         vertices = np.vstack([x, x[self.quads].mean(axis=1)])
-        solid = manifold3d.Manifold(manifold3d.Mesh64(
-            vert_properties=np.ascontiguousarray(vertices, dtype=np.float64), tri_verts=self.triangles))
+        solid = manifold3d.Manifold(
+            manifold3d.Mesh64(
+                vert_properties=np.ascontiguousarray(vertices, dtype=np.float64),
+                tri_verts=self.triangles,
+            )
+        )
         if solid.status() != manifold3d.Error.NoError:
-            raise RuntimeError(f"the deformed boundary is not a closed oriented surface: {solid.status()}")
+            raise RuntimeError(
+                f"the deformed boundary is not a closed oriented surface: {solid.status()}"
+            )
         return solid
 
     def error(self, x_ref, x_cand):

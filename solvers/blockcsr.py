@@ -79,10 +79,14 @@ _lib = None
 def _declarations():
     lines = []
     for bs in (1, 2, 3):
-        lines.append(f"void mult{bs}(int32_t, const int32_t*, const int32_t*, const double*, "
-                     "const double*, double*, int32_t);")
-        lines.append(f"void explicit_lumped{bs}(int32_t, const int32_t*, const int32_t*, const double*, "
-                     "const double*, const double*, const double*, const double*, double*, double*, double);")
+        lines.append(
+            f"void mult{bs}(int32_t, const int32_t*, const int32_t*, const double*, "
+            "const double*, double*, int32_t);"
+        )
+        lines.append(
+            f"void explicit_lumped{bs}(int32_t, const int32_t*, const int32_t*, const double*, "
+            "const double*, const double*, const double*, const double*, double*, double*, double);"
+        )
     return "\n".join(lines)
 
 
@@ -161,14 +165,21 @@ class BlockCSR:
         self.A = np.zeros((block_start[-1], bs, bs))
         self.A[block, i, j] = av
         first = (i == 0) & (j == 0)
-        column_map, self.aj = self._column_map(aj[first] // bs, V.dofmap.index_map, A.getComm().tompi4py())
+        column_map, self.aj = self._column_map(
+            aj[first] // bs, V.dofmap.index_map, A.getComm().tompi4py()
+        )
         self._x = dolfinx.la.vector(column_map, bs)  # owned and ghost values of x
         self.nbytes = self.A.nbytes + self.aj.nbytes + self.ai.nbytes  # read by one product
         self.lib = load(V.mesh.comm)
         self._mult = getattr(self.lib.lib, f"mult{bs}")
         self._step = getattr(self.lib.lib, f"explicit_lumped{bs}")
         ptr = self.lib.ffi.from_buffer
-        self._args = (self.nbr, ptr("int32_t[]", self.ai), ptr("int32_t[]", self.aj), ptr("double[]", self.A))
+        self._args = (
+            self.nbr,
+            ptr("int32_t[]", self.ai),
+            ptr("int32_t[]", self.aj),
+            ptr("double[]", self.A),
+        )
         self._xp = ptr("double[]", self._x.array)
 
     @staticmethod
@@ -203,5 +214,13 @@ class BlockCSR:
     def explicit_lumped(self, u, f, inv_s, alpha_ml, v, a, gh):
         """With A = K: a = inv_s (f - K u - alpha_ml v), then v += gh a (all owned dofs)."""
         ptr = self.lib.ffi.from_buffer
-        self._step(*self._args, self._ghosted(u), ptr("double[]", f.array_r), ptr("double[]", inv_s.array_r),
-                   ptr("double[]", alpha_ml.array_r), ptr("double[]", v.array), ptr("double[]", a.array), gh)
+        self._step(
+            *self._args,
+            self._ghosted(u),
+            ptr("double[]", f.array_r),
+            ptr("double[]", inv_s.array_r),
+            ptr("double[]", alpha_ml.array_r),
+            ptr("double[]", v.array),
+            ptr("double[]", a.array),
+            gh,
+        )

@@ -43,8 +43,14 @@ def displacements(system, algorithm, h, n_steps, every=1):
         if state.i % every == 0:
             kept.append(state.u.array_r.copy())
 
-    simulate(get_integrator(algorithm, system, h), n_steps, system.benchmark.extent, algorithm,
-             on_step=keep, keep=False)
+    simulate(
+        get_integrator(algorithm, system, h),
+        n_steps,
+        system.benchmark.extent,
+        algorithm,
+        on_step=keep,
+        keep=False,
+    )
     return kept
 
 
@@ -144,12 +150,23 @@ def solution_at(system, problem, t, h):
     return displacements(system, "implicit", h, round(t / h))[-1]
 
 
-def space_study(benchmark, material, sizes, problems=("quasi-static", "implicit"), t=SPACE_TIME, h=1 / 30,
-                comm=MPI.COMM_WORLD, **options):
+def space_study(
+    benchmark,
+    material,
+    sizes,
+    problems=("quasi-static", "implicit"),
+    t=SPACE_TIME,
+    h=1 / 30,
+    comm=MPI.COMM_WORLD,
+    **options,
+):
     """For each problem, the errors of the solutions at time t on every mesh but the finest
     against the finest, and the differences between consecutive meshes, all measured on the
     finest mesh. {problem: {"errors": [...], "differences": [...]}}, lists of dicts keyed by METRICS."""
-    systems = [System(get_benchmark(benchmark, mesh_size=size, comm=comm, **options), material) for size in sizes]
+    systems = [
+        System(get_benchmark(benchmark, mesh_size=size, comm=comm, **options), material)
+        for size in sizes
+    ]
     fine = systems[-1]
     metrics = Metrics(fine.V)
     results = {}

@@ -22,24 +22,50 @@ SOLVERS = {
     # take "gamg" there. SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its
     # block ICC(0) breaks down on the block under mpiexec -n 2 (indefinite preconditioner),
     # shift or not. K alone (quasi-static) takes "gamg".
-    "cg": {"ksp_type": "cg", "pc_type": "bjacobi", "sub_pc_type": "icc", "ksp_rtol": 1e-12,
-           "ksp_atol": 1e-50, "ksp_initial_guess_nonzero": True, "ksp_max_it": 1000},
+    "cg": {
+        "ksp_type": "cg",
+        "pc_type": "bjacobi",
+        "sub_pc_type": "icc",
+        "ksp_rtol": 1e-12,
+        "ksp_atol": 1e-50,
+        "ksp_initial_guess_nonzero": True,
+        "ksp_max_it": 1000,
+    },
     # conjugate gradients with smoothed-aggregation multigrid (the rigid-body modes as its near
     # null space, one symmetric SOR sweep as smoother), warm-started: iterations independent of
     # the mesh, for K alone and for large nearly incompressible meshes (block MP1 at N = 590:
     # 34 iterations on 1 or 2 ranks, where ICC(0) takes 212 on 1 rank and fails on 2)
-    "gamg": {"ksp_type": "cg", "pc_type": "gamg", "mg_levels_ksp_type": "richardson",
-             "mg_levels_pc_type": "sor", "ksp_rtol": 1e-12, "ksp_atol": 1e-50,
-             "ksp_initial_guess_nonzero": True, "ksp_max_it": 1000},
+    "gamg": {
+        "ksp_type": "cg",
+        "pc_type": "gamg",
+        "mg_levels_ksp_type": "richardson",
+        "mg_levels_pc_type": "sor",
+        "ksp_rtol": 1e-12,
+        "ksp_atol": 1e-50,
+        "ksp_initial_guess_nonzero": True,
+        "ksp_max_it": 1000,
+    },
     # the paper's Gauss-Seidel: Richardson iteration preconditioned by SOR
-    "gauss-seidel": {"ksp_type": "richardson", "pc_type": "sor", "ksp_rtol": 1e-12,
-                     "ksp_atol": 1e-50, "ksp_initial_guess_nonzero": True, "ksp_max_it": 100000},
+    "gauss-seidel": {
+        "ksp_type": "richardson",
+        "pc_type": "sor",
+        "ksp_rtol": 1e-12,
+        "ksp_atol": 1e-50,
+        "ksp_initial_guess_nonzero": True,
+        "ksp_max_it": 100000,
+    },
 }
 # The one solve with the consistent mass M at step 0 (the initial acceleration): M is well
 # conditioned, so CG + Jacobi reaches round-off in a few dozen iterations, with no second
 # factorisation. Not a user choice; options under the prefix <integrator>_mass_ still win.
-MASS_SOLVER = {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": 1e-14, "ksp_atol": 1e-50,
-               "ksp_norm_type": "unpreconditioned", "ksp_max_it": 1000}
+MASS_SOLVER = {
+    "ksp_type": "cg",
+    "pc_type": "jacobi",
+    "ksp_rtol": 1e-14,
+    "ksp_atol": 1e-50,
+    "ksp_norm_type": "unpreconditioned",
+    "ksp_max_it": 1000,
+}
 INTERNAL = {"mass": MASS_SOLVER}  # not a user choice
 
 
@@ -77,7 +103,9 @@ def set_petsc_options(text: str) -> None:
     i = 0
     while i < len(words):
         if not words[i].startswith("-") or words[i].strip("-") == "":
-            raise OptionsError(f"PETSc options: expected -name [value], got {words[i]!r} in {text!r}")
+            raise OptionsError(
+                f"PETSc options: expected -name [value], got {words[i]!r} in {text!r}"
+            )
         key = words[i].lstrip("-")
         if i + 1 < len(words) and not words[i + 1].startswith("-"):
             opts[key] = words[i + 1]
@@ -143,7 +171,9 @@ class KSPSolve:
         self.ksp.solve(b, x)
         reason = self.ksp.getConvergedReason()
         if reason < 0:
-            raise SolveError(f"KSP {self.ksp.getOptionsPrefix()} did not converge (reason {reason})")
+            raise SolveError(
+                f"KSP {self.ksp.getOptionsPrefix()} did not converge (reason {reason})"
+            )
 
 
 class DiagonalSolve:
@@ -181,7 +211,9 @@ def step_operator(system, mass_coef, stiffness_coef, lumped, prefix, solver="dir
         S.scale(mass_coef)
         if stiffness_coef != 0:
             S.axpy(stiffness_coef, system.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-    if "baij" in S.getType():  # System(matrix_type="baij"): factorisations and preconditioners want AIJ
+    if (
+        "baij" in S.getType()
+    ):  # System(matrix_type="baij"): factorisations and preconditioners want AIJ
         S.convert("aij")  # in place: S is our own copy
     S.zeroRowsColumns(system.constrained_global, diag=1.0)
     if solver == "cg" and mass_coef == 0:

@@ -29,23 +29,37 @@ class Material:
     beta: float = 0.0  # Rayleigh stiffness coefficient, s
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not 0 < len(self.name) <= MAX_NAME or not self.name.isprintable():
+        if (
+            not isinstance(self.name, str)
+            or not 0 < len(self.name) <= MAX_NAME
+            or not self.name.isprintable()
+        ):
             shown = repr(self.name)[:40] + ("..." if len(repr(self.name)) > 40 else "")
-            raise MaterialError(f"material name must be printable text of 1 to {MAX_NAME} characters, got {shown}")
+            raise MaterialError(
+                f"material name must be printable text of 1 to {MAX_NAME} characters, got {shown}"
+            )
         for field in ("E", "nu", "rho", "alpha", "beta"):
             value = getattr(self, field)
             try:
-                finite = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+                finite = (
+                    not isinstance(value, bool)
+                    and isinstance(value, (int, float))
+                    and math.isfinite(value)
+                )
             except OverflowError:  # an integer beyond the float range
                 finite = False
             if not finite:
                 shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:40] + "..."
-                raise MaterialError(f"material {self.name}: {field} must be a finite number, got {shown}")
+                raise MaterialError(
+                    f"material {self.name}: {field} must be a finite number, got {shown}"
+                )
             object.__setattr__(self, field, float(value))
         if self.E <= 0:
             raise MaterialError(f"material {self.name}: E must be > 0 Pa, got {self.E}")
         if not -1 < self.nu < 0.5:
-            raise MaterialError(f"material {self.name}: nu must satisfy -1 < nu < 0.5, got {self.nu}")
+            raise MaterialError(
+                f"material {self.name}: nu must satisfy -1 < nu < 0.5, got {self.nu}"
+            )
         if self.rho <= 0:
             raise MaterialError(f"material {self.name}: rho must be > 0 kg/m^3, got {self.rho}")
         if self.alpha < 0:
@@ -97,7 +111,9 @@ def material_from_toml(path: str | Path) -> Material:
     if not path.is_file():
         raise MaterialError(f"material file {path} does not exist")
     if path.stat().st_size > MAX_FILE:
-        raise MaterialError(f"material file {path} is {path.stat().st_size:,} bytes; a material takes at most {MAX_FILE:,}")
+        raise MaterialError(
+            f"material file {path} is {path.stat().st_size:,} bytes; a material takes at most {MAX_FILE:,}"
+        )
     try:
         data = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
@@ -105,7 +121,9 @@ def material_from_toml(path: str | Path) -> Material:
     except RecursionError:
         raise MaterialError(f"material file {path} is nested too deeply to be a material") from None
     except OSError as err:
-        raise MaterialError(f"material file {path} cannot be read ({err.strerror or err})") from None
+        raise MaterialError(
+            f"material file {path} cannot be read ({err.strerror or err})"
+        ) from None
     unknown = set(data) - set(FIELDS) - {"name"}
     if unknown:
         raise MaterialError(f"material file {path}: unknown key(s) {', '.join(sorted(unknown))}")
@@ -127,4 +145,6 @@ def get_material(spec: "str | Path | Material") -> Material:
         return MATERIALS[spec]
     if spec.endswith(".toml") or Path(spec).exists():
         return material_from_toml(spec)
-    raise MaterialError(f"unknown material {spec!r}: use one of {', '.join(MATERIALS)} or a .toml file")
+    raise MaterialError(
+        f"unknown material {spec!r}: use one of {', '.join(MATERIALS)} or a .toml file"
+    )

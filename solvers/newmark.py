@@ -31,8 +31,13 @@ class Newmark:
         self.alpha = system.material.alpha
         self.beta = system.material.beta if scheme.stiffness_damping else 0.0
         self.solve = step_operator(
-            system, 1 + gamma * h * self.alpha, gamma * h * self.beta + beta_N * h * h / 2,
-            lumped, prefix, solver)
+            system,
+            1 + gamma * h * self.alpha,
+            gamma * h * self.beta + beta_N * h * h / 2,
+            lumped,
+            prefix,
+            solver,
+        )
         # step 0 only: M a0 = r by CG + Jacobi (linear.MASS_SOLVER), or pointwise for M_L
         self.mass_solve = step_operator(system, 1.0, 0.0, lumped, prefix + "mass_", "mass")
         K = system.K

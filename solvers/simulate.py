@@ -39,8 +39,14 @@ def max_nodal_displacement(u: np.ndarray, gdim: int, comm: MPI.Comm) -> float:
     return comm.allreduce(largest, op=MPI.MAX)
 
 
-def simulate(integrator: Integrator, n_steps: int, extent: float, name: str = "",
-             on_step: Callable[[State], None] | None = None, keep: bool = True) -> Run:
+def simulate(
+    integrator: Integrator,
+    n_steps: int,
+    extent: float,
+    name: str = "",
+    on_step: Callable[[State], None] | None = None,
+    keep: bool = True,
+) -> Run:
     """Advance `integrator` n_steps steps from its initial state.
 
     A step whose displacement is not finite or exceeds 100 x `extent` (m), or whose linear
@@ -59,7 +65,11 @@ def simulate(integrator: Integrator, n_steps: int, extent: float, name: str = ""
         try:  # no communication inside: one rank failing must not leave the others waiting
             state = integrator.start() if i == 0 else integrator.step(state)
             local = state.u.array_r.reshape(-1, gdim)
-            largest = float(np.linalg.norm(local, axis=1).max(initial=0.0)) if np.isfinite(local).all() else np.inf
+            largest = (
+                float(np.linalg.norm(local, axis=1).max(initial=0.0))
+                if np.isfinite(local).all()
+                else np.inf
+            )
         except SolveError as err:
             reason = str(err)
         except (PETSc.Error, FloatingPointError) as err:

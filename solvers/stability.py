@@ -71,7 +71,9 @@ def amplification(h, omega, c, beta_N, gamma):
     u_pred = np.concatenate([one, h, (1 - beta_N) * h * h / 2], axis=-1)
     v_pred = np.concatenate([zero, one, (1 - gamma) * h], axis=-1)
     a_next = -(c * v_pred + k * u_pred) / (1 + gamma * h * c + beta_N * h * h / 2 * k)
-    return np.stack([u_pred + beta_N * h * h / 2 * a_next, v_pred + gamma * h * a_next, a_next], axis=-2)
+    return np.stack(
+        [u_pred + beta_N * h * h / 2 * a_next, v_pred + gamma * h * a_next, a_next], axis=-2
+    )
 
 
 def spectral_radius(h, omega, c, beta_N, gamma):
@@ -110,8 +112,10 @@ def critical_dt(scheme, material, omega_min, omega_max, samples=30):
     scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
     beta = material.beta if scheme.stiffness_damping else 0.0
     omegas = np.geomspace(omega_min, omega_max, samples)
-    return min(mode_critical_h(w, modal_damping(w, material.alpha, beta), scheme.beta_N, scheme.gamma)
-               for w in omegas)
+    return min(
+        mode_critical_h(w, modal_damping(w, material.alpha, beta), scheme.beta_N, scheme.gamma)
+        for w in omegas
+    )
 
 
 def growth_per_step(scheme, material, omega, h):
@@ -119,8 +123,11 @@ def growth_per_step(scheme, material, omega, h):
     the factor by which that mode grows at every step."""
     scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
     beta = material.beta if scheme.stiffness_damping else 0.0
-    return float(spectral_radius(h, omega, modal_damping(omega, material.alpha, beta),
-                                 scheme.beta_N, scheme.gamma))
+    return float(
+        spectral_radius(
+            h, omega, modal_damping(omega, material.alpha, beta), scheme.beta_N, scheme.gamma
+        )
+    )
 
 
 # --- the discrete spectrum ---------------------------------------------------------------------
@@ -182,8 +189,10 @@ def extreme_eigenvalue(K, M, smallest=False, tol=1e-10):
     eps = _eps(K, M, smallest, tol)
     eps.solve()
     if eps.getConverged() < 1:
-        raise RuntimeError(f"SLEPc found no eigenvalue ({'smallest' if smallest else 'largest'}), "
-                           f"reason {eps.getConvergedReason()}")
+        raise RuntimeError(
+            f"SLEPc found no eigenvalue ({'smallest' if smallest else 'largest'}), "
+            f"reason {eps.getConvergedReason()}"
+        )
     lam = eps.getEigenvalue(0).real
     eps.destroy()
     return lam
@@ -259,7 +268,14 @@ def check_run(system, algorithm, h, steps):
     def track(state):
         peak[0] = max(peak[0], max_nodal_displacement(state.u.array_r, system.gdim, system.comm))
 
-    run = simulate(get_integrator(algorithm, system, h), steps, bench.extent, algorithm, on_step=track, keep=False)
+    run = simulate(
+        get_integrator(algorithm, system, h),
+        steps,
+        bench.extent,
+        algorithm,
+        on_step=track,
+        keep=False,
+    )
     return run.status, run.diverged_step, peak[0], run.wall_time_s
 
 
@@ -277,13 +293,26 @@ def run_check(system, limits, margin=0.05, max_steps=100_000):
         for factor in (1 + margin, 1 - margin):
             h = factor * limit.critical_dt
             status, step, peak, wall = check_run(system, name, h, steps)
-            rows.append({"algorithm": name, "h": h, "ratio": factor, "steps": steps,
-                         "growth_per_step": growth_per_step(name, system.material, limit.omega_max, h),
-                         "status": status, "diverged_step": step,
-                         "diverged_time": None if step is None else step * h,
-                         "peak_displacement": peak, "wall_time_s": wall})
-            if status == "diverged":  # the run below: as many steps as the run above took, at least to T
-                steps = max(step, math.ceil(system.benchmark.end_time / ((1 - margin) * limit.critical_dt)))
+            rows.append(
+                {
+                    "algorithm": name,
+                    "h": h,
+                    "ratio": factor,
+                    "steps": steps,
+                    "growth_per_step": growth_per_step(name, system.material, limit.omega_max, h),
+                    "status": status,
+                    "diverged_step": step,
+                    "diverged_time": None if step is None else step * h,
+                    "peak_displacement": peak,
+                    "wall_time_s": wall,
+                }
+            )
+            if (
+                status == "diverged"
+            ):  # the run below: as many steps as the run above took, at least to T
+                steps = max(
+                    step, math.ceil(system.benchmark.end_time / ((1 - margin) * limit.critical_dt))
+                )
     return rows
 
 
@@ -299,15 +328,27 @@ def case_summary(system, limits):
         algorithms[name] = {
             "critical_dt": None if limit.unconditional else limit.critical_dt,
             "unconditionally_stable": limit.unconditional,
-            "omega_max": limit.omega_max, "omega_min": limit.omega_min,
-            "mass": ALGORITHMS[name].mass, "damping": ALGORITHMS[name].damping}
-    return {"benchmark": system.benchmark.name, "material": m.name, "mesh_size": system.benchmark.mesh_size,
-            "cell_size": BENCHMARKS[system.benchmark.name].cell_size(system.benchmark.mesh_size),
-            "end_time": system.benchmark.end_time,
-            "material_data": {"E": m.E, "nu": m.nu, "rho": m.rho, "alpha": m.alpha, "beta": m.beta},
-            "units": {"critical_dt": "s", "omega_max": "rad/s", "omega_min": "rad/s", "cell_size": "m",
-                      "end_time": "s"},
-            "algorithms": algorithms}
+            "omega_max": limit.omega_max,
+            "omega_min": limit.omega_min,
+            "mass": ALGORITHMS[name].mass,
+            "damping": ALGORITHMS[name].damping,
+        }
+    return {
+        "benchmark": system.benchmark.name,
+        "material": m.name,
+        "mesh_size": system.benchmark.mesh_size,
+        "cell_size": BENCHMARKS[system.benchmark.name].cell_size(system.benchmark.mesh_size),
+        "end_time": system.benchmark.end_time,
+        "material_data": {"E": m.E, "nu": m.nu, "rho": m.rho, "alpha": m.alpha, "beta": m.beta},
+        "units": {
+            "critical_dt": "s",
+            "omega_max": "rad/s",
+            "omega_min": "rad/s",
+            "cell_size": "m",
+            "end_time": "s",
+        },
+        "algorithms": algorithms,
+    }
 
 
 def sweep(comm):

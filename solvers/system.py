@@ -40,15 +40,22 @@ class System:
     the owned constrained dofs and `component` their displacement component.
     """
 
-    def __init__(self, benchmark: Benchmark, material: Material | str | None = None, plane: str = "strain",
-                 matrix_type: str | None = None):
+    def __init__(
+        self,
+        benchmark: Benchmark,
+        material: Material | str | None = None,
+        plane: str = "strain",
+        matrix_type: str | None = None,
+    ):
         self.benchmark = benchmark
         self.material = get_material(material or benchmark.material)
         self.mesh = mesh = benchmark.mesh
         self.comm = mesh.comm
         self.gdim = gdim = mesh.geometry.dim
         self.plane = plane
-        mu, lmbda = self.material.lame(plane) if gdim == 2 else (self.material.mu, self.material.lmbda)
+        mu, lmbda = (
+            self.material.lame(plane) if gdim == 2 else (self.material.mu, self.material.lmbda)
+        )
         self.V = V = fem.functionspace(mesh, ("Lagrange", 1, (gdim,)))
 
         # Material data as Constants: one compiled form serves every material.

@@ -11,7 +11,9 @@ import pytest
 
 
 def pytest_configure(config):
-    config.addinivalue_line("markers", "serial: runs in serial only (subprocesses, or serial-only checks)")
+    config.addinivalue_line(
+        "markers", "serial: runs in serial only (subprocesses, or serial-only checks)"
+    )
 
 
 def pytest_collection_modifyitems(config, items):

@@ -22,7 +22,11 @@ def run_script(script, *args, ranks=1, timeout=600):
     if ranks > 1:
         cmd = [mpiexec(), "-n", str(ranks), *cmd]
     # a fresh MPI job: drop the launcher variables of the calling (singleton MPI) process
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))
+    }
     env["OMP_NUM_THREADS"] = "1"
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
     assert out.returncode == 0, out.stderr[-3000:]

@@ -19,9 +19,14 @@ for name, size, material in [("block", 8, "MP1"), ("block", 8, "MP2"), ("rod", 2
     system = System(bench, material)
     # the five algorithms with the direct solver; the iterative solvers (their preconditioners
     # differ with the partition: block Jacobi ICC, GAMG's aggregates) on the reference
-    cases = [(algorithm, "direct") for algorithm in ALGORITHMS] + [("implicit", "cg"), ("implicit", "gamg")]
+    cases = [(algorithm, "direct") for algorithm in ALGORITHMS] + [
+        ("implicit", "cg"),
+        ("implicit", "gamg"),
+    ]
     for algorithm, solver in cases:
-        run = simulate(get_integrator(algorithm, system, bench.dt, solver=solver), 60, bench.extent, algorithm)
+        run = simulate(
+            get_integrator(algorithm, system, bench.dt, solver=solver), 60, bench.extent, algorithm
+        )
         key = f"{name}-{material}-{algorithm}" + ("" if solver == "direct" else f"-{solver}")
         history = [gather_by_coordinates(system.V, u) for u in run.u[::10]]
         if MPI.COMM_WORLD.rank == 0:

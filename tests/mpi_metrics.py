@@ -22,7 +22,9 @@ def reference(x):
 
 
 def candidate(x):
-    return reference(x) * (1 + 0.2 * x[1]) + np.array([0.004 * np.cos(3 * x[1]), 0.002 * x[0], -0.001 * x[2]])
+    return reference(x) * (1 + 0.2 * x[1]) + np.array(
+        [0.004 * np.cos(3 * x[1]), 0.002 * x[0], -0.001 * x[2]]
+    )
 
 
 def owned(V, f):

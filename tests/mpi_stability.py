@@ -18,8 +18,12 @@ def main():
     for bench, size, material in [("block", 8, "MP2"), ("rod", 2, "MP3")]:
         system = System(get_benchmark(bench, mesh_size=size, comm=comm), material)
         limits = stability_limits(system, ("explicit", "explicit-lumped"))
-        result[bench] = {name: [lim.omega_min, lim.omega_max, lim.critical_dt] for name, lim in limits.items()}
-    space = space_study("block", "MP1", (4, 8), problems=("quasi-static",), comm=comm, needle_width=0.5)
+        result[bench] = {
+            name: [lim.omega_min, lim.omega_max, lim.critical_dt] for name, lim in limits.items()
+        }
+    space = space_study(
+        "block", "MP1", (4, 8), problems=("quasi-static",), comm=comm, needle_width=0.5
+    )
     result["space"] = space["quasi-static"]["errors"][0]
     if comm.rank == 0:
         print(json.dumps(result))

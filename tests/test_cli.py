@@ -12,8 +12,16 @@ import pytest
 from helpers import mpiexec
 from tissuebench.metrics.series import read_series
 
-COLUMNS = ["algorithm", "step", "time", "relative_error", "surface_error", "interior_error", "interior_error_nodal",
-           "status"]
+COLUMNS = [
+    "algorithm",
+    "step",
+    "time",
+    "relative_error",
+    "surface_error",
+    "interior_error",
+    "interior_error_nodal",
+    "status",
+]
 
 pytestmark = pytest.mark.serial  # drives the command line in subprocesses
 
@@ -22,8 +30,9 @@ def tissuebench(*args, ranks=1):
     cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]
     if ranks > 1:
         cmd = [mpiexec(), "-n", str(ranks), *cmd]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=600,
-                          env=dict(os.environ, OMP_NUM_THREADS="1"))
+    return subprocess.run(
+        cmd, capture_output=True, text=True, timeout=600, env=dict(os.environ, OMP_NUM_THREADS="1")
+    )
 
 
 def read_metrics(path):
@@ -52,8 +61,18 @@ def statuses(path):
 @pytest.fixture(scope="module")
 def block_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run") / "block"
-    r = tissuebench("run", "block", "--out", out, "--mesh-size", 6, "--end-time", 1.0,
-                    "--algorithms", "explicit,quasi-static")
+    r = tissuebench(
+        "run",
+        "block",
+        "--out",
+        out,
+        "--mesh-size",
+        6,
+        "--end-time",
+        1.0,
+        "--algorithms",
+        "explicit,quasi-static",
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     return out, r
 
@@ -61,14 +80,22 @@ def block_run(tmp_path_factory):
 def test_run_writes_the_contract(block_run):
     out, result = block_run
     summary = json.loads((out / "summary.json").read_text())
-    assert set(summary["runs"]) == {"implicit", "explicit", "quasi-static"}  # the reference always runs
+    assert set(summary["runs"]) == {
+        "implicit",
+        "explicit",
+        "quasi-static",
+    }  # the reference always runs
     for label, run in summary["runs"].items():
         assert run["status"] == "ok" and run["steps"] == 30 and run["diverged_step"] is None
         assert {"wall_time_s", "relative_error_max", "interior_error_mean"} <= set(run)
         series = read_series(out / f"{label}.xdmf")
         assert np.allclose(series.times, np.arange(31) / 30)
         assert read_series(out / f"{label}.xdmf", "velocity").displacements[0].shape == (49, 2)
-    assert summary["benchmark"] == "block" and summary["material"] == ["MP1"] and summary["mesh_size"] == 6
+    assert (
+        summary["benchmark"] == "block"
+        and summary["material"] == ["MP1"]
+        and summary["mesh_size"] == 6
+    )
     assert summary["h"] == pytest.approx(1 / 30) and summary["end_time"] == pytest.approx(1.0)
     assert summary["versions"]["dolfinx"]
     for figure in ("errors.png", "deformed.png", "reference.gif"):
@@ -85,7 +112,18 @@ def test_run_writes_the_contract(block_run):
 def test_rerun_skips_complete_results_unless_forced(block_run):
     out, _ = block_run
     before = (out / "summary.json").stat().st_mtime_ns
-    args = ("run", "block", "--out", out, "--mesh-size", 6, "--end-time", 1.0, "--algorithms", "explicit,quasi-static")
+    args = (
+        "run",
+        "block",
+        "--out",
+        out,
+        "--mesh-size",
+        6,
+        "--end-time",
+        1.0,
+        "--algorithms",
+        "explicit,quasi-static",
+    )
     r = tissuebench(*args)
     assert r.returncode == 0 and "skipped" in r.stdout
     assert (out / "summary.json").stat().st_mtime_ns == before
@@ -94,7 +132,9 @@ def test_rerun_skips_complete_results_unless_forced(block_run):
 def test_compare_reads_our_output_back(block_run, tmp_path):
     """compare on our own XDMF files gives the curves that run computed in memory."""
     out, _ = block_run
-    r = tissuebench("compare", out / "implicit.xdmf", out / "quasi-static.xdmf", "--out", tmp_path / "cmp")
+    r = tissuebench(
+        "compare", out / "implicit.xdmf", out / "quasi-static.xdmf", "--out", tmp_path / "cmp"
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     assert "relative_error: max" in r.stdout
     ours = curves(out / "metrics.csv")["quasi-static"]
@@ -104,37 +144,61 @@ def test_compare_reads_our_output_back(block_run, tmp_path):
 
 def test_diverged_run_is_reported_and_kept(tmp_path):
     out = tmp_path / "mp2"
-    r = tissuebench("run", "block", "--out", out, "--mesh-size", 6, "--material", "MP2", "--end-time", 0.5,
-                    "--algorithms", "explicit-lumped")
+    r = tissuebench(
+        "run",
+        "block",
+        "--out",
+        out,
+        "--mesh-size",
+        6,
+        "--material",
+        "MP2",
+        "--end-time",
+        0.5,
+        "--algorithms",
+        "explicit-lumped",
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     run = json.loads((out / "summary.json").read_text())["runs"]["explicit-lumped"]
     assert run["status"] == "diverged" and run["diverged_step"] >= 1
     assert run["diverged_time"] == pytest.approx(run["diverged_step"] / 30)
     c = curves(out / "metrics.csv")["explicit-lumped"]
-    assert len(c) == 16 and np.all(np.isnan(c[run["diverged_step"]:, 2:]))
+    assert len(c) == 16 and np.all(np.isnan(c[run["diverged_step"] :, 2:]))
     k = run["diverged_step"]
     assert statuses(out / "metrics.csv")["explicit-lumped"] == ["ok"] * k + ["diverged"] * (16 - k)
     assert len(read_series(out / "explicit-lumped.xdmf").times) == run["diverged_step"]
     assert "DIVERGED" in r.stdout
 
 
-@pytest.mark.parametrize("args, message", [
-    (("run", "sphere"), "unknown benchmark"),
-    (("run", "block", "--algorithms", "leapfrog"), "unknown algorithm"),
-    (("run", "block", "--material", "MP7"), "unknown material"),
-    (("run", "block", "--dt", "0"), "positive number"),
-    (("run", "block", "--dt", "-0.1"), "positive number"),
-    (("run", "block", "--end-time", "nan"), "positive number"),
-    (("run", "block", "--mesh-size", "7"), "must be even"),
-    (("run", "rod", "--mesh-size", "0"), "positive whole number"),
-    (("run", "block", "--solver", "magic"), "unknown solver"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("run", "sphere"), "unknown benchmark"),
+        (("run", "block", "--algorithms", "leapfrog"), "unknown algorithm"),
+        (("run", "block", "--material", "MP7"), "unknown material"),
+        (("run", "block", "--dt", "0"), "positive number"),
+        (("run", "block", "--dt", "-0.1"), "positive number"),
+        (("run", "block", "--end-time", "nan"), "positive number"),
+        (("run", "block", "--mesh-size", "7"), "must be even"),
+        (("run", "rod", "--mesh-size", "0"), "positive whole number"),
+        (("run", "block", "--solver", "magic"), "unknown solver"),
+    ],
+)
 def test_refusals(tmp_path, args, message):
     out = tmp_path / "out"
-    r = tissuebench(*args, "--out", out, "--end-time" if "--end-time" not in args else "--needle-width",
-                    "0.1" if "--end-time" not in args else "0")
+    r = tissuebench(
+        *args,
+        "--out",
+        out,
+        "--end-time" if "--end-time" not in args else "--needle-width",
+        "0.1" if "--end-time" not in args else "0",
+    )
     assert r.returncode == 2
-    assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert (
+        message in r.stderr
+        and len(r.stderr.strip().splitlines()) == 1
+        and "Traceback" not in r.stderr
+    )
     assert not out.exists() and not any(tmp_path.iterdir())
 
 
@@ -147,7 +211,9 @@ def test_refuses_bad_material_file_and_unwritable_output(tmp_path):
     blocker.write_text("")
     r = tissuebench("run", "block", "--out", blocker / "x")
     assert r.returncode == 2 and "cannot create" in r.stderr
-    r = tissuebench("compare", tmp_path / "missing.xdmf", tmp_path / "missing2.xdmf", "--out", tmp_path / "c")
+    r = tissuebench(
+        "compare", tmp_path / "missing.xdmf", tmp_path / "missing2.xdmf", "--out", tmp_path / "c"
+    )
     assert r.returncode == 2 and "missing.xdmf" in r.stderr and not (tmp_path / "c").exists()
 
 
@@ -157,13 +223,19 @@ def test_interrupted_output_is_replaced_whole(tmp_path):
     (tmp_path / ".partial-rod").mkdir()
     (tmp_path / ".partial-rod" / "junk.h5").write_text("half")
     out.mkdir()
-    (out / "summary.json").write_text('{"fingerprint": "x", "files": ["implicit.h5"]}')  # names an absent file
-    r = tissuebench("run", "rod", "--out", out, "--mesh-size", 1, "--end-time", 0.2, "--algorithms", "implicit")
+    (out / "summary.json").write_text(
+        '{"fingerprint": "x", "files": ["implicit.h5"]}'
+    )  # names an absent file
+    r = tissuebench(
+        "run", "rod", "--out", out, "--mesh-size", 1, "--end-time", 0.2, "--algorithms", "implicit"
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rod"]
     summary = json.loads((out / "summary.json").read_text())
     assert all((out / f).is_file() for f in summary["files"])
-    assert (out / "tip.csv").is_file() and len(summary["runs"]["implicit"]["tip_displacement_final"]) == 3
+    assert (out / "tip.csv").is_file() and len(
+        summary["runs"]["implicit"]["tip_displacement_final"]
+    ) == 3
 
 
 @pytest.mark.parametrize("benchmark, size", [("block", 8), ("rod", 2)])
@@ -172,11 +244,17 @@ def test_run_serial_equals_mpiexec(tmp_path, benchmark, size):
     serial = tissuebench(*args, "--out", tmp_path / "serial")
     parallel = tissuebench(*args, "--out", tmp_path / "parallel", ranks=2)
     assert serial.returncode == 0 and parallel.returncode == 0, parallel.stderr[-2000:]
-    a, b = curves(tmp_path / "serial" / "metrics.csv"), curves(tmp_path / "parallel" / "metrics.csv")
+    a, b = (
+        curves(tmp_path / "serial" / "metrics.csv"),
+        curves(tmp_path / "parallel" / "metrics.csv"),
+    )
     assert a.keys() == b.keys()
     for label in a:
         assert np.allclose(a[label], b[label], rtol=1e-8, atol=1e-12, equal_nan=True), label
-    assert json.loads((tmp_path / "parallel" / "summary.json").read_text())["versions"]["mpi_ranks"] == 2
+    assert (
+        json.loads((tmp_path / "parallel" / "summary.json").read_text())["versions"]["mpi_ranks"]
+        == 2
+    )
     assert parallel.stdout.count("results in") == 1  # only rank 0 prints
 
 
@@ -186,7 +264,10 @@ def test_mesh_command_saves_msh(tmp_path):
     r = tissuebench("mesh", "rod", "--mesh-size", 2, "--out", tmp_path / "rod.msh")
     assert r.returncode == 0, r.stderr[-2000:]
     m = meshio.read(tmp_path / "rod.msh")
-    assert len(m.points) == 5 * 3 * 3 and sum(len(c.data) for c in m.cells if c.type == "hexahedron") == 16
+    assert (
+        len(m.points) == 5 * 3 * 3
+        and sum(len(c.data) for c in m.cells if c.type == "hexahedron") == 16
+    )
     assert "clamped" in r.stdout
     r = tissuebench("mesh", "block", "--mesh-size", 3, "--out", tmp_path / "b.msh")
     assert r.returncode == 2 and "must be even" in r.stderr and not (tmp_path / "b.msh").exists()

@@ -33,7 +33,9 @@ def make_space(dim):
     if dim == 2:
         mesh = dmesh.create_unit_square(MPI.COMM_SELF, 4, 3, dmesh.CellType.quadrilateral)
     else:
-        mesh = dmesh.create_box(MPI.COMM_SELF, [[0, 0, 0], [0.5, 0.25, 0.25]], [4, 2, 2], dmesh.CellType.hexahedron)
+        mesh = dmesh.create_box(
+            MPI.COMM_SELF, [[0, 0, 0], [0.5, 0.25, 0.25]], [4, 2, 2], dmesh.CellType.hexahedron
+        )
     return fem.functionspace(mesh, ("Lagrange", 1, (dim,)))
 
 
@@ -41,7 +43,10 @@ def fields(V, times=TIMES):
     """Reference and candidate histories as (n, d) nodal arrays of the serial space V."""
     dim = V.mesh.geometry.dim
     X = V.tabulate_dof_coordinates()
-    ref = [t * np.c_[0.3 * X[:, 1] * X[:, 0], -0.2 * X[:, 0] ** 2, 0.1 * X[:, 2]][:, :dim] for t in times]
+    ref = [
+        t * np.c_[0.3 * X[:, 1] * X[:, 0], -0.2 * X[:, 0] ** 2, 0.1 * X[:, 2]][:, :dim]
+        for t in times
+    ]
     cand = [u * (1 + 0.3 * t) + t**2 * 0.01 * np.sin(3 * X[:, :dim]) for t, u in zip(times, ref)]
     return ref, cand
 
@@ -50,7 +55,11 @@ def mesh_data(V):
     """Points (with a zero third coordinate in 2D) and VTK-ordered cells of serial V."""
     cell_type = V.mesh.topology.cell_type
     cells = V.dofmap.list[:, np.argsort(cell_perm_vtk(cell_type, V.dofmap.list.shape[1]))]
-    return V.tabulate_dof_coordinates(), cells, "quad" if cell_type == dmesh.CellType.quadrilateral else "hexahedron"
+    return (
+        V.tabulate_dof_coordinates(),
+        cells,
+        "quad" if cell_type == dmesh.CellType.quadrilateral else "hexahedron",
+    )
 
 
 def pad(u):
@@ -59,7 +68,10 @@ def pad(u):
 
 def write_meshio_xdmf(path, points, cells, cell_type, values, times=TIMES, field="displacement"):
     # meshio's TimeSeriesWriter puts the .h5 in the working directory, not beside the .xdmf.
-    with contextlib.chdir(Path(path).parent), meshio.xdmf.TimeSeriesWriter(Path(path).name) as writer:
+    with (
+        contextlib.chdir(Path(path).parent),
+        meshio.xdmf.TimeSeriesWriter(Path(path).name) as writer,
+    ):
         writer.write_points_cells(points, [(cell_type, cells)])
         for t, u in zip(times, values):
             writer.write_data(t, point_data={field: pad(u)})
@@ -72,8 +84,11 @@ def write_pvd(path, points, cells, cell_type, values, times=TIMES, field="displa
         vtu = path.with_name(f"{path.stem}_{k:03d}.vtu")
         meshio.write(vtu, meshio.Mesh(points, [(cell_type, cells)], point_data={field: pad(u)}))
         entries.append(f'    <DataSet timestep="{t!r}" part="0" file="{vtu.name}"/>')
-    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
-                    + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
+    path.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+        + "\n".join(entries)
+        + "\n  </Collection>\n</VTKFile>\n"
+    )
 
 
 def shuffled(points, cells, values, seed=1):
@@ -124,7 +139,9 @@ def test_meshio_series_give_the_in_memory_curves(tmp_path, dim):
     summary = compare(tmp_path / "reference.xdmf", tmp_path / "explicit.xdmf", tmp_path / "out")
     assert_same_curves(tmp_path / "out", in_memory(V, ref, cand), "explicit")
     assert set(summary) == set(NAMES)  # no divergence line for finite series
-    assert all("max" in line and "time-mean" in line and "\n" not in line for line in summary.values())
+    assert all(
+        "max" in line and "time-mean" in line and "\n" not in line for line in summary.values()
+    )
 
 
 def test_dolfinx_xdmf_against_pvd(tmp_path):
@@ -182,8 +199,10 @@ def test_refuses_different_meshes(tmp_path, reference):
     message = refused(ref, tmp_path / "moved.xdmf", tmp_path / "out", "mesh differs")
     assert "moved.xdmf" in message and "no candidate node" in message
 
-    coarse = fem.functionspace(dmesh.create_unit_square(MPI.COMM_SELF, 2, 2, dmesh.CellType.quadrilateral),
-                               ("Lagrange", 1, (2,)))
+    coarse = fem.functionspace(
+        dmesh.create_unit_square(MPI.COMM_SELF, 2, 2, dmesh.CellType.quadrilateral),
+        ("Lagrange", 1, (2,)),
+    )
     p, c, t = mesh_data(coarse)
     write_meshio_xdmf(tmp_path / "coarse.xdmf", p, c, t, [np.zeros((len(p), 2))] * len(TIMES))
     refused(ref, tmp_path / "coarse.xdmf", tmp_path / "out", "9 nodes")
@@ -192,30 +211,43 @@ def test_refuses_different_meshes(tmp_path, reference):
     rewired[0, 3] = cells[-1, 2]  # a node of another cell: the candidate's mesh is broken
     write_meshio_xdmf(tmp_path / "cells.xdmf", points, rewired, cell_type, cand)
     assert refused(ref, tmp_path / "cells.xdmf", tmp_path / "out", "touches itself").startswith(
-        f"{tmp_path / 'cells.xdmf'}:")
+        f"{tmp_path / 'cells.xdmf'}:"
+    )
 
     # A hexagon split into two quadrilaterals along the diagonal 0-3, and along 1-4: two valid
     # meshes on the same nodes.
     angles = np.pi / 3 * np.arange(6)
     hexagon = np.c_[np.cos(angles), np.sin(angles)]
     zero = [np.zeros((6, 2))] * len(TIMES)
-    write_meshio_xdmf(tmp_path / "split03.xdmf", hexagon, np.array([[0, 1, 2, 3], [3, 4, 5, 0]]), "quad", zero)
-    write_meshio_xdmf(tmp_path / "split14.xdmf", hexagon, np.array([[1, 2, 3, 4], [4, 5, 0, 1]]), "quad", zero)
-    refused(tmp_path / "split03.xdmf", tmp_path / "split14.xdmf", tmp_path / "out", "different cells")
+    write_meshio_xdmf(
+        tmp_path / "split03.xdmf", hexagon, np.array([[0, 1, 2, 3], [3, 4, 5, 0]]), "quad", zero
+    )
+    write_meshio_xdmf(
+        tmp_path / "split14.xdmf", hexagon, np.array([[1, 2, 3, 4], [4, 5, 0, 1]]), "quad", zero
+    )
+    refused(
+        tmp_path / "split03.xdmf", tmp_path / "split14.xdmf", tmp_path / "out", "different cells"
+    )
 
 
 def test_refuses_mismatched_times(tmp_path, reference):
     ref, (points, cells, cell_type, cand) = reference
-    write_meshio_xdmf(tmp_path / "late.xdmf", points, cells, cell_type, cand, times=[0.0, 0.1, 0.25, 0.3])
+    write_meshio_xdmf(
+        tmp_path / "late.xdmf", points, cells, cell_type, cand, times=[0.0, 0.1, 0.25, 0.3]
+    )
     message = refused(ref, tmp_path / "late.xdmf", tmp_path / "out", "time stamps do not match")
     assert "step 2" in message
-    write_meshio_xdmf(tmp_path / "long.xdmf", points, cells, cell_type, cand + cand[:1], times=TIMES + [0.4])
+    write_meshio_xdmf(
+        tmp_path / "long.xdmf", points, cells, cell_type, cand + cand[:1], times=TIMES + [0.4]
+    )
     refused(ref, tmp_path / "long.xdmf", tmp_path / "out", "more than")
 
 
 def test_shorter_candidate_is_a_stopped_run(tmp_path, reference):
     ref, (points, cells, cell_type, cand) = reference
-    write_meshio_xdmf(tmp_path / "stopped.xdmf", points, cells, cell_type, cand[:2], times=TIMES[:2])
+    write_meshio_xdmf(
+        tmp_path / "stopped.xdmf", points, cells, cell_type, cand[:2], times=TIMES[:2]
+    )
     compare(ref, tmp_path / "stopped.xdmf", tmp_path / "out")
     _, rows = read_csv(tmp_path / "out" / "metrics.csv")
     assert len(rows) == len(TIMES) and all(np.isnan(float(x)) for r in rows[2:] for x in r[3:-1])
@@ -225,7 +257,9 @@ def test_shorter_candidate_is_a_stopped_run(tmp_path, reference):
 def test_refuses_missing_field(tmp_path, reference):
     ref, (points, cells, cell_type, cand) = reference
     write_meshio_xdmf(tmp_path / "named.xdmf", points, cells, cell_type, cand, field="u")
-    message = refused(ref, tmp_path / "named.xdmf", tmp_path / "out", "no point field 'displacement'")
+    message = refused(
+        ref, tmp_path / "named.xdmf", tmp_path / "out", "no point field 'displacement'"
+    )
     assert "named.xdmf" in message and "fields: u" in message
     write_pvd(tmp_path / "named.pvd", points, cells, cell_type, cand, field="U")
     refused(ref, tmp_path / "named.pvd", tmp_path / "out", "fields: U")
@@ -272,10 +306,17 @@ def test_compare_serial_and_two_ranks_agree(tmp_path):
     write_pvd(tmp_path / "cand.pvd", p, c, cell_type, values)
     compare(tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "serial")
     serial = (tmp_path / "serial" / "metrics.csv").read_text()
-    parallel = run_script("mpi_metrics.py", tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "parallel",
-                                 ranks=2)["compare"]
-    tables = [np.array([row.split(",")[1:-1] for row in text.strip().splitlines()[1:]], dtype=float)
-              for text in (serial, parallel)]
+    parallel = run_script(
+        "mpi_metrics.py",
+        tmp_path / "reference.xdmf",
+        tmp_path / "cand.pvd",
+        tmp_path / "parallel",
+        ranks=2,
+    )["compare"]
+    tables = [
+        np.array([row.split(",")[1:-1] for row in text.strip().splitlines()[1:]], dtype=float)
+        for text in (serial, parallel)
+    ]
     np.testing.assert_allclose(tables[1], tables[0], rtol=1e-12, atol=1e-15)
     assert all(row.endswith(",ok") for row in parallel.strip().splitlines()[1:])
     assert np.isfinite(tables[0][1:, 2:]).all()
@@ -292,8 +333,14 @@ def cli(*args, ranks=1):
     if ranks > 1:
         cmd = [mpiexec(), "-n", str(ranks), *cmd]
     # a fresh MPI job: drop the launcher variables of the calling (singleton MPI) process
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))}
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=dict(env, OMP_NUM_THREADS="1"))
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))
+    }
+    return subprocess.run(
+        cmd, capture_output=True, text=True, timeout=600, env=dict(env, OMP_NUM_THREADS="1")
+    )
 
 
 def table(path):
@@ -341,12 +388,18 @@ def test_non_finite_candidate_is_diverged_from_its_first_bad_step(diverging, mon
     bad, status = table(d / "blowup" / "metrics.csv")
     assert good_status == ["ok"] * 7 and status == ["ok"] * 3 + ["diverged"] * 4
     np.testing.assert_array_equal(bad[:, :2], good[:, :2])  # steps and times
-    np.testing.assert_allclose(bad[:3, 2:], good[:3, 2:], rtol=1e-12, atol=1e-15)  # E_n is NaN at step 0 in both
+    np.testing.assert_allclose(
+        bad[:3, 2:], good[:3, 2:], rtol=1e-12, atol=1e-15
+    )  # E_n is NaN at step 0 in both
     assert np.isnan(bad[3:, 2:]).all()
     assert np.isfinite(good[1:, 2:]).all() and np.all(np.diff(good[1:, 2]) > 0)  # E_n grows with t
 
-    assert summary["candidate"] == "candidate diverged at step 3 (t = 0.3 s): non-finite displacement"
-    assert list(summary)[0] == "candidate" and "reference" not in summary and "candidate" not in clean
+    assert (
+        summary["candidate"] == "candidate diverged at step 3 (t = 0.3 s): non-finite displacement"
+    )
+    assert (
+        list(summary)[0] == "candidate" and "reference" not in summary and "candidate" not in clean
+    )
     # the summaries grade steps 1..2 only: E_n's max is the clean run's at step 2, below its max at step 6
     peak = float(summary["relative_error"].split("max ")[1].split(",")[0])
     assert peak == pytest.approx(good[2, 2], rel=1e-3) and peak < 0.5 * good[6, 2]
@@ -363,8 +416,12 @@ def test_non_finite_reference_is_diverged(diverging):
     got, status = table(d / "blowup" / "metrics.csv")
     assert good_status == ["ok"] * 7 and status == ["ok"] * 3 + ["reference diverged"] * 4
     np.testing.assert_allclose(got[:3], good[:3], rtol=1e-12, atol=1e-15)
-    assert np.isnan(got[3:, 2:]).all() and np.isfinite(got[1:3, 2:]).all() and np.all(got[1:3, 2:] > 0)
-    assert summary["reference"] == "reference diverged at step 3 (t = 0.3 s): non-finite displacement"
+    assert (
+        np.isnan(got[3:, 2:]).all() and np.isfinite(got[1:3, 2:]).all() and np.all(got[1:3, 2:] > 0)
+    )
+    assert (
+        summary["reference"] == "reference diverged at step 3 (t = 0.3 s): non-finite displacement"
+    )
     assert "candidate" not in summary and "reference" not in clean
     # both diverged: "diverged" (the candidate's) wins from its step on
     summary = compare(d / "blowup.pvd", d / "blowup.pvd", d / "both")
@@ -377,12 +434,19 @@ def test_diverged_candidate_on_the_command_line_serial_and_two_ranks(diverging):
     """The CLI prints the divergence line once and writes the same metrics.csv under
     mpiexec -n 2 as in serial."""
     d = diverging
-    runs = {n: cli("compare", d / "reference.xdmf", d / "blowup.pvd", "--out", d / f"cli{n}", ranks=n) for n in (1, 2)}
+    runs = {
+        n: cli("compare", d / "reference.xdmf", d / "blowup.pvd", "--out", d / f"cli{n}", ranks=n)
+        for n in (1, 2)
+    }
     for n, r in runs.items():
         assert r.returncode == 0, r.stderr[-3000:]
-        assert r.stdout.count("candidate diverged at step 3 (t = 0.3 s): non-finite displacement") == 1
+        assert (
+            r.stdout.count("candidate diverged at step 3 (t = 0.3 s): non-finite displacement") == 1
+        )
         assert r.stdout.splitlines()[0].startswith("candidate diverged")
-    (serial, serial_status), (parallel, parallel_status) = (table(d / f"cli{n}" / "metrics.csv") for n in (1, 2))
+    (serial, serial_status), (parallel, parallel_status) = (
+        table(d / f"cli{n}" / "metrics.csv") for n in (1, 2)
+    )
     assert serial_status == parallel_status == ["ok"] * 3 + ["diverged"] * 4
     np.testing.assert_allclose(parallel, serial, rtol=1e-12, atol=1e-15)
     assert np.isnan(serial[3:, 2:]).all() and np.isfinite(serial[1:3, 2:]).all()
@@ -410,38 +474,69 @@ def flat_strip(path):
 def repeated_node(path):
     """Two quadrilaterals, the second with a repeated node (a triangle)."""
     points = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [2, 0], [2, 1]], dtype=float)
-    write_meshio_xdmf(path, points, np.array([[0, 1, 2, 3], [1, 4, 5, 5]]), "quad", [np.zeros((6, 2))] * len(TIMES))
+    write_meshio_xdmf(
+        path,
+        points,
+        np.array([[0, 1, 2, 3], [1, 4, 5, 5]]),
+        "quad",
+        [np.zeros((6, 2))] * len(TIMES),
+    )
 
 
-@pytest.mark.parametrize("make, problem", [(bowtie, "touches itself at node 2 at (1, 1)"),
-                                           (flat_strip, "cell 1 (nodes 1 2 6 5) has zero area"),
-                                           (repeated_node, "cell 1 (nodes 1 4 5 5) repeats node 5")])
+@pytest.mark.parametrize(
+    "make, problem",
+    [
+        (bowtie, "touches itself at node 2 at (1, 1)"),
+        (flat_strip, "cell 1 (nodes 1 2 6 5) has zero area"),
+        (repeated_node, "cell 1 (nodes 1 4 5 5) repeats node 5"),
+    ],
+)
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_ungradable_reference_is_refused_on_one_line(tmp_path, make, problem, ranks):
     """Exit 2, one line on stderr naming the file and the problem, no traceback, no --out."""
     make(tmp_path / "ref.xdmf")
     make(tmp_path / "cand.xdmf")
-    r = cli("compare", tmp_path / "ref.xdmf", tmp_path / "cand.xdmf", "--out", tmp_path / "out", ranks=ranks)
+    r = cli(
+        "compare",
+        tmp_path / "ref.xdmf",
+        tmp_path / "cand.xdmf",
+        "--out",
+        tmp_path / "out",
+        ranks=ranks,
+    )
     assert r.returncode == 2, r.stderr[-3000:]
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in r.stderr
-    assert lines[0].startswith(f"tissuebench compare: error: {tmp_path / 'ref.xdmf'}: ") and problem in lines[0]
+    assert (
+        lines[0].startswith(f"tissuebench compare: error: {tmp_path / 'ref.xdmf'}: ")
+        and problem in lines[0]
+    )
     assert not (tmp_path / "out").exists() and r.stdout == ""
 
 
 def hexahedra(path, points, cells):
-    write_meshio_xdmf(path, np.asarray(points, dtype=float), np.asarray(cells), "hexahedron",
-                      [np.zeros((len(points), 3))] * len(TIMES))
+    write_meshio_xdmf(
+        path,
+        np.asarray(points, dtype=float),
+        np.asarray(cells),
+        "hexahedron",
+        [np.zeros((len(points), 3))] * len(TIMES),
+    )
 
 
-CUBE = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=float)
+CUBE = np.array(
+    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
+    dtype=float,
+)
 
 
 def test_hexahedral_meshes_that_cannot_be_graded(tmp_path):
     """3D: cubes touching at a corner or along an edge, a flat hexahedron, a repeated node; two
     cubes sharing a face are fine."""
     hexahedra(tmp_path / "corner.xdmf", np.r_[CUBE, CUBE[1:] + 1], [range(8), [6, *range(8, 15)]])
-    with pytest.raises(InputError, match=r"corner.xdmf: the mesh boundary touches itself at node 6 at \(1, 1, 1\)"):
+    with pytest.raises(
+        InputError, match=r"corner.xdmf: the mesh boundary touches itself at node 6 at \(1, 1, 1\)"
+    ):
         read_series(tmp_path / "corner.xdmf")
     edge = np.arange(8, 16)
     edge[[0, 4]] = [2, 6]  # the second cube, moved by (1, 1, 0), shares the edge 2-6 only
@@ -456,7 +551,9 @@ def test_hexahedral_meshes_that_cannot_be_graded(tmp_path):
         read_series(tmp_path / "repeat.xdmf")
     hexahedra(tmp_path / "pair.xdmf", np.r_[CUBE, CUBE[4:] + [0, 0, 1]], [range(8), range(4, 12)])
     assert read_series(tmp_path / "pair.xdmf").cells.shape == (2, 8)
-    hexahedra(tmp_path / "thin.xdmf", np.r_[CUBE[:4], CUBE[:4] + [0, 0, 1e-9]], [range(8)])  # thin, not flat
+    hexahedra(
+        tmp_path / "thin.xdmf", np.r_[CUBE[:4], CUBE[:4] + [0, 0, 1e-9]], [range(8)]
+    )  # thin, not flat
     assert read_series(tmp_path / "thin.xdmf").dim == 3
 
 

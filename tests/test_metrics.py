@@ -1,6 +1,5 @@
 """The metrics of SPEC section 6 against answers derived here, independently of the code."""
 
-
 from mpi4py import MPI
 
 import numpy as np
@@ -60,7 +59,9 @@ def rod_metrics(rod):
 
 
 def smooth(x):
-    return np.array([0.05 * x[1] * np.sin(np.pi * x[0]), -0.03 * x[0] ** 2 + 0.01 * x[1], 0.02 * x[0] * x[2]])
+    return np.array(
+        [0.05 * x[1] * np.sin(np.pi * x[0]), -0.03 * x[0] ** 2 + 0.01 * x[1], 0.02 * x[0] * x[2]]
+    )
 
 
 @pytest.mark.parametrize("case", ["square", "rod"])
@@ -73,9 +74,14 @@ def test_identical_inputs_give_zero(case, request):
     assert abs(values["surface_error"]) < 1e-14
 
 
-@pytest.mark.parametrize("d1, d2", [((0.1, 0.05, 0.02), (0.13, 0.01, -0.03)),
-                                    ((0.1, 0.0, 0.0), (-0.05, 0.0, 0.0)),
-                                    ((0.0, 0.2, 0.1), (0.0, 0.2, 0.1 + 1e-4))])
+@pytest.mark.parametrize(
+    "d1, d2",
+    [
+        ((0.1, 0.05, 0.02), (0.13, 0.01, -0.03)),
+        ((0.1, 0.0, 0.0), (-0.05, 0.0, 0.0)),
+        ((0.0, 0.2, 0.1), (0.0, 0.2, 0.1 + 1e-4)),
+    ],
+)
 @pytest.mark.parametrize("case, lengths", [("square", (1.0, 1.0)), ("rod", ROD)])
 def test_rigid_translations(case, lengths, d1, d2, request):
     """Reference u = d1, candidate u' = d2 everywhere, Δ = d2 - d1:
@@ -88,8 +94,12 @@ def test_rigid_translations(case, lengths, d1, d2, request):
     delta, L = d2 - d1, np.array(lengths)
     volume = np.prod(L)
     values = metrics.evaluate(translation(V, d1), translation(V, d2))
-    assert values["relative_error"] == pytest.approx(np.linalg.norm(delta) / np.linalg.norm(d1), rel=1e-13)
-    assert values["surface_error"] == pytest.approx(2 * (1 - np.prod(1 - np.abs(delta) / L)), rel=1e-10)
+    assert values["relative_error"] == pytest.approx(
+        np.linalg.norm(delta) / np.linalg.norm(d1), rel=1e-13
+    )
+    assert values["surface_error"] == pytest.approx(
+        2 * (1 - np.prod(1 - np.abs(delta) / L)), rel=1e-10
+    )
     E_i = volume ** (1 - 1 / dim) * np.linalg.norm(delta)
     assert values["interior_error"] == pytest.approx(E_i, rel=1e-13)
     assert values["interior_error_nodal"] == pytest.approx(E_i, rel=1e-13)
@@ -116,7 +126,9 @@ def test_rotated_square_overlap(square, square_metrics, theta):
     values = square_metrics.evaluate(zero, rotated)
     assert values["surface_error"] == pytest.approx(exact, rel=1e-12)
     assert np.isnan(values["relative_error"])
-    assert square_metrics.evaluate(rotated, zero)["surface_error"] == pytest.approx(exact, rel=1e-12)
+    assert square_metrics.evaluate(rotated, zero)["surface_error"] == pytest.approx(
+        exact, rel=1e-12
+    )
     assert square_metrics.evaluate(rotated, zero)["relative_error"] == pytest.approx(1.0, rel=1e-14)
 
 
@@ -137,8 +149,12 @@ def test_surface_error_relation_3d(rod, rod_metrics):
     """As in 2D, on the rod with u = (0, y s(x), z r(x)): non-affine, but every boundary face
     stays planar, so the split faces bound exactly the deformed Q1 mesh, whose volume is
     ∫ (1 + s_h)(1 + r_h) dX = ∫ det F dX."""
-    a = owned(rod, lambda x: np.array([0 * x[0], x[1] * 0.3 * x[0] ** 2, x[2] * 0.2 * np.sin(4 * x[0])]))
-    b = owned(rod, lambda x: np.array([0 * x[0], -x[1] * 0.1 * np.cos(5 * x[0]), x[2] * 0.4 * x[0]]))
+    a = owned(
+        rod, lambda x: np.array([0 * x[0], x[1] * 0.3 * x[0] ** 2, x[2] * 0.2 * np.sin(4 * x[0])])
+    )
+    b = owned(
+        rod, lambda x: np.array([0 * x[0], -x[1] * 0.1 * np.cos(5 * x[0]), x[2] * 0.4 * x[0]])
+    )
     vol_a, vol_b = deformed_measure(rod, a), deformed_measure(rod, b)
     ab = rod_metrics.evaluate(a, b)["surface_error"]
     ba = rod_metrics.evaluate(b, a)["surface_error"]
@@ -156,7 +172,9 @@ def test_rod_surface_error_is_exact_for_a_shear(rod, rod_metrics):
     sheared = owned(rod, lambda x: np.array([gamma * x[1], 0 * x[0], 0 * x[0]]))
     values = rod_metrics.evaluate(np.zeros_like(sheared), sheared)
     volume = L * H * D
-    assert values["surface_error"] == pytest.approx(2 * (volume - (L - gamma * H / 2) * H * D) / volume, rel=1e-10)
+    assert values["surface_error"] == pytest.approx(
+        2 * (volume - (L - gamma * H / 2) * H * D) / volume, rel=1e-10
+    )
 
 
 def test_self_intersecting_boundary_is_kept():
@@ -167,18 +185,31 @@ def test_self_intersecting_boundary_is_kept():
     E_s = 1 (or a division by zero)."""
     V = space(dmesh.create_unit_square(MPI.COMM_WORLD, 2, 2, dmesh.CellType.quadrilateral))
     metrics = Metrics(V)
-    folded = owned(V, lambda x: np.array([np.where(np.isclose(x[0], 1) & np.isclose(x[1], 0.5), -1.5, 0.0),
-                                          0 * x[0]]))
+    folded = owned(
+        V,
+        lambda x: np.array(
+            [np.where(np.isclose(x[0], 1) & np.isclose(x[1], 0.5), -1.5, 0.0), 0 * x[0]]
+        ),
+    )
     zero = np.zeros_like(folded)
     assert metrics.evaluate(zero, folded)["surface_error"] == pytest.approx(3 / 4, rel=1e-13)
-    assert metrics.evaluate(folded, zero)["surface_error"] == pytest.approx((3 / 4) / (5 / 12), rel=1e-13)
+    assert metrics.evaluate(folded, zero)["surface_error"] == pytest.approx(
+        (3 / 4) / (5 / 12), rel=1e-13
+    )
 
 
 def test_history_pads_a_shorter_candidate(square, square_metrics):
     d = [translation(square, (0.1 * k, 0.0)) for k in range(4)]
     curves = square_metrics.history(d, [x * 1.5 for x in d[:2]])
-    assert set(curves) == {"relative_error", "surface_error", "interior_error", "interior_error_nodal"}
-    assert np.isnan(curves["relative_error"][0]) and curves["relative_error"][1] == pytest.approx(0.5)
+    assert set(curves) == {
+        "relative_error",
+        "surface_error",
+        "interior_error",
+        "interior_error_nodal",
+    }
+    assert np.isnan(curves["relative_error"][0]) and curves["relative_error"][1] == pytest.approx(
+        0.5
+    )
     assert curves["interior_error"][1] == pytest.approx(0.05)
     assert all(np.isnan(c[2:]).all() and len(c) == 4 for c in curves.values())
 

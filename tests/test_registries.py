@@ -29,7 +29,9 @@ def cantilever(mesh_size: int = 2, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=Non
         start_gmsh()
         gmsh.model.add("cantilever")
         geo = gmsh.model.geo
-        p = [geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (LENGTH, 0), (LENGTH, HEIGHT), (0, HEIGHT)]]
+        p = [
+            geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (LENGTH, 0), (LENGTH, HEIGHT), (0, HEIGHT)]
+        ]
         lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
         surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
         for line, cells in zip(lines, [4 * mesh_size, mesh_size, 4 * mesh_size, mesh_size]):
@@ -41,16 +43,34 @@ def cantilever(mesh_size: int = 2, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=Non
         gmsh.model.addPhysicalGroup(1, [lines[3]], 1, name="clamped")  # x = 0
         gmsh.model.mesh.generate(2)
     tagged = to_dolfinx(comm, gdim=2, msh_path=msh_path)
-    return Benchmark(name="cantilever", tagged=tagged,
-                     constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(2))],
-                     gravity=(0.0, -0.05), material="MP3", dt=1 / 30, end_time=2.0, extent=LENGTH,
-                     mesh_size=mesh_size, probe=(LENGTH, HEIGHT / 2))
+    return Benchmark(
+        name="cantilever",
+        tagged=tagged,
+        constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(2))],
+        gravity=(0.0, -0.05),
+        material="MP3",
+        dt=1 / 30,
+        end_time=2.0,
+        extent=LENGTH,
+        mesh_size=mesh_size,
+        probe=(LENGTH, HEIGHT / 2),
+    )
 
 
-CANTILEVER = Entry(build=cantilever, gdim=2, material="MP3", mesh_size=2, dt=1 / 30, end_time=2.0,
-                   nodes=lambda n: (4 * n + 1) * (n + 1), cell_size=lambda n: HEIGHT / n,
-                   materials=("MP3",), study_sizes=(1, 2), probe=(LENGTH, HEIGHT / 2),
-                   probe_label="free end (1, 0.125) m")
+CANTILEVER = Entry(
+    build=cantilever,
+    gdim=2,
+    material="MP3",
+    mesh_size=2,
+    dt=1 / 30,
+    end_time=2.0,
+    nodes=lambda n: (4 * n + 1) * (n + 1),
+    cell_size=lambda n: HEIGHT / n,
+    materials=("MP3",),
+    study_sizes=(1, 2),
+    probe=(LENGTH, HEIGHT / 2),
+    probe_label="free end (1, 0.125) m",
+)
 
 
 def largest_nodal_error(metrics, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
@@ -75,7 +95,13 @@ def test_new_benchmark_and_metric_run_through_run_and_report(registered, tmp_pat
     status = cli.main(["run", "cantilever", "--end-time", "1", "--out", str(out)])
     assert status == 0, capsys.readouterr().err
     summary = json.loads((out / "summary.json").read_text())
-    assert set(summary["runs"]) == {"implicit", "implicit-lumped", "explicit", "explicit-lumped", "quasi-static"}
+    assert set(summary["runs"]) == {
+        "implicit",
+        "implicit-lumped",
+        "explicit",
+        "explicit-lumped",
+        "quasi-static",
+    }
     assert all(run["status"] == "ok" for run in summary["runs"].values())
     with open(out / "metrics.csv") as f:
         rows = list(csv.DictReader(f))
@@ -99,10 +125,16 @@ def test_new_benchmark_in_the_stability_command(registered, tmp_path, capsys):
     """The eigenvalue prediction of the explicit schemes' critical step, checked by real runs
     just above (diverges) and below (stays bounded) it, on the new benchmark."""
     out = tmp_path / "stability"
-    status = cli.main(["stability", "cantilever", "--no-sweep", "--max-steps", "3000", "--out", str(out)])
+    status = cli.main(
+        ["stability", "cantilever", "--no-sweep", "--max-steps", "3000", "--out", str(out)]
+    )
     assert status == 0, capsys.readouterr().err
     record = json.loads((out / "stability.json").read_text())
     assert record["benchmark"] == "cantilever" and record["cell_size"] == pytest.approx(HEIGHT / 2)
     checks = {(r["algorithm"], r["ratio"] > 1): r["status"] for r in record["run_check"]}
-    assert checks == {("explicit", True): "diverged", ("explicit", False): "ok",
-                      ("explicit-lumped", True): "diverged", ("explicit-lumped", False): "ok"}
+    assert checks == {
+        ("explicit", True): "diverged",
+        ("explicit", False): "ok",
+        ("explicit-lumped", True): "diverged",
+        ("explicit-lumped", False): "ok",
+    }

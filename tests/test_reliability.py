@@ -36,7 +36,9 @@ def one_line_error(result, status=2):
 
 def tree(path):
     """Every file below path with its bytes, to show that nothing was touched."""
-    return {str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()
+    }
 
 
 # --- 1. a folder that is not ours is never touched ------------------------------------------
@@ -57,8 +59,23 @@ def test_current_folder_and_its_parents_are_refused(tmp_path, out):
     work = tmp_path / "work"
     work.mkdir()
     (work / "notes.txt").write_text("keep")
-    r = subprocess.run([sys.executable, "-m", "tissuebench.workflows.cli", "run", "block", *map(str, SMALL),
-                        "--algorithms", "implicit", "--out", out], cwd=work, capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tissuebench.workflows.cli",
+            "run",
+            "block",
+            *map(str, SMALL),
+            "--algorithms",
+            "implicit",
+            "--out",
+            out,
+        ],
+        cwd=work,
+        capture_output=True,
+        text=True,
+    )
     assert "holds the current folder" in one_line_error(r)
     assert tree(tmp_path) == {"work/notes.txt": b"keep"}
 
@@ -78,16 +95,35 @@ def test_unwritable_and_dangling_outputs_are_refused_before_work(tmp_path):
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_diverging_reference_is_recorded(tmp_path, ranks):
     out = tmp_path / "o" / "x"
-    r = tissuebench("run", "block", *SMALL, "--algorithms", "implicit,quasi-static", "--petsc",
-                    DIVERGING_REFERENCE, "--out", out, ranks=ranks)
+    r = tissuebench(
+        "run",
+        "block",
+        *SMALL,
+        "--algorithms",
+        "implicit,quasi-static",
+        "--petsc",
+        DIVERGING_REFERENCE,
+        "--out",
+        out,
+        ranks=ranks,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     summary = json.loads((out / "summary.json").read_text())
     ref = summary["runs"]["implicit"]
-    assert ref["status"] == "diverged" and ref["diverged_step"] == 1 and "did not converge" in ref["reason"]
+    assert (
+        ref["status"] == "diverged"
+        and ref["diverged_step"] == 1
+        and "did not converge" in ref["reason"]
+    )
     assert summary["runs"]["quasi-static"]["status"] == "ok"
     c, s = curves(out / "metrics.csv"), statuses(out / "metrics.csv")
     assert np.all(np.isnan(c["quasi-static"][1:, 2:]))  # nothing to measure against from step 1 on
-    assert s["quasi-static"] == ["ok", "reference diverged", "reference diverged", "reference diverged"]
+    assert s["quasi-static"] == [
+        "ok",
+        "reference diverged",
+        "reference diverged",
+        "reference diverged",
+    ]
     assert s["implicit"] == ["ok", "diverged", "diverged", "diverged"]
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["x"]  # no partial folder, no lock
 
@@ -100,8 +136,12 @@ def test_stiff_material_diverges_explicit_schemes_only(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     runs = json.loads((out / "summary.json").read_text())["runs"]
     assert {k: v["status"] for k, v in runs.items()} == {
-        "implicit": "ok", "implicit-lumped": "ok", "explicit": "diverged", "explicit-lumped": "diverged",
-        "quasi-static": "ok"}
+        "implicit": "ok",
+        "implicit-lumped": "ok",
+        "explicit": "diverged",
+        "explicit-lumped": "diverged",
+        "quasi-static": "ok",
+    }
 
 
 # --- 3. one writer per folder ----------------------------------------------------------------
@@ -114,8 +154,12 @@ def test_second_writer_is_refused_and_stale_lock_taken_over(tmp_path):
     r = tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out)
     assert "another tissuebench run is writing it" in one_line_error(r)
     assert not out.exists() and lock.exists()
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
-    lock.write_text(json.dumps({"pid": int(dead.stdout), "host": os.uname().nodename, "since": "then"}))
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    )
+    lock.write_text(
+        json.dumps({"pid": int(dead.stdout), "host": os.uname().nodename, "since": "then"})
+    )
     r = tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out)
     assert r.returncode == 0, r.stderr[-2000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
@@ -125,8 +169,13 @@ def start(args, ranks=1):
     cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]
     if ranks > 1:
         cmd = [mpiexec(), "-n", str(ranks), *cmd]
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=dict(os.environ, OMP_NUM_THREADS="1"))
+    return subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, OMP_NUM_THREADS="1"),
+    )
 
 
 def wait_for(path, process, seconds=120):
@@ -140,8 +189,15 @@ def wait_for(path, process, seconds=120):
 LONG_RUN = ("run", "block", "--mesh-size", 16, "--end-time", 300, "--algorithms", "implicit")
 
 
-@pytest.mark.parametrize("ranks, sig, status", [(1, signal.SIGINT, 130), (1, signal.SIGTERM, 143),
-                                                (2, signal.SIGINT, 130), (2, signal.SIGTERM, 143)])
+@pytest.mark.parametrize(
+    "ranks, sig, status",
+    [
+        (1, signal.SIGINT, 130),
+        (1, signal.SIGTERM, 143),
+        (2, signal.SIGINT, 130),
+        (2, signal.SIGTERM, 143),
+    ],
+)
 def test_concurrent_run_refused_then_signal_cleans_up(tmp_path, ranks, sig, status):
     """While a run writes, a second one into the same folder is refused; a signal then ends
     the first with one line and its status, the partial folder and the lock removed."""
@@ -158,9 +214,14 @@ def test_concurrent_run_refused_then_signal_cleans_up(tmp_path, ranks, sig, stat
         first.kill()
     assert first.returncode == status, stderr[-2000:]
     # under mpiexec, MPICH adds its own line for the MPI_Abort that ends the other rank
-    lines = [line for line in stderr.replace("\r", "\n").splitlines()
-             if line.strip() and "%|" not in line and "application called MPI_Abort" not in line]
-    assert len(lines) == 1 and ("interrupted" if sig == signal.SIGINT else "terminated") in lines[0], stderr[-2000:]
+    lines = [
+        line
+        for line in stderr.replace("\r", "\n").splitlines()
+        if line.strip() and "%|" not in line and "application called MPI_Abort" not in line
+    ]
+    assert (
+        len(lines) == 1 and ("interrupted" if sig == signal.SIGINT else "terminated") in lines[0]
+    ), stderr[-2000:]
     assert tree(tmp_path) == {"keep.txt": b"mine"}
 
 
@@ -185,7 +246,10 @@ def test_changed_material_is_not_skipped(tmp_path):
 
 def test_paper_refuses_a_case_folder_of_other_inputs(tmp_path):
     run = tmp_path / "one"
-    assert tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", run).returncode == 0
+    assert (
+        tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", run).returncode
+        == 0
+    )
     results = tmp_path / "results"
     results.mkdir()
     os.rename(run, results / "block-MP1")
@@ -205,12 +269,15 @@ def test_paper_keeps_a_readme_it_did_not_write(tmp_path):
 # --- 5, 6. sizes, and a full disk ------------------------------------------------------------
 
 
-@pytest.mark.parametrize("args, message", [
-    (("run", "block", "--mesh-size", 100000), "of memory"),
-    (("run", "block", "--end-time", "1e12"), "steps, more than"),
-    (("run", "block", "--dt", "1e-300", "--end-time", "1e300"), "inf steps"),
-    (("mesh", "rod", "--mesh-size", 100000), "of memory"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("run", "block", "--mesh-size", 100000), "of memory"),
+        (("run", "block", "--end-time", "1e12"), "steps, more than"),
+        (("run", "block", "--dt", "1e-300", "--end-time", "1e300"), "inf steps"),
+        (("mesh", "rod", "--mesh-size", 100000), "of memory"),
+    ],
+)
 def test_cases_that_cannot_fit_are_refused_at_once(tmp_path, args, message):
     out = tmp_path / ("m.msh" if args[0] == "mesh" else "out")
     started = time.monotonic()
@@ -222,10 +289,16 @@ def test_cases_that_cannot_fit_are_refused_at_once(tmp_path, args, message):
 def test_estimate_grows_with_the_case():
     from tissuebench.workflows.limits import estimate
 
-    small, fine, long = estimate(2, 21**2, 300, 5), estimate(2, 41**2, 300, 5), estimate(2, 21**2, 600, 5)
+    small, fine, long = (
+        estimate(2, 21**2, 300, 5),
+        estimate(2, 41**2, 300, 5),
+        estimate(2, 21**2, 600, 5),
+    )
     assert small.memory < fine.memory and small.disk < fine.disk and small.disk < long.disk
     # the series on disk: u and v, 3 components of float64 per node and step
-    assert long.disk - small.disk == pytest.approx(5 * 300 * (2 * 21**2 * 3 * 8 + 2 * 700 + 2 * 150))
+    assert long.disk - small.disk == pytest.approx(
+        5 * 300 * (2 * 21**2 * 3 * 8 + 2 * 700 + 2 * 150)
+    )
 
 
 @pytest.fixture
@@ -233,7 +306,9 @@ def tiny_disk(tmp_path):
     """A 2 MB tmpfs (root only; skipped where mounting is not allowed)."""
     mount = tmp_path / "tiny"
     mount.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(mount)], capture_output=True)
+    r = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(mount)], capture_output=True
+    )
     if r.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {r.stderr.decode().strip()}")
     yield mount
@@ -253,10 +328,25 @@ def test_disk_filling_up_while_writing_ends_in_one_line(tiny_disk, monkeypatch, 
 
     monkeypatch.setattr(limits, "FIGURES", 0.0)
     (tiny_disk / "filler").write_bytes(b"\0" * 1_600_000)
-    status = cli.main(["run", "block", "--mesh-size", "8", "--end-time", "1", "--algorithms", "implicit",
-                       "--out", str(tiny_disk / "run")])
-    err = [line for line in capsys.readouterr().err.replace("\r", "\n").splitlines()
-           if line.strip() and "%|" not in line]
+    status = cli.main(
+        [
+            "run",
+            "block",
+            "--mesh-size",
+            "8",
+            "--end-time",
+            "1",
+            "--algorithms",
+            "implicit",
+            "--out",
+            str(tiny_disk / "run"),
+        ]
+    )
+    err = [
+        line
+        for line in capsys.readouterr().err.replace("\r", "\n").splitlines()
+        if line.strip() and "%|" not in line
+    ]
     assert status == 1 and len(err) == 1 and "no space left on the device" in err[0], err
     assert sorted(p.name for p in tiny_disk.iterdir()) == ["filler"]
 
@@ -264,13 +354,19 @@ def test_disk_filling_up_while_writing_ends_in_one_line(tiny_disk, monkeypatch, 
 # --- 7, 8. one line instead of a traceback; options that do not apply -----------------------
 
 
-@pytest.mark.parametrize("args, message", [
-    (("run", "block", *SMALL, "--petsc", "-implicit_ksp_type nonsense"), "Unable to find requested KSP type nonsense"),
-    (("run", "block", *SMALL, "--petsc", "implicit_ksp_type cg"), "expected -name [value]"),
-    (("convergence", "--end-time", "nan"), "positive multiple"),
-    (("run", "rod", "--plane", "stress"), "--plane applies to 2D benchmarks only"),
-    (("run", "rod", "--needle-width", "0.1"), "--needle-width does not apply to rod"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (
+            ("run", "block", *SMALL, "--petsc", "-implicit_ksp_type nonsense"),
+            "Unable to find requested KSP type nonsense",
+        ),
+        (("run", "block", *SMALL, "--petsc", "implicit_ksp_type cg"), "expected -name [value]"),
+        (("convergence", "--end-time", "nan"), "positive multiple"),
+        (("run", "rod", "--plane", "stress"), "--plane applies to 2D benchmarks only"),
+        (("run", "rod", "--needle-width", "0.1"), "--needle-width does not apply to rod"),
+    ],
+)
 def test_refused_in_one_line(tmp_path, args, message):
     r = tissuebench(*args, "--out", tmp_path / "out")
     assert message in one_line_error(r)
@@ -279,21 +375,34 @@ def test_refused_in_one_line(tmp_path, args, message):
 
 def test_mesh_never_replaces_a_folder_or_an_existing_file(tmp_path):
     (tmp_path / "m.msh").mkdir()
-    assert "is a folder" in one_line_error(tissuebench("mesh", "block", "--out", tmp_path / "m.msh"))
+    assert "is a folder" in one_line_error(
+        tissuebench("mesh", "block", "--out", tmp_path / "m.msh")
+    )
     (tmp_path / "b.msh").write_text("mine")
-    assert "--force replaces it" in one_line_error(tissuebench("mesh", "block", "--out", tmp_path / "b.msh"))
+    assert "--force replaces it" in one_line_error(
+        tissuebench("mesh", "block", "--out", tmp_path / "b.msh")
+    )
     assert (tmp_path / "b.msh").read_text() == "mine"
     r = tissuebench("mesh", "block", "--mesh-size", 4, "--out", tmp_path / "b.msh", "--force")
     assert r.returncode == 0 and (tmp_path / "b.msh").read_text().startswith("$MeshFormat")
 
 
-@pytest.mark.parametrize("text, message", [
-    ("E = 1" + "0" * 400 + "\nnu = 0.3\nrho = 1000\n", "E must be a finite number"),
-    ("E = " + "[" * 5000 + "]" * 5000 + "\nnu = 0.3\nrho = 1000\n", "nested too deeply"),
-    ('name = "' + "x" * 100_000 + '"\nE = 1\nnu = 0.3\nrho = 1000\n', "bytes; a material takes at most"),
-    ('name = "' + "x" * 100 + '"\nE = 1\nnu = 0.3\nrho = 1000\n', "name must be printable text of 1 to 64"),
-    ('name = "a\\u0007b"\nE = 1\nnu = 0.3\nrho = 1000\n', "name must be printable text"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("E = 1" + "0" * 400 + "\nnu = 0.3\nrho = 1000\n", "E must be a finite number"),
+        ("E = " + "[" * 5000 + "]" * 5000 + "\nnu = 0.3\nrho = 1000\n", "nested too deeply"),
+        (
+            'name = "' + "x" * 100_000 + '"\nE = 1\nnu = 0.3\nrho = 1000\n',
+            "bytes; a material takes at most",
+        ),
+        (
+            'name = "' + "x" * 100 + '"\nE = 1\nnu = 0.3\nrho = 1000\n',
+            "name must be printable text of 1 to 64",
+        ),
+        ('name = "a\\u0007b"\nE = 1\nnu = 0.3\nrho = 1000\n', "name must be printable text"),
+    ],
+)
 def test_hostile_material_files(tmp_path, text, message):
     path = tmp_path / "m.toml"
     path.write_text(text)
@@ -302,10 +411,24 @@ def test_hostile_material_files(tmp_path, text, message):
 
 
 def test_end_time_that_h_does_not_divide_is_said(tmp_path):
-    r = tissuebench("run", "block", "--mesh-size", 4, "--dt", 0.03, "--end-time", 0.1, "--algorithms", "implicit",
-                    "--out", tmp_path / "r")
+    r = tissuebench(
+        "run",
+        "block",
+        "--mesh-size",
+        4,
+        "--dt",
+        0.03,
+        "--end-time",
+        0.1,
+        "--algorithms",
+        "implicit",
+        "--out",
+        tmp_path / "r",
+    )
     assert r.returncode == 0 and "running 3 steps to t = 0.09 s" in r.stdout
-    assert json.loads((tmp_path / "r" / "summary.json").read_text())["end_time"] == pytest.approx(0.09)
+    assert json.loads((tmp_path / "r" / "summary.json").read_text())["end_time"] == pytest.approx(
+        0.09
+    )
 
 
 # --- 10, 11. ParaView precision; MUMPS failures ----------------------------------------------
@@ -313,7 +436,10 @@ def test_end_time_that_h_does_not_divide_is_said(tmp_path):
 
 def test_xdmf_states_float64_on_every_dataitem(tmp_path):
     out = tmp_path / "r"
-    assert tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out).returncode == 0
+    assert (
+        tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out).returncode
+        == 0
+    )
     items = list(ET.parse(out / "implicit.xdmf").getroot().iter("DataItem"))
     assert len(items) == 2 + 2 * 4  # geometry, topology; displacement and velocity at 4 steps
     assert all(item.get("Precision") == "8" for item in items)
@@ -334,5 +460,7 @@ def test_mumps_failure_is_a_divergence_with_its_reason():
     solve = KSPSolve(A, "singular_", "direct")
     b = A.createVecLeft()
     b.set(1.0)
-    with pytest.raises(SolveError, match=r"MUMPS factorisation failed for singular_: INFOG\(1\) = -10"):
+    with pytest.raises(
+        SolveError, match=r"MUMPS factorisation failed for singular_: INFOG\(1\) = -10"
+    ):
         solve(b, b.duplicate())

@@ -55,7 +55,9 @@ def box(n=(4, 2, 2), size=(0.5, 0.25, 0.25)):
     """Nodes of a structured box and its boundary quadrilaterals, each ordered counter-clockwise
     seen from outside (built here, independently of metrics/boundary.py)."""
     nx, ny, nz = n
-    grid = np.stack(np.meshgrid(*(np.linspace(0, s, k + 1) for s, k in zip(size, n)), indexing="ij"), axis=-1)
+    grid = np.stack(
+        np.meshgrid(*(np.linspace(0, s, k + 1) for s, k in zip(size, n)), indexing="ij"), axis=-1
+    )
     X = grid.reshape(-1, 3)
     index = np.arange(len(X)).reshape(nx + 1, ny + 1, nz + 1)
     centre = np.array(size) / 2
@@ -113,21 +115,40 @@ def test_round_off_below_zero_is_clipped_and_real_volumes_are_kept():
 def test_divergence_line_is_at_the_diverged_time_the_legend_gives():
     h, n, k = 0.1, 30, 12  # diverged at step 12: NaN from step 12 on
     times = np.arange(n + 1) * h
-    curves = {label: {name: np.linspace(1e-4, 1e-2, n + 1) for name in NAMES} for label in ("ref", "a", "b")}
+    curves = {
+        label: {name: np.linspace(1e-4, 1e-2, n + 1) for name in NAMES}
+        for label in ("ref", "a", "b")
+    }
     for name in NAMES:
         curves["b"][name][k:] = np.nan
-    run = {"status": "ok", "diverged_step": None, "diverged_time": None, "material": "MP2", "algorithm": "x"}
-    summary = {"h": h, "num_dofs": 10, "runs": {
-        "ref": dict(run), "a": dict(run),
-        "b": dict(run, status="diverged", diverged_step=k, diverged_time=k * h)}}
-    fig = figures.error_figure(SimpleNamespace(name="case", reference="ref"), summary, times, curves)
+    run = {
+        "status": "ok",
+        "diverged_step": None,
+        "diverged_time": None,
+        "material": "MP2",
+        "algorithm": "x",
+    }
+    summary = {
+        "h": h,
+        "num_dofs": 10,
+        "runs": {
+            "ref": dict(run),
+            "a": dict(run),
+            "b": dict(run, status="diverged", diverged_step=k, diverged_time=k * h),
+        },
+    }
+    fig = figures.error_figure(
+        SimpleNamespace(name="case", reference="ref"), summary, times, curves
+    )
     for ax in fig.axes[:3]:
         marks = [line for line in ax.get_lines() if line.get_gid() == "diverged:b"]
         assert len(marks) == 1 and np.allclose(marks[0].get_xdata(), k * h)
         assert not any(line.get_gid() == "diverged:a" for line in ax.get_lines())
         curve = next(line for line in ax.get_lines() if line.get_label().startswith("b"))
         x, y = np.asarray(curve.get_xdata()), np.asarray(curve.get_ydata())
-        assert x[np.isfinite(y)].max() == pytest.approx((k - 1) * h)  # the curve ends one step before
+        assert x[np.isfinite(y)].max() == pytest.approx(
+            (k - 1) * h
+        )  # the curve ends one step before
     legend = [t.get_text() for t in fig.legends[0].get_texts()]
     assert any(f"t = {k * h:.3g} s" in text and "diverged at step 12" in text for text in legend)
 
@@ -148,13 +169,32 @@ def write_case(folder, curves, h=1 / 30):
                 w.writerow([label, i, i * h, *(c[m][i] for m in NAMES), "ok"])
     runs = {}
     for label, c in curves.items():
-        runs[label] = {"status": "ok", "diverged_step": None, "diverged_time": None, "wall_time_s": 0.0,
-                       "algorithm": label.removesuffix("-MP1").removesuffix("-MP2"),
-                       "material": "MP1" if label.endswith("-MP1") else "MP2" if label.endswith("-MP2") else "MP1"}
+        runs[label] = {
+            "status": "ok",
+            "diverged_step": None,
+            "diverged_time": None,
+            "wall_time_s": 0.0,
+            "algorithm": label.removesuffix("-MP1").removesuffix("-MP2"),
+            "material": "MP1"
+            if label.endswith("-MP1")
+            else "MP2"
+            if label.endswith("-MP2")
+            else "MP1",
+        }
         for m in NAMES:
             v = np.asarray(c[m][1:], dtype=float)
-            runs[label][f"{m}_mean"], runs[label][f"{m}_max"] = float(np.nanmean(v)), float(np.nanmax(v))
-    return {"reference": next(iter(curves)), "end_time": n * h, "steps": n, "h": h, "mesh_size": 20, "runs": runs}
+            runs[label][f"{m}_mean"], runs[label][f"{m}_max"] = (
+                float(np.nanmean(v)),
+                float(np.nanmax(v)),
+            )
+    return {
+        "reference": next(iter(curves)),
+        "end_time": n * h,
+        "steps": n,
+        "h": h,
+        "mesh_size": 20,
+        "runs": runs,
+    }
 
 
 def flat(values, n, first=None):
@@ -166,23 +206,42 @@ def flat(values, n, first=None):
 
 
 def block_curves(n, explicit_first):
-    levels = {"implicit": 0.0, "explicit": 0.001, "implicit-lumped": 0.05, "explicit-lumped": 0.1, "quasi-static": 0.5}
-    return {a: {m: flat(v, n, explicit_first if a == "explicit" and m == "relative_error" else None) for m in NAMES}
-            for a, v in levels.items()}
+    levels = {
+        "implicit": 0.0,
+        "explicit": 0.001,
+        "implicit-lumped": 0.05,
+        "explicit-lumped": 0.1,
+        "quasi-static": 0.5,
+    }
+    return {
+        a: {
+            m: flat(v, n, explicit_first if a == "explicit" and m == "relative_error" else None)
+            for m in NAMES
+        }
+        for a, v in levels.items()
+    }
 
 
 def test_claim_1_states_both_readings_when_they_disagree(tmp_path):
     n = 100  # explicit: E_n 1.0 at step 1, then 0.001: smallest time-mean (0.011), largest maximum
     s = write_case(tmp_path / "block-MP1", block_curves(n, explicit_first=1.0))
-    assert s["runs"]["explicit"]["relative_error_mean"] < s["runs"]["implicit-lumped"]["relative_error_mean"]
-    assert s["runs"]["explicit"]["relative_error_max"] > s["runs"]["quasi-static"]["relative_error_max"]
+    assert (
+        s["runs"]["explicit"]["relative_error_mean"]
+        < s["runs"]["implicit-lumped"]["relative_error_mean"]
+    )
+    assert (
+        s["runs"]["explicit"]["relative_error_max"]
+        > s["runs"]["quasi-static"]["relative_error_max"]
+    )
     text = report.claims(tmp_path, {"block-MP1": s})
     claim1 = text.split("\n2. ")[0]
     assert "E_n: time-mean explicit 0.011" in claim1 and "maximum explicit 1," in claim1
     assert claim1.count(": holds") == 5 and claim1.count(": does not hold") == 1  # E_n maximum only
     assert "**holds** on the time-mean" in claim1
     assert "does not hold for E_n" in claim1 and "rests on the time-mean" in claim1
-    assert "only step 1 (to t = 0.0333 s) breaks it" in claim1  # from step 2 on the maxima are in order
+    assert (
+        "only step 1 (to t = 0.0333 s) breaks it" in claim1
+    )  # from step 2 on the maxima are in order
 
 
 def test_claim_1_says_when_both_readings_agree(tmp_path):
@@ -196,12 +255,17 @@ def test_claim_5_states_both_readings_when_they_disagree(tmp_path):
     curves = {"implicit-MP2": {m: flat(0.0, n) for m in NAMES}}
     for a in ("implicit", "explicit", "quasi-static"):
         curves[f"{a}-MP1"] = {m: flat(0.4, n) for m in NAMES}
-    curves["quasi-static-MP2"] = {m: flat(1e-4, n, 0.2 if m == "relative_error" else None) for m in NAMES}
+    curves["quasi-static-MP2"] = {
+        m: flat(1e-4, n, 0.2 if m == "relative_error" else None) for m in NAMES
+    }
     s = write_case(tmp_path / "block-MP2-vs-MP1", curves)
     claim5 = report.claims(tmp_path, {"block-MP2-vs-MP1": s})
     mean_ratio = 0.4 / ((0.2 + 1e-4 * (n - 1)) / n)
     assert f"{mean_ratio:.3g} times larger, holds" in claim5
-    assert "maximum quasi-static MP2 0.2, smallest MP1" in claim5 and "2 times larger, does not hold" in claim5
+    assert (
+        "maximum quasi-static MP2 0.2, smallest MP1" in claim5
+        and "2 times larger, does not hold" in claim5
+    )
     assert "**holds** on the time-mean" in claim5 and "does not hold for E_n" in claim5
     assert "maximum is at step 1" in claim5 and "rests on the time-mean" in claim5
 

@@ -17,13 +17,29 @@ from helpers import run_script
 from tissuebench.meshes import get_benchmark
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.stability import critical_dt, explicit_schemes, newmark_schemes, run_check, mode_critical_h, omega_range, stability_limits
+from tissuebench.solvers.stability import (
+    critical_dt,
+    explicit_schemes,
+    newmark_schemes,
+    run_check,
+    mode_critical_h,
+    omega_range,
+    stability_limits,
+)
 from tissuebench.solvers.system import System
-from tissuebench.solvers.convergence import METRICS, difference_orders, interpolate, orders, time_study
+from tissuebench.solvers.convergence import (
+    METRICS,
+    difference_orders,
+    interpolate,
+    orders,
+    time_study,
+)
 from tissuebench.workflows import convergence, stability
 from tissuebench.workflows.errors import UserError
 
-serial_only = pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial")
+serial_only = pytest.mark.skipif(
+    MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial"
+)
 
 
 def system(bench, size, material):
@@ -66,7 +82,9 @@ def hughes_limit(zeta, beta_N, gamma):
     beta = beta_N / 2 (Hughes, The Finite Element Method, section 9.1):
     [zeta (gamma - 1/2) + sqrt(gamma/2 - beta + zeta^2 (gamma - 1/2)^2)] / (gamma/2 - beta)."""
     beta = beta_N / 2
-    return (zeta * (gamma - 0.5) + math.sqrt(gamma / 2 - beta + zeta**2 * (gamma - 0.5) ** 2)) / (gamma / 2 - beta)
+    return (zeta * (gamma - 0.5) + math.sqrt(gamma / 2 - beta + zeta**2 * (gamma - 0.5) ** 2)) / (
+        gamma / 2 - beta
+    )
 
 
 @pytest.mark.parametrize("zeta", [0.0, 0.2, 1.0, 5.0, 150.0])
@@ -85,7 +103,9 @@ def test_trapezoidal_rule_is_unconditionally_stable(zeta):
 def test_central_difference_limit_is_two_over_omega_max():
     """gamma = 1/2: the limit does not depend on the damping, so it is set by omega_max alone."""
     for name in ("explicit", "explicit-lumped"):
-        assert critical_dt(name, get_material("MP2"), 20.0, 3000.0) == pytest.approx(2 / 3000.0, rel=1e-8)
+        assert critical_dt(name, get_material("MP2"), 20.0, 3000.0) == pytest.approx(
+            2 / 3000.0, rel=1e-8
+        )
     assert critical_dt("implicit", get_material("MP2"), 20.0, 3000.0) == math.inf
 
 
@@ -102,11 +122,17 @@ SPEC_TABLE = {
 def test_schemes_are_the_spec_and_the_integrators():
     """The registry's scheme data is SPEC section 2's table, and the integrators that run use it."""
     schemes = newmark_schemes()
-    assert {name: (a.beta_N, a.gamma, a.mass, a.stiffness_damping) for name, a in schemes.items()} == SPEC_TABLE
+    assert {
+        name: (a.beta_N, a.gamma, a.mass, a.stiffness_damping) for name, a in schemes.items()
+    } == SPEC_TABLE
     s = system("block", 4, "MP1")
     for name, scheme in schemes.items():
         integrator = get_integrator(name, s, 0.01)
-        assert (integrator.beta_N, integrator.gamma, integrator.lumped) == (scheme.beta_N, scheme.gamma, scheme.lumped)
+        assert (integrator.beta_N, integrator.gamma, integrator.lumped) == (
+            scheme.beta_N,
+            scheme.gamma,
+            scheme.lumped,
+        )
         assert integrator.alpha == s.material.alpha
         assert integrator.beta == (s.material.beta if scheme.stiffness_damping else 0.0)
 
@@ -176,8 +202,15 @@ def test_serial_and_two_ranks_agree():
 
 
 def test_stability_command_writes_json(tmp_path):
-    args = argparse.Namespace(benchmark="block", material="MP1", mesh_size=4, out=str(tmp_path), margin=0.05,
-                              max_steps=20_000, no_sweep=True)
+    args = argparse.Namespace(
+        benchmark="block",
+        material="MP1",
+        mesh_size=4,
+        out=str(tmp_path),
+        margin=0.05,
+        max_steps=20_000,
+        no_sweep=True,
+    )
     assert stability.main(args) == 0
     record = json.loads((tmp_path / "stability.json").read_text())
     assert (record["benchmark"], record["material"], record["mesh_size"]) == ("block", "MP1", 4)
@@ -190,8 +223,15 @@ def test_stability_command_writes_json(tmp_path):
 
 
 def test_bad_options_are_usage_errors(tmp_path):
-    args = argparse.Namespace(benchmark="block", material="MP1", mesh_size=4, out=str(tmp_path), margin=1.5,
-                              max_steps=10, no_sweep=True)
+    args = argparse.Namespace(
+        benchmark="block",
+        material="MP1",
+        mesh_size=4,
+        out=str(tmp_path),
+        margin=1.5,
+        max_steps=10,
+        no_sweep=True,
+    )
     with pytest.raises(UserError, match="margin"):
         stability.main(args)
     with pytest.raises(UserError, match="end-time"):

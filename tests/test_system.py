@@ -72,7 +72,9 @@ def test_rigid_body_modes_have_zero_energy(name, size):
         assert Kr.norm() < 1e-12 * scale
 
 
-@pytest.mark.parametrize("name, size, plane", [("block", 4, "strain"), ("block", 4, "stress"), ("rod", 2, "strain")])
+@pytest.mark.parametrize(
+    "name, size, plane", [("block", 4, "strain"), ("block", 4, "stress"), ("rod", 2, "strain")]
+)
 def test_patch_linear_field(name, size, plane):
     """u = A x: the stress is the constant 2 mu sym(A) + lambda tr(A) I in every cell, and
     K u vanishes at nodes away from the boundary (no body force)."""
@@ -91,6 +93,7 @@ def test_patch_linear_field(name, size, plane):
         assert abs(expected[1, 1]) < 1e-12 * s.material.E
     cell = s.mesh.basix_cell()
     import basix
+
     points = basix.create_lattice(cell, 2, basix.LatticeType.equispaced, True)
     expr = fem.Expression(sigma(u, s.mu, s.lmbda), points)
     cells = np.arange(s.mesh.topology.index_map(d).size_local, dtype=np.int32)
@@ -104,7 +107,10 @@ def test_patch_linear_field(name, size, plane):
     interior = np.all((x > 1e-9) & (x < hi - 1e-9), axis=1)
     r = Ku.array.reshape(-1, d)[interior]
     assert comm.allreduce(len(r)) > 0
-    assert comm.allreduce(float(np.abs(r).max(initial=0)), op=MPI.MAX) < 1e-12 * s.K.norm() * np.abs(A).max()
+    assert (
+        comm.allreduce(float(np.abs(r).max(initial=0)), op=MPI.MAX)
+        < 1e-12 * s.K.norm() * np.abs(A).max()
+    )
 
 
 def test_node_counts_and_needle():
@@ -124,7 +130,10 @@ def test_node_counts_and_needle():
     x = tagged.mesh.geometry.x
     tagged.mesh.topology.create_connectivity(0, 2)
     from dolfinx.mesh import entities_to_geometry
-    coords = x[entities_to_geometry(tagged.mesh, 0, owned).ravel()] if len(owned) else np.zeros((0, 3))
+
+    coords = (
+        x[entities_to_geometry(tagged.mesh, 0, owned).ravel()] if len(owned) else np.zeros((0, 3))
+    )
     found = comm.allgather(coords)
     coords = np.concatenate(found)
     assert np.allclose(coords[0, :2], [1.0, 0.5])
@@ -140,7 +149,9 @@ def test_needle_width_takes_right_edge_nodes():
 
 def test_materials_and_refusals(tmp_path):
     assert get_material("MP2").E == 60_000 and MATERIALS["MP3"].rho == 10_000
-    assert Material("x", 1.0, 0.3, 1.0).lame("strain") == pytest.approx((1 / 2.6, 0.3 / (1.3 * 0.4)))
+    assert Material("x", 1.0, 0.3, 1.0).lame("strain") == pytest.approx(
+        (1 / 2.6, 0.3 / (1.3 * 0.4))
+    )
     good = tmp_path / "liver.toml"
     good.write_text('name = "liver"\nE = 640.0\nnu = 0.45\nrho = 1060\nalpha = 1.0\nbeta = 0.1\n')
     assert get_material(str(good)).E == 640.0
@@ -167,14 +178,17 @@ def test_materials_and_refusals(tmp_path):
         Material("x", 1.0, 0.3, 1.0).lame("axisymmetric")
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(name="block", mesh_size=5), "must be even"),
-    (dict(name="block", mesh_size=0), "positive whole number"),
-    (dict(name="rod", mesh_size=-2), "positive whole number"),
-    (dict(name="block", mesh_size=2.5), "positive whole number"),
-    (dict(name="block", needle_width=1.5), "needle width"),
-    (dict(name="sphere"), "unknown benchmark"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(name="block", mesh_size=5), "must be even"),
+        (dict(name="block", mesh_size=0), "positive whole number"),
+        (dict(name="rod", mesh_size=-2), "positive whole number"),
+        (dict(name="block", mesh_size=2.5), "positive whole number"),
+        (dict(name="block", needle_width=1.5), "needle width"),
+        (dict(name="sphere"), "unknown benchmark"),
+    ],
+)
 def test_mesh_refusals(kwargs, message):
     with pytest.raises(MeshError, match=message):
         get_benchmark(**kwargs)
@@ -198,7 +212,9 @@ def test_norms_serial_equal_parallel():
     parallel = run_script("mpi_system.py", ranks=2)
     assert serial["norms"].keys() == parallel["norms"].keys()
     for key in serial["norms"]:
-        assert parallel["norms"][key] == pytest.approx(serial["norms"][key], rel=1e-12, abs=1e-300), key
+        assert parallel["norms"][key] == pytest.approx(
+            serial["norms"][key], rel=1e-12, abs=1e-300
+        ), key
     for result in (serial, parallel):
         assert len(result["kernel"]) == 6
         for key, diff in result["kernel"].items():

@@ -22,18 +22,29 @@ def positive(text: str) -> float:
 
 
 def add_common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--solver", default="direct", help=f"linear solver: {', '.join(SOLVERS)} (default direct)")
-    p.add_argument("--petsc", default="", metavar="OPTIONS",
-                   help='PETSc options, prefixed per integrator, e.g. "-implicit_ksp_type cg -implicit_pc_type gamg"')
-    p.add_argument("--force", action="store_true",
-                   help="rerun and replace results that tissuebench wrote, even complete ones or ones of other inputs")
+    p.add_argument(
+        "--solver", default="direct", help=f"linear solver: {', '.join(SOLVERS)} (default direct)"
+    )
+    p.add_argument(
+        "--petsc",
+        default="",
+        metavar="OPTIONS",
+        help='PETSc options, prefixed per integrator, e.g. "-implicit_ksp_type cg -implicit_pc_type gamg"',
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="rerun and replace results that tissuebench wrote, even complete ones or ones of other inputs",
+    )
 
 
 def parse_algorithms(text: str) -> list[str]:
     names = [a.strip() for a in text.split(",") if a.strip()]
     unknown = [a for a in names if a not in ALGORITHMS]
     if unknown or not names:
-        raise UserError(f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}")
+        raise UserError(
+            f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}"
+        )
     return names
 
 
@@ -55,11 +66,17 @@ def add_benchmark_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entr
             takers.setdefault(option, []).append(name)
             helps[option] = text
     for option, names in takers.items():
-        p.add_argument(f"--{option.replace('_', '-')}", type=float, dest=option,
-                       help=f"{' and '.join(names)} only: {helps[option]}")
+        p.add_argument(
+            f"--{option.replace('_', '-')}",
+            type=float,
+            dest=option,
+            help=f"{' and '.join(names)} only: {helps[option]}",
+        )
 
 
-def benchmark_options(args: argparse.Namespace, benchmark: str, benchmarks: dict[str, Entry]) -> dict:
+def benchmark_options(
+    args: argparse.Namespace, benchmark: str, benchmarks: dict[str, Entry]
+) -> dict:
     """The benchmark's own options given on the command line; refuse those it does not take,
     and --plane for a benchmark that is not 2D."""
     entry = benchmarks[benchmark]

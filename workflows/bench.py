@@ -28,13 +28,14 @@ from tissuebench.workflows.errors import UserError
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "bench", help="speed against a scikit-fem + SciPy peer, the bandwidth limit and 2 ranks",
+        "bench",
+        help="speed against a scikit-fem + SciPy peer, the bandwidth limit and 2 ranks",
         description="Measure assembly, setup and step times of every algorithm against a "
-                    "scikit-fem + SciPy peer, the memory-bandwidth limit and 2 MPI ranks; write "
-                    "DIR/performance.md, .png and .json. Needs the 'bench' extra.")
+        "scikit-fem + SciPy peer, the memory-bandwidth limit and 2 MPI ranks; write "
+        "DIR/performance.md, .png and .json. Needs the 'bench' extra.",
+    )
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
-    p.add_argument("--out", default="results", type=Path,
-                   help="output directory (default results)")
+    p.add_argument("--out", default="results", type=Path, help="output directory (default results)")
     p.set_defaults(func=main)
 
 
@@ -46,20 +47,29 @@ def main(args: argparse.Namespace) -> int:
         import scipy  # noqa: F401
         import skfem  # noqa: F401
     except ImportError as err:
-        raise UserError("the bench needs the 'bench' extra (pip install -e '.[bench]'): "
-                        f"{err}") from None
+        raise UserError(
+            f"the bench needs the 'bench' extra (pip install -e '.[bench]'): {err}"
+        ) from None
     mode = "quick" if args.quick else "full"
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    print(f"tissuebench bench ({mode}): workers pinned to 1 BLAS/OpenMP thread per rank",
-          flush=True)
+    print(
+        f"tissuebench bench ({mode}): workers pinned to 1 BLAS/OpenMP thread per rank", flush=True
+    )
     records, probes, paper = measure(mode, out, lambda line: print(line, flush=True))
     wall = time.perf_counter() - start
-    (out / "performance.json").write_text(json.dumps({"mode": mode, "wall_s": wall,
-                                                      "records": records,
-                                                      "capacity_probes": probes,
-                                                      "paper_s": paper}))
+    (out / "performance.json").write_text(
+        json.dumps(
+            {
+                "mode": mode,
+                "wall_s": wall,
+                "records": records,
+                "capacity_probes": probes,
+                "paper_s": paper,
+            }
+        )
+    )
     plot(records, out / "performance.png")
     write_report(records, probes, paper, mode, wall, out)
     for title, table in summary_tables(records, probes, paper):

@@ -31,24 +31,44 @@ WARMUP = {STEPS: 5, SHORT: 2}  # first steps left out of the per-step median (25
 TRIAD_SIZE = 2**24  # entries of each triad vector (128 MiB): far beyond the caches
 SAFETY = 0.9  # explicit schemes run at SAFETY x their critical step 2 / omega_max (<= 1/30 s)
 DIRECT_TOL = 1e-10  # relative displacement difference allowed between direct solvers
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-               "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+THREAD_VARS = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
 ROD_SIZES = {"quick": [2, 6, 10], "full": [2, 4, 8, 12, 16, 24, 32, 48]}
 # Budgets (s) of one case (predicted setup + steps on one rank; "main" cases are the targets',
 # "iterative" the implicit step's CG cases, whose target is at 7e5 dofs) and of the peer's
 # assembly (the rod at 7e5 dofs takes about 4 minutes).
-BUDGET = {"quick": {"main": 10.0, "iterative": 10.0, "other": 5.0, "assembly": 10.0},
-          "full": {"main": 30.0, "iterative": 200.0, "other": 8.0, "assembly": 300.0}}
+BUDGET = {
+    "quick": {"main": 10.0, "iterative": 10.0, "other": 5.0, "assembly": 10.0},
+    "full": {"main": 30.0, "iterative": 200.0, "other": 8.0, "assembly": 300.0},
+}
 OURS_ITERATIVE = ("cg", "gamg")  # our iterative solvers; pyamg is their peer
 ITERATIVE = OURS_ITERATIVE + ("pyamg",)
 
 # (algorithm, solver): ours with tissuebench's solver names, the peer with its own.
-OURS_CASES = [("explicit-lumped", "-"), ("implicit", "direct"), ("implicit", "cg"),
-              ("implicit", "gamg"), ("implicit-lumped", "direct"), ("explicit", "direct"),
-              ("quasi-static", "direct")]
-MAIN_CASES = {("explicit-lumped", "-"), ("implicit", "direct"), ("implicit", "cg"),
-              ("implicit", "gamg"), ("implicit", "pardiso"), ("implicit", "superlu"),
-              ("implicit", "pyamg")}
+OURS_CASES = [
+    ("explicit-lumped", "-"),
+    ("implicit", "direct"),
+    ("implicit", "cg"),
+    ("implicit", "gamg"),
+    ("implicit-lumped", "direct"),
+    ("explicit", "direct"),
+    ("quasi-static", "direct"),
+]
+MAIN_CASES = {
+    ("explicit-lumped", "-"),
+    ("implicit", "direct"),
+    ("implicit", "cg"),
+    ("implicit", "gamg"),
+    ("implicit", "pardiso"),
+    ("implicit", "superlu"),
+    ("implicit", "pyamg"),
+}
 DIRECT = {"direct", "superlu", "pardiso"}
 EXPLICIT = ("explicit", "explicit-lumped")
 
@@ -97,7 +117,7 @@ def peak_memory() -> int:
 
 def median_step(times: list[float]) -> float:
     """Median time per step (s) of the steps after the warm-up."""
-    return float(np.median(times[WARMUP[len(times)]:]))
+    return float(np.median(times[WARMUP[len(times)] :]))
 
 
 # --- the worker for tissuebench (ours), 1 or 2 ranks ------------------------------------------
@@ -195,10 +215,16 @@ def ours_worker(spec: dict) -> dict:
 
     if comm.rank == 0 and spec.get("mesh_out"):
         n = system.V.dofmap.index_map.size_local
-        np.savez(spec["mesh_out"], points=system.V.tabulate_dof_coordinates()[:n, : system.gdim],
-                 cells=system.V.dofmap.list, mu=float(system.mu.value),
-                 lmbda=float(system.lmbda.value), rho=system.material.rho,
-                 alpha=system.material.alpha, beta=system.material.beta)
+        np.savez(
+            spec["mesh_out"],
+            points=system.V.tabulate_dof_coordinates()[:n, : system.gdim],
+            cells=system.V.dofmap.list,
+            mu=float(system.mu.value),
+            lmbda=float(system.lmbda.value),
+            rho=system.material.rho,
+            alpha=system.material.alpha,
+            beta=system.material.beta,
+        )
 
     displacements = {}
     for algorithm, solver, steps in spec["cases"]:
@@ -208,16 +234,16 @@ def ours_worker(spec: dict) -> dict:
         try:
             comm.Barrier()
             start = time.perf_counter()
-            integrator = get_integrator(algorithm, system, h[algorithm],
-                                        solver="direct" if solver == "-" else solver)
+            integrator = get_integrator(
+                algorithm, system, h[algorithm], solver="direct" if solver == "-" else solver
+            )
             state = integrator.start()
             comm.Barrier()
             record["setup_s"] = time.perf_counter() - start
             if algorithm == "explicit-lumped":  # the matrix its one product per step reads
                 A = system.K_csr  # solvers/blockcsr.py: blocks, block columns, row starts
                 record["matrix_type"] = "block CSR"
-                record["bytes"] = explicit_lumped_bytes(comm.allreduce(A.nbytes),
-                                                        system.num_dofs())
+                record["bytes"] = explicit_lumped_bytes(comm.allreduce(A.nbytes), system.num_dofs())
             times, iterations = [], []
             for _ in range(steps):
                 comm.Barrier()
@@ -330,14 +356,22 @@ def run_worker(kind: str, ranks: int, spec: dict, tmp: Path, tag: str, timeout: 
     spec_path, result_path = tmp / f"{tag}.spec.json", tmp / f"{tag}.result.json"
     spec_path.write_text(json.dumps(spec))
     result_path.unlink(missing_ok=True)
-    command = [sys.executable, "-m", WORKER_MODULE, "--worker", kind,
-               str(spec_path), str(result_path)]
+    command = [
+        sys.executable,
+        "-m",
+        WORKER_MODULE,
+        "--worker",
+        kind,
+        str(spec_path),
+        str(result_path),
+    ]
     if ranks > 1:
         mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
         command = [mpiexec, "-n", str(ranks)] + command
     try:
-        proc = subprocess.run(command, env=worker_env(), capture_output=True, text=True,
-                              timeout=timeout)
+        proc = subprocess.run(
+            command, env=worker_env(), capture_output=True, text=True, timeout=timeout
+        )
     except subprocess.TimeoutExpired:
         return {"error": f"timed out after {timeout:.0f} s", "cases": {}}
     if proc.returncode != 0 or not result_path.exists():
@@ -390,8 +424,9 @@ class Budget:
         self.stopped.add(k)
         return 0
 
-    def record(self, side: str, benchmark: str, case: tuple[str, str], dofs: int,
-               record: dict) -> None:
+    def record(
+        self, side: str, benchmark: str, case: tuple[str, str], dofs: int, record: dict
+    ) -> None:
         if "step_s" in record:
             self.last[(side, benchmark, case)] = (dofs, record["setup_s"], record["step_s"])
         else:
@@ -406,15 +441,17 @@ class Budget:
             return True
         if k in self.stopped:
             return False
-        if k in self.last and (self.last[k][1] * (dofs / self.last[k][0]) ** 1.1
-                               > self.limits["assembly"]):
+        if k in self.last and (
+            self.last[k][1] * (dofs / self.last[k][0]) ** 1.1 > self.limits["assembly"]
+        ):
             self.stopped.add(k)
             return False
         return True
 
 
-def relative_difference(u_ref: np.ndarray, x_ref: np.ndarray, u: np.ndarray,
-                        x: np.ndarray) -> float:
+def relative_difference(
+    u_ref: np.ndarray, x_ref: np.ndarray, u: np.ndarray, x: np.ndarray
+) -> float:
     """||u - u_ref|| / ||u_ref|| over all nodal components, nodes matched by coordinates."""
     if u_ref.shape != u.shape or np.abs(x_ref - x).max() > 1e-9:
         return math.nan
@@ -422,18 +459,21 @@ def relative_difference(u_ref: np.ndarray, x_ref: np.ndarray, u: np.ndarray,
     return float(np.linalg.norm(u - u_ref) / norm) if norm > 0 else math.nan
 
 
-def compare_displacements(path_ref: Path, path: Path,
-                          pairs: list[tuple[str, str]]) -> dict[str, float]:
+def compare_displacements(
+    path_ref: Path, path: Path, pairs: list[tuple[str, str]]
+) -> dict[str, float]:
     """{peer key: rel. difference} for (ref key, key) pairs of two saved displacement files."""
     if not (Path(path_ref).exists() and Path(path).exists()):
         return {}
     a, b = np.load(path_ref), np.load(path)
-    return {k: relative_difference(a[r], a["x"], b[k], b["x"])
-            for r, k in pairs if r in a and k in b}
+    return {
+        k: relative_difference(a[r], a["x"], b[k], b["x"]) for r, k in pairs if r in a and k in b
+    }
 
 
-def measure(mode: str, out: Path,
-            log: Callable[[str], None]) -> tuple[list[dict], list[dict], dict]:
+def measure(
+    mode: str, out: Path, log: Callable[[str], None]
+) -> tuple[list[dict], list[dict], dict]:
     """Run every worker: the records (one per (benchmark, size)), the capacity probes and the
     paper's wall times (full mode only). Writes a partial DIR/performance.json after each size
     and works in DIR/.bench-tmp, removed at the end."""
@@ -446,16 +486,20 @@ def measure(mode: str, out: Path,
     timeout = 2 * sum(BUDGET[mode].values()) + 300  # a worker that hangs, not one that is slow
     records = []
     sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
-    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2)
-              for _, _, d in sizes]
+    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
     for benchmark, size, dofs in sizes:
         tag = f"{benchmark}-{size}"
         rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
         start = time.perf_counter()
         ocases = [(*c, budget.steps("ours", benchmark, c, dofs)) for c in OURS_CASES]
         ocases = [c for c in ocases if c[2]]
-        spec = {"benchmark": benchmark, "size": size, "cases": ocases,
-                "mesh_out": str(tmp / f"{tag}.mesh.npz"), "u_out": str(tmp / f"{tag}.ours1.npz")}
+        spec = {
+            "benchmark": benchmark,
+            "size": size,
+            "cases": ocases,
+            "mesh_out": str(tmp / f"{tag}.mesh.npz"),
+            "u_out": str(tmp / f"{tag}.ours1.npz"),
+        }
         rec["ours1"] = run_worker("ours", 1, spec, tmp, tag + "-ours1", timeout)
         for c in ocases:
             budget.record("ours", benchmark, c[:2], dofs, rec["ours1"]["cases"].get(key(c), {}))
@@ -466,15 +510,24 @@ def measure(mode: str, out: Path,
         if budget.peer_assembly(benchmark, dofs):
             pcases = [(*c, budget.steps("peer", benchmark, c, dofs)) for c in all_peer_cases]
             # pyamg is the reference of our iterative solvers: it runs wherever one of them ran
-            ran_iterative = any(get(rec, "ours1", ("implicit", s), "step_s")
-                                for s in OURS_ITERATIVE)
-            pcases = [(a, s, SHORT) if (a, s) == ("implicit", "pyamg") and not n and ran_iterative
-                      else (a, s, n) for a, s, n in pcases]
+            ran_iterative = any(
+                get(rec, "ours1", ("implicit", s), "step_s") for s in OURS_ITERATIVE
+            )
+            pcases = [
+                (a, s, SHORT)
+                if (a, s) == ("implicit", "pyamg") and not n and ran_iterative
+                else (a, s, n)
+                for a, s, n in pcases
+            ]
             pcases = [c for c in pcases if c[2]]
         if pcases and Path(tmp / f"{tag}.mesh.npz").exists() and h:
-            pspec = {"benchmark": benchmark, "cases": pcases, "h": h,
-                     "mesh_in": str(tmp / f"{tag}.mesh.npz"),
-                     "u_out": str(tmp / f"{tag}.peer.npz")}
+            pspec = {
+                "benchmark": benchmark,
+                "cases": pcases,
+                "h": h,
+                "mesh_in": str(tmp / f"{tag}.mesh.npz"),
+                "u_out": str(tmp / f"{tag}.peer.npz"),
+            }
             rec["peer"] = run_worker("peer", 1, pspec, tmp, tag + "-peer", timeout)
             budget.peer_assembly(benchmark, dofs, rec["peer"])
         else:
@@ -488,22 +541,29 @@ def measure(mode: str, out: Path,
             ref = (a, "cg") if s == "pyamg" else (a, "-" if s == "-" else "direct")
             if n == STEPS and get(rec, "ours1", ref, "steps") == STEPS:
                 pairs.append((key(ref), key((a, s))))
-        rec["diff_peer"] = compare_displacements(tmp / f"{tag}.ours1.npz",
-                                                 tmp / f"{tag}.peer.npz", pairs)
-        rec["diff_2ranks"] = compare_displacements(tmp / f"{tag}.ours1.npz",
-                                                   tmp / f"{tag}.ours2.npz",
-                                                   [(key(c), key(c)) for c in ocases])
+        rec["diff_peer"] = compare_displacements(
+            tmp / f"{tag}.ours1.npz", tmp / f"{tag}.peer.npz", pairs
+        )
+        rec["diff_2ranks"] = compare_displacements(
+            tmp / f"{tag}.ours1.npz", tmp / f"{tag}.ours2.npz", [(key(c), key(c)) for c in ocases]
+        )
         for path in tmp.glob(f"{tag}.*.npz"):
             path.unlink()
         rec["wall_s"] = time.perf_counter() - start
         records.append(rec)
-        (out / "performance.json").write_text(json.dumps({"mode": mode, "partial": True,
-                                                          "records": records}))
-        errors = [f"{side}: {rec[side]['error']}" for side in ("ours1", "ours2", "peer")
-                  if "error" in rec[side]]
-        log(f"{benchmark:5s} size {size:4d}  {dofs:7d} dofs  {rec['wall_s']:6.1f} s  "
+        (out / "performance.json").write_text(
+            json.dumps({"mode": mode, "partial": True, "records": records})
+        )
+        errors = [
+            f"{side}: {rec[side]['error']}"
+            for side in ("ours1", "ours2", "peer")
+            if "error" in rec[side]
+        ]
+        log(
+            f"{benchmark:5s} size {size:4d}  {dofs:7d} dofs  {rec['wall_s']:6.1f} s  "
             f"ours {len(ocases)} cases, peer {len(pcases)}"
-            + (f"  ({'; '.join(errors)})" if errors else ""))
+            + (f"  ({'; '.join(errors)})" if errors else "")
+        )
     probes = refine_capacity(records, tmp, timeout, log)
     paper = time_paper(tmp, log) if mode == "full" else {}
     shutil.rmtree(tmp, ignore_errors=True)
@@ -521,11 +581,22 @@ def time_paper(tmp: Path, log: Callable[[str], None]) -> dict[str, float | None]
         out = tmp / f"paper-{len(times)}"
         shutil.rmtree(out, ignore_errors=True)
         start = time.perf_counter()
-        proc = subprocess.run(prefix + command + ["--out", str(out)], env=worker_env(),
-                              capture_output=True, text=True, timeout=1800)
+        proc = subprocess.run(
+            prefix + command + ["--out", str(out)],
+            env=worker_env(),
+            capture_output=True,
+            text=True,
+            timeout=1800,
+        )
         times[name] = time.perf_counter() - start if proc.returncode == 0 else None
-        log(f"tissuebench paper, {name}: " + (f"{times[name]:.1f} s" if proc.returncode == 0
-                                             else f"failed (exit {proc.returncode})"))
+        log(
+            f"tissuebench paper, {name}: "
+            + (
+                f"{times[name]:.1f} s"
+                if proc.returncode == 0
+                else f"failed (exit {proc.returncode})"
+            )
+        )
         shutil.rmtree(out, ignore_errors=True)
     return times
 
@@ -533,24 +604,30 @@ def time_paper(tmp: Path, log: Callable[[str], None]) -> dict[str, float | None]
 # --- the real-time capacity search -------------------------------------------------------------
 
 
-def rod_points(records: list[dict], probes: Iterable[dict], case: tuple[str, str],
-               side: str) -> list[tuple]:
+def rod_points(
+    records: list[dict], probes: Iterable[dict], case: tuple[str, str], side: str
+) -> list[tuple]:
     """[(n, dofs, step_s, h)] of `case` on the rod from the sweep and the capacity probes,
     sorted by n."""
     ranks = 1 if side == "ours1" else 2
     points = {}
     for rec in records:
         if rec["benchmark"] == "rod" and get(rec, side, case, "step_s") is not None:
-            points[rec["size"]] = (rec["size"], rec["dofs"], get(rec, side, case, "step_s"),
-                                   get(rec, side, case, "h"))
+            points[rec["size"]] = (
+                rec["size"],
+                rec["dofs"],
+                get(rec, side, case, "step_s"),
+                get(rec, side, case, "h"),
+            )
     for p in probes:
         if p["case"] == key(case) and p["ranks"] == ranks and p.get("step_s") is not None:
             points[p["n"]] = (p["n"], p["dofs"], p["step_s"], p["h"])
     return [points[n] for n in sorted(points)]
 
 
-def refine_capacity(records: list[dict], tmp: Path, timeout: float,
-                    log: Callable[[str], None]) -> list[dict]:
+def refine_capacity(
+    records: list[dict], tmp: Path, timeout: float, log: Callable[[str], None]
+) -> list[dict]:
     """For the cases with a real-time target, on 1 and 2 ranks: bisect the rod size n between
     the largest size of the sweep that runs in real time (step time <= h) and the next size,
     with runs of SHORT steps. The probes: [{case, ranks, n, dofs, step_s, h}]."""
@@ -569,12 +646,22 @@ def refine_capacity(records: list[dict], tmp: Path, timeout: float,
                 spec = {"benchmark": "rod", "size": n, "cases": [(*case, SHORT)]}
                 result = run_worker("ours", ranks, spec, tmp, f"capacity-{n}-{ranks}", timeout)
                 r = result.get("cases", {}).get(key(case), {})
-                probes.append({"case": key(case), "ranks": ranks, "n": n,
-                               "dofs": result.get("dofs"), "step_s": r.get("step_s"),
-                               "h": r.get("h")})
+                probes.append(
+                    {
+                        "case": key(case),
+                        "ranks": ranks,
+                        "n": n,
+                        "dofs": result.get("dofs"),
+                        "step_s": r.get("step_s"),
+                        "h": r.get("h"),
+                    }
+                )
                 ok = r.get("step_s") is not None and r["step_s"] <= r["h"]
-                outcome = (f"step/h = {r['step_s'] / r['h']:.3g}" if r.get("step_s")
-                           else f"failed: {result.get('error', r.get('error'))}")
+                outcome = (
+                    f"step/h = {r['step_s'] / r['h']:.3g}"
+                    if r.get("step_s")
+                    else f"failed: {result.get('error', r.get('error'))}"
+                )
                 log(f"capacity {key(case)} {ranks} rank(s): rod n={n} " + outcome)
                 lo, hi = (n, hi) if ok else (lo, n)
     return probes

@@ -11,9 +11,21 @@ import platform
 from collections.abc import Iterable
 from pathlib import Path
 
-from tissuebench.workflows.bench_measure import (BUDGET, DIRECT_TOL, MAIN_CASES, OURS_CASES,
-                                                 OURS_ITERATIVE, SAFETY, SHORT, STEPS,
-                                                 THREAD_VARS, WARMUP, get, key, rod_points)
+from tissuebench.workflows.bench_measure import (
+    BUDGET,
+    DIRECT_TOL,
+    MAIN_CASES,
+    OURS_CASES,
+    OURS_ITERATIVE,
+    SAFETY,
+    SHORT,
+    STEPS,
+    THREAD_VARS,
+    WARMUP,
+    get,
+    key,
+    rod_points,
+)
 
 Table = tuple[list[str], list[list]]  # header, rows
 
@@ -79,11 +91,34 @@ def assembly_rows(records: list[dict]) -> Table:
         t1 = sum(o1.values()) if o1 else None
         t2 = sum(o2.values()) if o2 else None
         tp = sum(p.values()) if p else None
-        rows.append([rec["benchmark"], rec["size"], rec["dofs"], o1 and o1["K"], o1 and o1["M"],
-                     o1 and o1.get("block CSR"), p and p["K"], p and p["M"], ratio(t1, tp), t2,
-                     ratio(t1, t2)])
-    return ["bench", "size", "dofs", "K ours s", "M ours s", "block CSR copies s", "K peer s",
-            "M peer s", "ours/peer (all)", "all 2r s", "1r/2r"], rows
+        rows.append(
+            [
+                rec["benchmark"],
+                rec["size"],
+                rec["dofs"],
+                o1 and o1["K"],
+                o1 and o1["M"],
+                o1 and o1.get("block CSR"),
+                p and p["K"],
+                p and p["M"],
+                ratio(t1, tp),
+                t2,
+                ratio(t1, t2),
+            ]
+        )
+    return [
+        "bench",
+        "size",
+        "dofs",
+        "K ours s",
+        "M ours s",
+        "block CSR copies s",
+        "K peer s",
+        "M peer s",
+        "ours/peer (all)",
+        "all 2r s",
+        "1r/2r",
+    ], rows
 
 
 def step_rows(records: list[dict]) -> Table:
@@ -98,18 +133,46 @@ def step_rows(records: list[dict]) -> Table:
             sp = get(rec, "peer", pc, "step_s")
             s2 = get(rec, "ours2", case, "step_s")
             diff = rec.get("diff_peer", {}).get(key(pc))
-            rows.append([rec["benchmark"], rec["size"], rec["dofs"], case[0],
-                         f"{case[1]}|{pc[1]}" if case[1] != "-" else "-",
-                         get(rec, "ours1", case, "setup_s"), get(rec, "peer", pc, "setup_s"),
-                         ratio(get(rec, "ours1", case, "setup_s"), get(rec, "peer", pc, "setup_s")),
-                         s1, s2, sp, ratio(s1, sp), ratio(s1, s2),
-                         (get(rec, "ours1", case, "peak_bytes") or 0) / 2**20,
-                         (get(rec, "ours2", case, "peak_bytes") or 0) / 2**20,
-                         (get(rec, "peer", pc, "peak_bytes") or 0) / 2**20 if sp else None,
-                         diff])
-    return ["bench", "size", "dofs", "algorithm", "solver ours|peer", "setup ours s",
-            "setup peer s", "ours/peer", "step 1r s", "step 2r s", "step peer s", "ours/peer",
-            "1r/2r", "peak 1r MiB", "peak 2r MiB", "peak peer MiB", "u diff"], rows
+            rows.append(
+                [
+                    rec["benchmark"],
+                    rec["size"],
+                    rec["dofs"],
+                    case[0],
+                    f"{case[1]}|{pc[1]}" if case[1] != "-" else "-",
+                    get(rec, "ours1", case, "setup_s"),
+                    get(rec, "peer", pc, "setup_s"),
+                    ratio(get(rec, "ours1", case, "setup_s"), get(rec, "peer", pc, "setup_s")),
+                    s1,
+                    s2,
+                    sp,
+                    ratio(s1, sp),
+                    ratio(s1, s2),
+                    (get(rec, "ours1", case, "peak_bytes") or 0) / 2**20,
+                    (get(rec, "ours2", case, "peak_bytes") or 0) / 2**20,
+                    (get(rec, "peer", pc, "peak_bytes") or 0) / 2**20 if sp else None,
+                    diff,
+                ]
+            )
+    return [
+        "bench",
+        "size",
+        "dofs",
+        "algorithm",
+        "solver ours|peer",
+        "setup ours s",
+        "setup peer s",
+        "ours/peer",
+        "step 1r s",
+        "step 2r s",
+        "step peer s",
+        "ours/peer",
+        "1r/2r",
+        "peak 1r MiB",
+        "peak 2r MiB",
+        "peak peer MiB",
+        "u diff",
+    ], rows
 
 
 def extra_peer_rows(records: list[dict]) -> Table:
@@ -118,11 +181,30 @@ def extra_peer_rows(records: list[dict]) -> Table:
     for rec in records:
         for k, r in rec.get("peer", {}).get("cases", {}).items():
             if "step_s" in r:
-                rows.append([rec["benchmark"], rec["size"], rec["dofs"], k, r["setup_s"],
-                             r["step_s"], r.get("iterations"), r["peak_bytes"] / 2**20,
-                             rec.get("diff_peer", {}).get(k)])
-    return ["bench", "size", "dofs", "peer case", "setup s", "step s", "CG its", "peak MiB",
-            "u diff vs ours"], rows
+                rows.append(
+                    [
+                        rec["benchmark"],
+                        rec["size"],
+                        rec["dofs"],
+                        k,
+                        r["setup_s"],
+                        r["step_s"],
+                        r.get("iterations"),
+                        r["peak_bytes"] / 2**20,
+                        rec.get("diff_peer", {}).get(k),
+                    ]
+                )
+    return [
+        "bench",
+        "size",
+        "dofs",
+        "peer case",
+        "setup s",
+        "step s",
+        "CG its",
+        "peak MiB",
+        "u diff vs ours",
+    ], rows
 
 
 def bandwidth_rows(records: list[dict]) -> Table:
@@ -137,15 +219,43 @@ def bandwidth_rows(records: list[dict]) -> Table:
         b = get(rec, "ours1", case, "bytes")
         lim1 = b / o1["triad_Bps"]
         lim2 = b / o2["triad_Bps"] if o2.get("triad_Bps") else None
-        limp = (p["explicit_lumped_bytes"] / o1["triad_Bps"] if p.get("explicit_lumped_bytes")
-                else None)
-        rows.append([rec["benchmark"], rec["size"], rec["dofs"],
-                     get(rec, "ours1", case, "matrix_type"), b / rec["dofs"],
-                     o1["triad_Bps"] / 1e9, o2.get("triad_Bps", 0) / 1e9, lim1, s1,
-                     ratio(s1, lim1), s2, ratio(s2, lim2), sp, ratio(sp, limp)])
-    return ["bench", "size", "dofs", "matrix", "bytes/dof", "triad 1r GB/s", "triad 2r GB/s",
-            "limit 1r s", "step 1r s", "meas/limit 1r", "step 2r s", "meas/limit 2r",
-            "peer step s", "peer meas/limit (CSR)"], rows
+        limp = (
+            p["explicit_lumped_bytes"] / o1["triad_Bps"] if p.get("explicit_lumped_bytes") else None
+        )
+        rows.append(
+            [
+                rec["benchmark"],
+                rec["size"],
+                rec["dofs"],
+                get(rec, "ours1", case, "matrix_type"),
+                b / rec["dofs"],
+                o1["triad_Bps"] / 1e9,
+                o2.get("triad_Bps", 0) / 1e9,
+                lim1,
+                s1,
+                ratio(s1, lim1),
+                s2,
+                ratio(s2, lim2),
+                sp,
+                ratio(sp, limp),
+            ]
+        )
+    return [
+        "bench",
+        "size",
+        "dofs",
+        "matrix",
+        "bytes/dof",
+        "triad 1r GB/s",
+        "triad 2r GB/s",
+        "limit 1r s",
+        "step 1r s",
+        "meas/limit 1r",
+        "step 2r s",
+        "meas/limit 2r",
+        "peer step s",
+        "peer meas/limit (CSR)",
+    ], rows
 
 
 def capacity(records: list[dict], probes: Iterable[dict] = ()) -> Table:
@@ -165,12 +275,21 @@ def capacity(records: list[dict], probes: Iterable[dict] = ()) -> Table:
             more = " (largest run)" if passing[-1] is points[-1] else ""
             row += [f"n={n}{more}", dofs, step / h]
         rows.append(row)
-    return ["algorithm", "solver", "1 rank: largest rod", "dofs", "wall/simulated",
-            "2 ranks: largest rod", "dofs", "wall/simulated"], rows
+    return [
+        "algorithm",
+        "solver",
+        "1 rank: largest rod",
+        "dofs",
+        "wall/simulated",
+        "2 ranks: largest rod",
+        "dofs",
+        "wall/simulated",
+    ], rows
 
 
-def targets(records: list[dict], probes: Iterable[dict] = (),
-            paper: dict[str, float | None] | None = None) -> Table:
+def targets(
+    records: list[dict], probes: Iterable[dict] = (), paper: dict[str, float | None] | None = None
+) -> Table:
     """The issue's targets, each with the measured worst case over the sizes it covers."""
     rows = []
 
@@ -199,68 +318,119 @@ def targets(records: list[dict], probes: Iterable[dict] = (),
             meas_lim.append(s / (get(rec, "ours1", el, "bytes") / o["triad_Bps"]))
     where = "dofs >= 2e5: " + names(r for r in big if get(r, "ours1", el, "step_s"))
     check("explicit-lumped step: measured/limit (1 rank)", worst(meas_lim), 1.3, where=where)
-    check("explicit-lumped step: ours/peer",
-          worst(ratio(get(r, "ours1", el, "step_s"), get(r, "peer", el, "step_s")) for r in big),
-          0.7, where=where)
+    check(
+        "explicit-lumped step: ours/peer",
+        worst(ratio(get(r, "ours1", el, "step_s"), get(r, "peer", el, "step_s")) for r in big),
+        0.7,
+        where=where,
+    )
     imp = ("implicit", "direct")
-    mid = [r for r in records if r["dofs"] >= 1e5 and get(r, "ours1", imp, "step_s")
-           and best_peer_direct(r, "implicit")]
+    mid = [
+        r
+        for r in records
+        if r["dofs"] >= 1e5 and get(r, "ours1", imp, "step_s") and best_peer_direct(r, "implicit")
+    ]
     where = "dofs >= 1e5: " + names(mid)
-    check("implicit direct step: ours/best peer direct",
-          worst(ratio(get(r, "ours1", imp, "step_s"), best_peer_direct(r, "implicit")[1]["step_s"])
-                for r in mid), 0.7, where=where)
+    check(
+        "implicit direct step: ours/best peer direct",
+        worst(
+            ratio(get(r, "ours1", imp, "step_s"), best_peer_direct(r, "implicit")[1]["step_s"])
+            for r in mid
+        ),
+        0.7,
+        where=where,
+    )
 
     def best_peer_setup(r):
-        return min(get(r, "peer", ("implicit", s), "setup_s") or math.inf
-                   for s in ("pardiso", "superlu"))
+        return min(
+            get(r, "peer", ("implicit", s), "setup_s") or math.inf for s in ("pardiso", "superlu")
+        )
 
-    check("implicit direct setup: ours/best peer direct",
-          worst(ratio(get(r, "ours1", imp, "setup_s"), best_peer_setup(r)) for r in mid), 1.0,
-          where=where)
+    check(
+        "implicit direct setup: ours/best peer direct",
+        worst(ratio(get(r, "ours1", imp, "setup_s"), best_peer_setup(r)) for r in mid),
+        1.0,
+        where=where,
+    )
     pyamg = ("implicit", "pyamg")
     for cg in (("implicit", s) for s in OURS_ITERATIVE):
-        largest = [r for r in records if r["dofs"] >= 6e5 and get(r, "ours1", cg, "step_s")
-                   and get(r, "peer", pyamg, "step_s")]
+        largest = [
+            r
+            for r in records
+            if r["dofs"] >= 6e5
+            and get(r, "ours1", cg, "step_s")
+            and get(r, "peer", pyamg, "step_s")
+        ]
         where = names(largest) or "7e5 dofs not reached by both"
-        check(f"implicit {cg[1]} step: ours/pyamg at 7e5 dofs",
-              worst(ratio(get(r, "ours1", cg, "step_s"), get(r, "peer", pyamg, "step_s"))
-                    for r in largest), 0.8, where=where)
+        check(
+            f"implicit {cg[1]} step: ours/pyamg at 7e5 dofs",
+            worst(
+                ratio(get(r, "ours1", cg, "step_s"), get(r, "peer", pyamg, "step_s"))
+                for r in largest
+            ),
+            0.8,
+            where=where,
+        )
     for case in OURS_CASES:
-        sp = [ratio(get(r, "ours1", case, "step_s"), get(r, "ours2", case, "step_s"))
-              for r in records if r["dofs"] >= 1e5]
-        check(f"2 ranks vs 1: {case[0]} {case[1]} step speed-up",
-              worst(sp, larger_is_worse=False), 1.7, larger_is_worse=False, where="dofs >= 1e5")
+        sp = [
+            ratio(get(r, "ours1", case, "step_s"), get(r, "ours2", case, "step_s"))
+            for r in records
+            if r["dofs"] >= 1e5
+        ]
+        check(
+            f"2 ranks vs 1: {case[0]} {case[1]} step speed-up",
+            worst(sp, larger_is_worse=False),
+            1.7,
+            larger_is_worse=False,
+            where="dofs >= 1e5",
+        )
     _, cap = capacity(records, probes)
     for row in cap:
         if row[0] in ("explicit-lumped", "implicit"):
             need = 1e5 if row[0] == "explicit-lumped" else 3e4
             dofs = [d for d in (row[3], row[6]) if d is not None]
             value = max(dofs) if dofs else None
-            rows.append([f"real time: {row[0]} {row[1]} (best of 1, 2 ranks)", "rod", fmt(value),
-                         fmt(need), "met" if value is not None and value >= need else "NOT met"])
+            rows.append(
+                [
+                    f"real time: {row[0]} {row[1]} (best of 1, 2 ranks)",
+                    "rod",
+                    fmt(value),
+                    fmt(need),
+                    "met" if value is not None and value >= need else "NOT met",
+                ]
+            )
     if paper:  # serial and 2 ranks, warm form cache: the faster of the two is what a user gets
         warm = [t for name, t in paper.items() if name != "serial, cold" and t is not None]
-        check("tissuebench paper, wall s (best of serial, 2 ranks; warm cache)",
-              min(warm) if warm else None, 60.0,
-              where=", ".join(f"{name} {fmt(t)}" for name, t in paper.items()))
+        check(
+            "tissuebench paper, wall s (best of serial, 2 ranks; warm cache)",
+            min(warm) if warm else None,
+            60.0,
+            where=", ".join(f"{name} {fmt(t)}" for name, t in paper.items()),
+        )
     return ["target", "sizes", "measured (worst)", "target", "status"], rows
 
 
-def summary_tables(records: list[dict], probes: list[dict],
-                   paper: dict[str, float | None]) -> list[tuple[str, Table]]:
+def summary_tables(
+    records: list[dict], probes: list[dict], paper: dict[str, float | None]
+) -> list[tuple[str, Table]]:
     """(title, table) of the tables the command prints at the end."""
-    return [("targets", targets(records, probes, paper)),
-            ("explicit-lumped vs bandwidth", bandwidth_rows(records)),
-            ("steps", step_rows(records)), ("assembly", assembly_rows(records)),
-            ("real-time capacity (rod)", capacity(records, probes))]
+    return [
+        ("targets", targets(records, probes, paper)),
+        ("explicit-lumped vs bandwidth", bandwidth_rows(records)),
+        ("steps", step_rows(records)),
+        ("assembly", assembly_rows(records)),
+        ("real-time capacity (rod)", capacity(records, probes)),
+    ]
 
 
 # --- figure and report ----------------------------------------------------------------------------
 
 # (side, line style, marker, legend label): the rank count is in the label, the line and the
 # marker; the colour is the case.
-OURS_LINES = (("ours1", "-", "o", "ours, 1 rank (solid, circles)"),
-              ("ours2", "--", "^", "ours, 2 ranks (dashed, triangles)"))
+OURS_LINES = (
+    ("ours1", "-", "o", "ours, 1 rank (solid, circles)"),
+    ("ours2", "--", "^", "ours, 2 ranks (dashed, triangles)"),
+)
 PEER_LINE = (":", "s", "peer (dotted, squares)")
 
 
@@ -273,28 +443,55 @@ def plot(records: list[dict], path: Path) -> None:
     import matplotlib.ticker
 
     fig, axes = plt.subplots(1, 2, figsize=(16, 5.5), sharey=True)
-    styles = {("explicit-lumped", "-"): "C0", ("implicit", "direct"): "C1",
-              ("implicit", "cg"): "C2", ("implicit", "gamg"): "C6",
-              ("implicit-lumped", "direct"): "C3", ("explicit", "direct"): "C4",
-              ("quasi-static", "direct"): "C5"}
-    peer_styles = {("explicit-lumped", "-"): "C0", ("implicit", "pardiso"): "C1",
-                   ("implicit", "superlu"): "C7", ("implicit", "pyamg"): "C2"}
+    styles = {
+        ("explicit-lumped", "-"): "C0",
+        ("implicit", "direct"): "C1",
+        ("implicit", "cg"): "C2",
+        ("implicit", "gamg"): "C6",
+        ("implicit-lumped", "direct"): "C3",
+        ("explicit", "direct"): "C4",
+        ("quasi-static", "direct"): "C5",
+    }
+    peer_styles = {
+        ("explicit-lumped", "-"): "C0",
+        ("implicit", "pardiso"): "C1",
+        ("implicit", "superlu"): "C7",
+        ("implicit", "pyamg"): "C2",
+    }
     for ax, bench in zip(axes, ("rod", "block")):
         recs = [r for r in records if r["benchmark"] == bench]
         for side, dash, marker, label in OURS_LINES:
             for case, color in styles.items():
-                pts = [(r["dofs"], get(r, side, case, "step_s")) for r in recs
-                       if get(r, side, case, "step_s")]
+                pts = [
+                    (r["dofs"], get(r, side, case, "step_s"))
+                    for r in recs
+                    if get(r, side, case, "step_s")
+                ]
                 if pts and (side == "ours1" or case in MAIN_CASES):
-                    ax.loglog(*zip(*pts), dash, color=color, marker=marker, ms=4,
-                              label=f"{label}: {case[0]} {case[1] if case[1] != '-' else ''}")
+                    ax.loglog(
+                        *zip(*pts),
+                        dash,
+                        color=color,
+                        marker=marker,
+                        ms=4,
+                        label=f"{label}: {case[0]} {case[1] if case[1] != '-' else ''}",
+                    )
         dash, marker, label = PEER_LINE
         for case, color in peer_styles.items():
-            pts = [(r["dofs"], get(r, "peer", case, "step_s")) for r in recs
-                   if get(r, "peer", case, "step_s")]
+            pts = [
+                (r["dofs"], get(r, "peer", case, "step_s"))
+                for r in recs
+                if get(r, "peer", case, "step_s")
+            ]
             if pts:
-                ax.loglog(*zip(*pts), dash, color=color, marker=marker, ms=3,
-                          label=f"{label}: {case[0]} {case[1] if case[1] != '-' else 'CSR'}")
+                ax.loglog(
+                    *zip(*pts),
+                    dash,
+                    color=color,
+                    marker=marker,
+                    ms=3,
+                    label=f"{label}: {case[0]} {case[1] if case[1] != '-' else 'CSR'}",
+                )
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_title(f"{bench}: time per step (median)")
         ax.set_xlabel("degrees of freedom")
@@ -312,8 +509,7 @@ def machine_description() -> str:
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f
-                       if line.startswith("model name"))
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
@@ -335,22 +531,38 @@ def sizes_ran(records: list[dict]) -> dict[tuple[str, str, str], list[str]]:
 def failures(records: list[dict]) -> list[str]:
     """One markdown item per failed worker and per failed case."""
     sides = ("ours1", "ours2", "peer")
-    errors = [f"- {r['benchmark']} {r['size']} {side}: {r[side]['error']}"
-              for r in records for side in sides if "error" in r.get(side, {})]
-    errors += [f"- {r['benchmark']} {r['size']} {side} {k}: {c['error']}"
-               for r in records for side in sides
-               for k, c in r.get(side, {}).get("cases", {}).items() if "error" in c]
+    errors = [
+        f"- {r['benchmark']} {r['size']} {side}: {r[side]['error']}"
+        for r in records
+        for side in sides
+        if "error" in r.get(side, {})
+    ]
+    errors += [
+        f"- {r['benchmark']} {r['size']} {side} {k}: {c['error']}"
+        for r in records
+        for side in sides
+        for k, c in r.get(side, {}).get("cases", {}).items()
+        if "error" in c
+    ]
     return errors
 
 
-def write_report(records: list[dict], probes: list[dict], paper: dict[str, float | None],
-                 mode: str, wall: float, out: Path) -> None:
+def write_report(
+    records: list[dict],
+    probes: list[dict],
+    paper: dict[str, float | None],
+    mode: str,
+    wall: float,
+    out: Path,
+) -> None:
     """Write out/performance.md (it shows performance.png beside it)."""
     sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in ("rod", "block")}
     ran = sizes_ran(records)
-    probe_text = ", ".join(f"{p['case']} {p['ranks']}r n={p['n']}: "
-                           + (fmt(p['step_s'] / p['h']) if p.get('step_s') else "failed")
-                           for p in probes)
+    probe_text = ", ".join(
+        f"{p['case']} {p['ranks']}r n={p['n']}: "
+        + (fmt(p["step_s"] / p["h"]) if p.get("step_s") else "failed")
+        for p in probes
+    )
     budget = BUDGET[mode]
     parts = [
         "# Performance",
@@ -430,8 +642,10 @@ def write_report(records: list[dict], probes: list[dict], paper: dict[str, float
         f"the peer stops when its assembly would exceed {budget['assembly']:.0f} s. "
         f"Sizes marked * ran {SHORT} steps instead of {STEPS}.",
         "",
-        markdown_table(["bench", "side", "case", "sizes"],
-                       [[b, s, k, ", ".join(map(str, v))] for (b, s, k), v in sorted(ran.items())]),
+        markdown_table(
+            ["bench", "side", "case", "sizes"],
+            [[b, s, k, ", ".join(map(str, v))] for (b, s, k), v in sorted(ran.items())],
+        ),
         "",
     ]
     errors = failures(records)

@@ -39,7 +39,8 @@ def _terminate(signum, frame):
 def parser():
     p = argparse.ArgumentParser(
         prog="tissuebench",
-        description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.")
+        description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.",
+    )
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(name).add_parser(sub)

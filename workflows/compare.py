@@ -9,15 +9,20 @@ from tissuebench.workflows.grading import compare
 
 
 def add_parser(sub):
-    p = sub.add_parser("compare", help="the three metrics of two displacement series on one mesh",
-                       description="Compare two displacement time series (XDMF/HDF5 or ParaView .pvd of .vtu) "
-                                   "on the same mesh: writes DIR/metrics.csv and DIR/metrics.png. A series with "
-                                   "a non-finite displacement from some step on has diverged there: the metrics "
-                                   "are NaN from that step on and the status column says so.")
+    p = sub.add_parser(
+        "compare",
+        help="the three metrics of two displacement series on one mesh",
+        description="Compare two displacement time series (XDMF/HDF5 or ParaView .pvd of .vtu) "
+        "on the same mesh: writes DIR/metrics.csv and DIR/metrics.png. A series with "
+        "a non-finite displacement from some step on has diverged there: the metrics "
+        "are NaN from that step on and the status column says so.",
+    )
     p.add_argument("reference", type=Path, help="reference series (.xdmf or .pvd)")
     p.add_argument("candidate", type=Path, help="candidate series (.xdmf or .pvd)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
-    p.add_argument("--field", default="displacement", help="point field to compare (default displacement)")
+    p.add_argument(
+        "--field", default="displacement", help="point field to compare (default displacement)"
+    )
     p.set_defaults(func=main)
 
 

@@ -18,7 +18,16 @@ from tissuebench.workflows.files import spans_decades
 # metric of the table that is no variant, labelled as the table says.
 # One line style per run, widest first: a run drawn later lies on top of the earlier ones with
 # a narrower, differently dashed line, so curves that coincide all stay visible.
-STYLES = [("-", 3.4), ("--", 2.5), ("-.", 1.9), (":", 2.2), ("-", 1.1), ("--", 1.1), ("-.", 1.1), (":", 1.1)]
+STYLES = [
+    ("-", 3.4),
+    ("--", 2.5),
+    ("-.", 1.9),
+    (":", 2.2),
+    ("-", 1.1),
+    ("--", 1.1),
+    ("-.", 1.1),
+    (":", 1.1),
+]
 MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
 CMAP = "viridis"
 OUTLINE = "#737373"  # the undeformed outline, drawn behind the deformed shape
@@ -58,8 +67,14 @@ def crossings(t, y, level):
 def static_label(summary, reference):
     """The quasi-static run on the reference's material, or None."""
     runs = summary["runs"]
-    return next((label for label, run in runs.items() if run["algorithm"] == "quasi-static"
-                 and run["material"] == runs[reference]["material"]), None)
+    return next(
+        (
+            label
+            for label, run in runs.items()
+            if run["algorithm"] == "quasi-static" and run["material"] == runs[reference]["material"]
+        ),
+        None,
+    )
 
 
 # --- error curves --------------------------------------------------------------------------
@@ -84,10 +99,23 @@ def error_figure(case, summary, times, curves):
             text = label
             if run["status"] == "diverged":
                 text += f": diverged at step {run['diverged_step']}, t = {run['diverged_time']:.3g} s (dotted line)"
-                ax.axvline(run["diverged_time"], color=color, ls=":", lw=1.6, gid=f"diverged:{label}")
-            ax.plot(times[1:], y[1:], dash, color=color, lw=width, label=text, zorder=2 + k,
-                    marker=MARKERS[k % len(MARKERS)], ms=5, mfc="white", mew=1.2,
-                    markevery=(k * every // max(1, len(labels)), every))
+                ax.axvline(
+                    run["diverged_time"], color=color, ls=":", lw=1.6, gid=f"diverged:{label}"
+                )
+            ax.plot(
+                times[1:],
+                y[1:],
+                dash,
+                color=color,
+                lw=width,
+                label=text,
+                zorder=2 + k,
+                marker=MARKERS[k % len(MARKERS)],
+                ms=5,
+                mfc="white",
+                mew=1.2,
+                markevery=(k * every // max(1, len(labels)), every),
+            )
             values.append(y[1:])
         if values and spans_decades(np.concatenate(values)):
             ax.set_yscale("log")
@@ -97,12 +125,21 @@ def error_figure(case, summary, times, curves):
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time t (s)")
     ref = summary["runs"][case.reference]
-    fig.suptitle(f"{case.name}: errors against {case.reference} ({ref['material']}), "
-                 f"h = {summary['h']:.4g} s, {summary['num_dofs']} dofs", fontsize=11)
+    fig.suptitle(
+        f"{case.name}: errors against {case.reference} ({ref['material']}), "
+        f"h = {summary['h']:.4g} s, {summary['num_dofs']} dofs",
+        fontsize=11,
+    )
     handles, names = axes[0].get_legend_handles_labels()
     if handles:  # below the panels: clear of the curves and of the title
-        fig.legend(handles, names, loc="outside lower center", ncols=2 if len(names) > 3 else len(names),
-                   fontsize=8, handlelength=4.5)
+        fig.legend(
+            handles,
+            names,
+            loc="outside lower center",
+            ncols=2 if len(names) > 3 else len(names),
+            fontsize=8,
+            handlelength=4.5,
+        )
     return fig
 
 
@@ -129,47 +166,98 @@ def tip_figure(case, summary, times, tips):
     static = static_label(summary, ref)
     level = None if static is None else float(tips[static][-1, 1])
     fig = Figure(figsize=(9, 5 if level is None else 8), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(1 if level is None else 2, 1, sharex=True,
-                                      height_ratios=None if level is None else [3, 2]))
+    axes = np.atleast_1d(
+        fig.subplots(
+            1 if level is None else 2,
+            1,
+            sharex=True,
+            height_ratios=None if level is None else [3, 2],
+        )
+    )
     others = [label for label in tips if label not in (ref, static)]
     shifts = [0.0] if level is None else [0.0, level]
     for ax, shift in zip(axes, shifts):
-        ax.plot(times[: len(tips[ref])], tips[ref][:, 1] - shift, "-", color="C0", lw=6, alpha=0.45, zorder=1,
-                label=f"{ref} (reference: wide, pale)")
+        ax.plot(
+            times[: len(tips[ref])],
+            tips[ref][:, 1] - shift,
+            "-",
+            color="C0",
+            lw=6,
+            alpha=0.45,
+            zorder=1,
+            label=f"{ref} (reference: wide, pale)",
+        )
         for k, label in enumerate(others, start=1):
             dash, width = STYLES[1 + (k - 1) % (len(STYLES) - 1)]
-            ax.plot(times[: len(tips[label])], tips[label][:, 1] - shift, dash, color=f"C{k}", lw=min(width, 1.8),
-                    zorder=2 + k, label=label)
+            ax.plot(
+                times[: len(tips[label])],
+                tips[label][:, 1] - shift,
+                dash,
+                color=f"C{k}",
+                lw=min(width, 1.8),
+                zorder=2 + k,
+                label=label,
+            )
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel("tip displacement u_y (m)")
-    axes[0].set_title(f"{case.name}: vertical displacement of the {BENCHMARKS[case.benchmark].probe_label}")
+    axes[0].set_title(
+        f"{case.name}: vertical displacement of the {BENCHMARKS[case.benchmark].probe_label}"
+    )
     if level is not None:
         tip = tips[ref]
-        axes[0].plot(times[: len(tips[static])], tips[static][:, 1], "--", color="k", lw=1.1, zorder=10,
-                     label=f"{static}: the static deflection {level:.4g} m from step 1 on")
+        axes[0].plot(
+            times[: len(tips[static])],
+            tips[static][:, 1],
+            "--",
+            color="k",
+            lw=1.1,
+            zorder=10,
+            label=f"{static}: the static deflection {level:.4g} m from step 1 on",
+        )
         axes[1].axhline(0.0, color="k", ls="--", lw=1.1, zorder=10)
         cross = crossings(times[: len(tip)], tip[:, 1], level)
         d = tip[1:, 1] - level
-        peaks = [np.abs(d[(times[1: len(tip)] > a) & (times[1: len(tip)] < b)]).max(initial=0.0)
-                 for a, b in zip([0.0, *cross], [*cross, times[len(tip) - 1] + 1])]
+        peaks = [
+            np.abs(d[(times[1 : len(tip)] > a) & (times[1 : len(tip)] < b)]).max(initial=0.0)
+            for a, b in zip([0.0, *cross], [*cross, times[len(tip) - 1] + 1])
+        ]
         peaks = [x for x in peaks if x > 0]
         linthresh = max(min(peaks, default=1.0) / 10, 1e-15)
         axes[1].set_yscale("symlog", linthresh=linthresh, linscale=0.6)
         decades = np.log10(max(peaks, default=1.0) / linthresh)
-        axes[1].yaxis.set_major_locator(SymmetricalLogLocator(linthresh=linthresh, base=10 ** max(1, round(decades / 4))))
-        axes[1].yaxis.set_major_formatter(FuncFormatter(
-            lambda v, _: "0" if v == 0 else ("" if abs(v) < 1.5 * linthresh else f"{v:.0e}")))
+        axes[1].yaxis.set_major_locator(
+            SymmetricalLogLocator(linthresh=linthresh, base=10 ** max(1, round(decades / 4)))
+        )
+        axes[1].yaxis.set_major_formatter(
+            FuncFormatter(
+                lambda v, _: "0" if v == 0 else ("" if abs(v) < 1.5 * linthresh else f"{v:.0e}")
+            )
+        )
         axes[1].yaxis.set_minor_formatter(NullFormatter())
         axes[1].set_ylabel("u_y - static deflection (m)\nsymmetric log scale")
         for j, tc in enumerate(cross):
             for ax, y in zip(axes, (level, 0.0)):
-                ax.axvline(tc, color="0.25", ls=":", lw=1.2, zorder=0, gid="crossing",
-                           label=f"{ref} crosses the static deflection (interpolated)"
-                           if j == 0 and ax is axes[0] else None)
+                ax.axvline(
+                    tc,
+                    color="0.25",
+                    ls=":",
+                    lw=1.2,
+                    zorder=0,
+                    gid="crossing",
+                    label=f"{ref} crosses the static deflection (interpolated)"
+                    if j == 0 and ax is axes[0]
+                    else None,
+                )
                 ax.plot([tc], [y], "o", color="k", mfc="white", ms=6, zorder=11)
             right = tc > 0.9 * times[-1]
-            axes[0].annotate(f"{tc:.2f} s", (tc, level), xytext=(-4 if right else 4, 10 if j % 2 == 0 else -16),
-                             textcoords="offset points", fontsize=8, ha="right" if right else "left")
+            axes[0].annotate(
+                f"{tc:.2f} s",
+                (tc, level),
+                xytext=(-4 if right else 4, 10 if j % 2 == 0 else -16),
+                textcoords="offset points",
+                fontsize=8,
+                ha="right" if right else "left",
+            )
     axes[-1].set_xlabel("time t (s)")
     axes[0].legend(fontsize=8, loc="upper right", handlelength=4)
     return fig
@@ -188,9 +276,14 @@ def shape_rows(case, summary):
     algorithm on other materials (the MP1 counterpart of implicit-MP2), sorted by material."""
     runs = summary["runs"]
     ref = runs[case.reference]
-    rows = [case.reference] + [label for label, run in runs.items() if label != case.reference
-                               and run["algorithm"] == ref["algorithm"] and run["material"] != ref["material"]
-                               and run["status"] == "ok"]
+    rows = [case.reference] + [
+        label
+        for label, run in runs.items()
+        if label != case.reference
+        and run["algorithm"] == ref["algorithm"]
+        and run["material"] != ref["material"]
+        and run["status"] == "ok"
+    ]
     return sorted(rows, key=lambda label: (runs[label]["material"], label))
 
 
@@ -217,22 +310,38 @@ class ShapeRenderer:
         import pyvista as pv
         from vtkmodules.vtkCommonCore import vtkLogger
 
-        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)  # no display here: off-screen is intended
+        vtkLogger.SetStderrVerbosity(
+            vtkLogger.VERBOSITY_OFF
+        )  # no display here: off-screen is intended
         self.dim = series.dim
         self.x0 = _pad3(series.points)
-        cell_type = pv.CellType.QUAD if series.cell_type == "quadrilateral" else pv.CellType.HEXAHEDRON
+        cell_type = (
+            pv.CellType.QUAD if series.cell_type == "quadrilateral" else pv.CellType.HEXAHEDRON
+        )
         undeformed = pv.UnstructuredGrid({cell_type: series.cells}, self.x0.copy())
         outline = undeformed.extract_surface(algorithm="dataset_surface").extract_feature_edges(
-            feature_angle=30, boundary_edges=True, feature_edges=self.dim == 3,
-            manifold_edges=False, non_manifold_edges=False)
+            feature_angle=30,
+            boundary_edges=True,
+            feature_edges=self.dim == 3,
+            manifold_edges=False,
+            non_manifold_edges=False,
+        )
         self.grid = undeformed.copy()
         self.grid.point_data["|u| (m)"] = np.zeros(len(self.x0))
         p = pv.Plotter(off_screen=True, window_size=size, border=False)
         p.set_background("white")
         p.add_mesh(outline, color=OUTLINE, line_width=3)
-        p.add_mesh(self.grid, scalars="|u| (m)", cmap=CMAP, clim=clim, show_edges=True,
-                   edge_color="#333333", line_width=0.6 if self.dim == 2 else 1.2, lighting=False,
-                   show_scalar_bar=False)
+        p.add_mesh(
+            self.grid,
+            scalars="|u| (m)",
+            cmap=CMAP,
+            clim=clim,
+            show_edges=True,
+            edge_color="#333333",
+            line_width=0.6 if self.dim == 2 else 1.2,
+            lighting=False,
+            show_scalar_bar=False,
+        )
         p.enable_parallel_projection()
         if self.dim == 2:
             p.view_xy()
@@ -246,7 +355,9 @@ class ShapeRenderer:
         # the scene. In parallel projection that leaves its picture where it was, and every
         # part of the deformed shape lies in front of it.
         view = np.asarray(p.camera.GetDirectionOfProjection())
-        outline.points = outline.points + 2.0 * float(np.ptp(np.reshape(bounds, (3, 2)), axis=1).max()) * view
+        outline.points = (
+            outline.points + 2.0 * float(np.ptp(np.reshape(bounds, (3, 2)), axis=1).max()) * view
+        )
         outline.Modified()
         p.reset_camera_clipping_range()
         self.plotter = p
@@ -303,11 +414,18 @@ def shape_grid(case, summary, series, steps, images, clim, row_labels):
                 ax.set_title(f"t = {times[step]:.3g} s", fontsize=10)
             if c == 0:
                 ax.set_ylabel(row_labels[r], fontsize=10)
-    fig.colorbar(ScalarMappable(Normalize(*clim), cmap=CMAP), ax=axes, label="|u| (m)", shrink=0.9,
-                 aspect=25 * nrows)
+    fig.colorbar(
+        ScalarMappable(Normalize(*clim), cmap=CMAP),
+        ax=axes,
+        label="|u| (m)",
+        shrink=0.9,
+        aspect=25 * nrows,
+    )
     what = " and ".join(row_labels)
-    fig.suptitle(f"{case.name}: deformed shape of {what}, one colour scale; grey: undeformed outline",
-                 fontsize=10)
+    fig.suptitle(
+        f"{case.name}: deformed shape of {what}, one colour scale; grey: undeformed outline",
+        fontsize=10,
+    )
     return fig
 
 
@@ -341,7 +459,13 @@ def animation(path, frames, titles, labels, clim, width=280, fps=10):
     template.paste(bar, (margin + len(labels) * (size[0] + gap), top))
     draw = ImageDraw.Draw(template)
     for k, label in enumerate(labels):
-        draw.text((margin + k * (size[0] + gap) + size[0] // 2, top - 4), label, fill="black", font=small, anchor="md")
+        draw.text(
+            (margin + k * (size[0] + gap) + size[0] // 2, top - 4),
+            label,
+            fill="black",
+            font=small,
+            anchor="md",
+        )
     pictures = []
     for pics, title in zip(frames, titles):
         frame = template.copy()
@@ -358,11 +482,20 @@ def animation(path, frames, titles, labels, clim, width=280, fps=10):
 
     frames_rgb = [np.asarray(pictures[k]) for k in (0, len(pictures) // 2, -1)]
     ramp = (255 * colormaps[CMAP](np.linspace(0, 1, canvas[0]))[:, :3]).astype(np.uint8)
-    sample = Image.fromarray(np.vstack([*frames_rgb, np.repeat(ramp[None], canvas[1] // 2, axis=0)]))
+    sample = Image.fromarray(
+        np.vstack([*frames_rgb, np.repeat(ramp[None], canvas[1] // 2, axis=0)])
+    )
     palette = sample.quantize(colors=255, method=Image.Quantize.MEDIANCUT)
     pictures = [frame.quantize(palette=palette, dither=Image.Dither.NONE) for frame in pictures]
     buffer = io.BytesIO()
-    pictures[0].save(buffer, format="GIF", save_all=True, append_images=pictures[1:], duration=1000 // fps, loop=0)
+    pictures[0].save(
+        buffer,
+        format="GIF",
+        save_all=True,
+        append_images=pictures[1:],
+        duration=1000 // fps,
+        loop=0,
+    )
     path.write_bytes(buffer.getvalue())
 
 
@@ -385,8 +518,10 @@ def deformed_shapes(out, case, summary, frames=30):
     runs = summary["runs"]
     labels = shape_rows(case, summary)
     series = [read_series(out / f"{label}.xdmf") for label in labels]
-    row_labels = [f"{label} ({runs[label]['material']}{', reference' if label == case.reference else ''})"
-                  for label in labels]
+    row_labels = [
+        f"{label} ({runs[label]['material']}{', reference' if label == case.reference else ''})"
+        for label in labels
+    ]
     times = series[0].times
     norms = [max(float(np.linalg.norm(u, axis=1).max()) for u in s.displacements) for s in series]
     clim = [0.0, max(norms) or 1.0]
@@ -402,20 +537,28 @@ def deformed_shapes(out, case, summary, frames=30):
     try:
         steps = shown_steps(times)
         still = [[renderer.image(s.displacements[step]) for step in steps] for s in series]
-        renderer.resize(tuple(round(0.7 * n) for n in size))  # the GIF's smaller pictures render faster
+        renderer.resize(
+            tuple(round(0.7 * n) for n in size)
+        )  # the GIF's smaller pictures render faster
         gif_steps = np.unique(np.linspace(0, len(times) - 1, frames).round().astype(int))
         moving = [[renderer.image(s.displacements[step]) for s in series] for step in gif_steps]
     finally:
         renderer.close()
 
     flat = crop([img for row in still for img in row])
-    still = [flat[r * len(steps):(r + 1) * len(steps)] for r in range(len(series))]
+    still = [flat[r * len(steps) : (r + 1) * len(steps)] for r in range(len(series))]
     flat = crop([img for row in moving for img in row])
-    moving = [flat[k * len(series):(k + 1) * len(series)] for k in range(len(gif_steps))]
+    moving = [flat[k * len(series) : (k + 1) * len(series)] for k in range(len(gif_steps))]
     # RGB, no alpha channel: a smaller file, the same picture
     picture = _rgba(shape_grid(case, summary, series[0], steps, still, clim, row_labels), 110)
     Image.fromarray(picture).save(out / "deformed.png", optimize=True)
 
     labels = [f"{label} ({runs[label]['material']})" for label in labels]
-    animation(out / "reference.gif", moving, [f"{case.name}, t = {times[k]:.2f} s" for k in gif_steps], labels, clim)
+    animation(
+        out / "reference.gif",
+        moving,
+        [f"{case.name}, t = {times[k]:.2f} s" for k in gif_steps],
+        labels,
+        clim,
+    )
     return ["deformed.png", "reference.gif"]

@@ -13,8 +13,12 @@ from tissuebench.metrics.compare import columns
 from tissuebench.metrics.errors import METRICS
 
 
-def write_metrics_csv(path: Path, times: np.ndarray, curves: dict[str, dict[str, np.ndarray]],
-                      status: dict[str, list[str]]) -> None:
+def write_metrics_csv(
+    path: Path,
+    times: np.ndarray,
+    curves: dict[str, dict[str, np.ndarray]],
+    status: dict[str, list[str]],
+) -> None:
     """metrics.csv: for each run label, one row per step; `status` says ok, diverged,
     reference diverged or missing."""
     with open(path, "w", newline="") as f:
@@ -22,8 +26,15 @@ def write_metrics_csv(path: Path, times: np.ndarray, curves: dict[str, dict[str,
         writer.writerow(columns())
         for label, curve in curves.items():
             for i, t in enumerate(times):
-                writer.writerow([label, i, repr(float(t)), *(repr(float(curve[n][i])) for n in METRICS),
-                                 status[label][i]])
+                writer.writerow(
+                    [
+                        label,
+                        i,
+                        repr(float(t)),
+                        *(repr(float(curve[n][i])) for n in METRICS),
+                        status[label][i],
+                    ]
+                )
 
 
 def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) -> None:

@@ -17,8 +17,13 @@ from tissuebench.workflows.files import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import check_writable, collective
 
 
-def compare(reference: str | Path, candidate: str | Path, out_dir: str | Path, field: str = "displacement",
-            comm: MPI.Comm = MPI.COMM_WORLD) -> dict[str, str]:
+def compare(
+    reference: str | Path,
+    candidate: str | Path,
+    out_dir: str | Path,
+    field: str = "displacement",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> dict[str, str]:
     """Grade the candidate series against the reference series (XDMF or PVD files), write
     out_dir/metrics.csv and out_dir/metrics.png, and return the one-line summaries (see
     metrics.compare.Grading). Collective; nothing is written unless everything was read,

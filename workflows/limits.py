@@ -46,8 +46,10 @@ def step_count(h: float, end_time: float) -> int:
     """The number of steps of h (s) that end at end_time (s): round(T / h), at least 1."""
     ratio = end_time / h
     if not math.isfinite(ratio) or ratio > MAX_STEPS:
-        raise LimitError(f"end time {end_time:g} s with h = {h:g} s makes {ratio:.3g} steps, more than "
-                         f"{MAX_STEPS:.0e}: use a larger h or a shorter end time")
+        raise LimitError(
+            f"end time {end_time:g} s with h = {h:g} s makes {ratio:.3g} steps, more than "
+            f"{MAX_STEPS:.0e}: use a larger h or a shorter end time"
+        )
     return max(1, round(ratio))
 
 
@@ -55,7 +57,9 @@ def estimate(gdim: int, nodes: int, steps: int, runs: int, ranks: int = 1) -> Ne
     """Memory and disk of a case of `runs` runs of `steps` steps on a mesh of `nodes` nodes."""
     dofs = gdim * nodes
     history = 2 * (steps + 1) * dofs * 8.0  # u and v of every step, kept for the metrics
-    gathered = 2 * (2 * (steps + 1) * nodes * 3 * 8.0)  # one run's fields gathered, and its HDF5 image
+    gathered = 2 * (
+        2 * (steps + 1) * nodes * 3 * 8.0
+    )  # one run's fields gathered, and its HDF5 image
     memory = ranks * BASE_MEMORY + SOLVER_MEMORY[gdim] * dofs + runs * history + gathered
     series = runs * (2 * (steps + 1) * nodes * 3 * 8.0 + 2 * (steps + 1) * XDMF_TEXT)
     disk = series + 2 * runs * (steps + 1) * CSV_ROW + FIGURES
@@ -92,11 +96,15 @@ def check(need: Need, out: Path, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         memory = available_memory()
         disk = free_disk(out)
         if memory is not None and need.memory > memory:
-            error = (f"this case needs at least {gb(need.memory)} of memory ({size}) and {gb(memory)} is "
-                     "available: use a smaller mesh, fewer steps or fewer algorithms")
+            error = (
+                f"this case needs at least {gb(need.memory)} of memory ({size}) and {gb(memory)} is "
+                "available: use a smaller mesh, fewer steps or fewer algorithms"
+            )
         elif need.disk > disk:
-            error = (f"this case writes at least {gb(need.disk)} ({size}) and {out} has {gb(disk)} free: "
-                     "use a smaller mesh, fewer steps or fewer algorithms, or another --out")
+            error = (
+                f"this case writes at least {gb(need.disk)} ({size}) and {out} has {gb(disk)} free: "
+                "use a smaller mesh, fewer steps or fewer algorithms, or another --out"
+            )
     error = comm.bcast(error, root=0)
     if error is not None:
         raise LimitError(error)

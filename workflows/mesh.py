@@ -13,11 +13,16 @@ from tissuebench.workflows.output import collective
 
 
 def add_parser(sub):
-    p = sub.add_parser("mesh", help="save a benchmark's mesh as a gmsh .msh file",
-                       description="Build a benchmark's mesh with gmsh and save it (.msh) for inspection.")
+    p = sub.add_parser(
+        "mesh",
+        help="save a benchmark's mesh as a gmsh .msh file",
+        description="Build a benchmark's mesh with gmsh and save it (.msh) for inspection.",
+    )
     p.add_argument("benchmark", help=" or ".join(BENCHMARKS))
     p.add_argument("--mesh-size", type=int, help="mesh size (default: the benchmark's)")
-    p.add_argument("--out", required=True, type=Path, help="the .msh file to write (a new one, unless --force)")
+    p.add_argument(
+        "--out", required=True, type=Path, help="the .msh file to write (a new one, unless --force)"
+    )
     p.add_argument("--force", action="store_true", help="replace an existing file")
     p.set_defaults(func=main)
 
@@ -41,7 +46,11 @@ def main(args):
     mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
     check_positive_int("mesh size", mesh_size)
     collective(comm, lambda: check_target(args.out, args.force))
-    check_limits(estimate(entry.gdim, entry.nodes(mesh_size), 0, 0, comm.size), args.out.absolute().parent, comm)
+    check_limits(
+        estimate(entry.gdim, entry.nodes(mesh_size), 0, 0, comm.size),
+        args.out.absolute().parent,
+        comm,
+    )
     tmp = args.out.with_name(f".{args.out.name}.{os.getpid()}.tmp.msh")
     try:
         bench = get_benchmark(args.benchmark, mesh_size=mesh_size, msh_path=tmp)
@@ -51,6 +60,8 @@ def main(args):
             tmp.unlink(missing_ok=True)
     if comm.rank == 0:
         m = bench.mesh.topology
-        print(f"{args.out}: {m.index_map(0).size_global} nodes, {m.index_map(m.dim).size_global} cells, "
-              f"physical groups {', '.join(bench.tagged.groups)}")
+        print(
+            f"{args.out}: {m.index_map(0).size_global} nodes, {m.index_map(m.dim).size_global} cells, "
+            f"physical groups {', '.join(bench.tagged.groups)}"
+        )
     return 0

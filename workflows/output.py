@@ -130,7 +130,9 @@ class Lock:
 
     def acquire(self) -> None:
         host = socket.gethostname()
-        record = json.dumps({"pid": os.getpid(), "host": host, "since": time.strftime("%Y-%m-%d %H:%M:%S")})
+        record = json.dumps(
+            {"pid": os.getpid(), "host": host, "since": time.strftime("%Y-%m-%d %H:%M:%S")}
+        )
         for _ in range(2):
             try:
                 fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
@@ -143,13 +145,20 @@ class Lock:
                 if isinstance(pid, int) and holder.get("host") == host and not _pid_alive(pid):
                     self.path.unlink(missing_ok=True)  # its writer is gone: stale
                     continue
-                since = f" since {holder['since']}" if isinstance(holder, dict) and "since" in holder else ""
-                raise OutputError(f"{self.what}: another tissuebench run is writing it (pid {pid} on "
-                                  f"{holder.get('host', '?') if isinstance(holder, dict) else '?'}{since}); "
-                                  f"wait for it, or remove {self.path} if that run is gone") from None
+                since = (
+                    f" since {holder['since']}"
+                    if isinstance(holder, dict) and "since" in holder
+                    else ""
+                )
+                raise OutputError(
+                    f"{self.what}: another tissuebench run is writing it (pid {pid} on "
+                    f"{holder.get('host', '?') if isinstance(holder, dict) else '?'}{since}); "
+                    f"wait for it, or remove {self.path} if that run is gone"
+                ) from None
             except OSError as err:
-                raise OutputError(f"{self.what}: cannot write in {self.path.parent} "
-                                  f"({err.strerror or err})") from None
+                raise OutputError(
+                    f"{self.what}: cannot write in {self.path.parent} ({err.strerror or err})"
+                ) from None
             try:
                 os.write(fd, record.encode())
             finally:
@@ -200,7 +209,9 @@ class RunFolder:
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
             except OSError as err:
-                raise OutputError(f"{self.path}: cannot create {self.path.parent} ({err.strerror or err})") from None
+                raise OutputError(
+                    f"{self.path}: cannot create {self.path.parent} ({err.strerror or err})"
+                ) from None
             self.lock.acquire()
             self.check_foreign()
 
@@ -221,14 +232,20 @@ class RunFolder:
         if self.path.is_dir() and not is_ours(self.path):
             names = sorted(p.name for p in self.path.iterdir())
             if names:
-                old = " (its summary.json has no fingerprint: written by an older tissuebench?)" \
-                    if (self.path / SUMMARY).exists() else ""
-                raise OutputError(f"{self.path}: holds files that tissuebench did not write ({names[0]}"
-                                  f"{' and more' if len(names) > 1 else ''}){old}; name a new or empty folder")
+                old = (
+                    " (its summary.json has no fingerprint: written by an older tissuebench?)"
+                    if (self.path / SUMMARY).exists()
+                    else ""
+                )
+                raise OutputError(
+                    f"{self.path}: holds files that tissuebench did not write ({names[0]}"
+                    f"{' and more' if len(names) > 1 else ''}){old}; name a new or empty folder"
+                )
 
     def prepare(self, inputs: dict, force: bool) -> str:
         """'complete' if the folder holds complete results of the same inputs and not force;
         'write' otherwise. Refuses results of other inputs without force."""
+
         def decide():
             if not self.path.exists() or not is_ours(self.path):
                 return "write"  # new or empty
@@ -237,8 +254,10 @@ class RunFolder:
                 return "write"
             if summary.get("fingerprint") == fingerprint(inputs):
                 return "complete"
-            raise OutputError(f"{self.path}: holds results of other inputs ({differences(summary.get('inputs'), inputs)}); "
-                              "--force replaces them")
+            raise OutputError(
+                f"{self.path}: holds results of other inputs ({differences(summary.get('inputs'), inputs)}); "
+                "--force replaces them"
+            )
 
         return collective(self.comm, decide)
 
@@ -246,12 +265,17 @@ class RunFolder:
     def writing(self) -> Iterator[Path]:
         """Yield a fresh partial folder; on success it replaces the target, on any failure it
         is removed. Collective."""
+
         def fresh():
             try:
-                shutil.rmtree(self.partial, ignore_errors=True)  # an earlier run's leftover: ours (we hold the lock)
+                shutil.rmtree(
+                    self.partial, ignore_errors=True
+                )  # an earlier run's leftover: ours (we hold the lock)
                 self.partial.mkdir()
             except OSError as err:
-                raise OutputError(f"{self.path}: cannot write in {self.path.parent} ({err.strerror or err})") from None
+                raise OutputError(
+                    f"{self.path}: cannot write in {self.path.parent} ({err.strerror or err})"
+                ) from None
 
         collective(self.comm, fresh)
         try:
@@ -272,7 +296,9 @@ class RunFolder:
         except OSError as err:
             if old.exists() and not self.path.exists():
                 old.rename(self.path)
-            raise WriteFailure(f"{self.path}: cannot move the results into place ({err.strerror or err})") from None
+            raise WriteFailure(
+                f"{self.path}: cannot move the results into place ({err.strerror or err})"
+            ) from None
         shutil.rmtree(old, ignore_errors=True)
 
 
@@ -288,6 +314,7 @@ def write_failure(path: Path, err: OSError) -> WriteFailure:
 def check_writable(out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     """Raise OutputError on every rank unless rank 0 can create and write out_dir (a folder
     of loose outputs such as stability.md; nothing is created)."""
+
     def check():
         out = Path(out_dir)
         if str(out_dir).strip() == "":

@@ -169,12 +169,23 @@ class Pardiso:
         i32 = ctypes.POINTER(ctypes.c_int32)
         one = ctypes.byref(ctypes.c_int32(1))
         mkl_pardiso()(
-            self._pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), one, one,
-            ctypes.byref(ctypes.c_int32(2)), ctypes.byref(ctypes.c_int32(phase)),
-            ctypes.byref(ctypes.c_int32(A.shape[0])), A.data.ctypes.data_as(ctypes.c_void_p),
-            self._ia.ctypes.data_as(i32), self._ja.ctypes.data_as(i32), None,
-            one, self._iparm.ctypes.data_as(i32), ctypes.byref(ctypes.c_int32(0)),
-            b.ctypes.data_as(ctypes.c_void_p), x.ctypes.data_as(ctypes.c_void_p), ctypes.byref(err))
+            self._pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)),
+            one,
+            one,
+            ctypes.byref(ctypes.c_int32(2)),
+            ctypes.byref(ctypes.c_int32(phase)),
+            ctypes.byref(ctypes.c_int32(A.shape[0])),
+            A.data.ctypes.data_as(ctypes.c_void_p),
+            self._ia.ctypes.data_as(i32),
+            self._ja.ctypes.data_as(i32),
+            None,
+            one,
+            self._iparm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(0)),
+            b.ctypes.data_as(ctypes.c_void_p),
+            x.ctypes.data_as(ctypes.c_void_p),
+            ctypes.byref(err),
+        )
         if err.value != 0:
             raise RuntimeError(f"PARDISO error {err.value}")
         return x
@@ -212,8 +223,9 @@ class PyamgCG:
         def callback(xk):
             count[0] += 1
 
-        x, info = spla.cg(self.A, b, x0=self.x, rtol=CG_RTOL, atol=0.0, M=self.P, maxiter=1000,
-                          callback=callback)
+        x, info = spla.cg(
+            self.A, b, x0=self.x, rtol=CG_RTOL, atol=0.0, M=self.P, maxiter=1000, callback=callback
+        )
         if info != 0:
             raise RuntimeError(f"CG + pyamg did not converge (info {info})")
         self.iterations.append(count[0])
@@ -223,8 +235,12 @@ class PyamgCG:
 
 def direct_superlu(A):
     """splu factorised once, with the ordering for a symmetric positive definite matrix."""
-    lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                   options={"SymmetricMode": True})
+    lu = spla.splu(
+        A.tocsc(),
+        permc_spec="MMD_AT_PLUS_A",
+        diag_pivot_thresh=0.0,
+        options={"SymmetricMode": True},
+    )
     return lu.solve
 
 

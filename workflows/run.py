@@ -7,24 +7,44 @@ from mpi4py import MPI
 from tissuebench.meshes import BENCHMARKS, get_entry
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.arguments import (add_benchmark_options, add_common, benchmark_options,
-                                             check_common, parse_algorithms, positive)
+from tissuebench.workflows.arguments import (
+    add_benchmark_options,
+    add_common,
+    benchmark_options,
+    check_common,
+    parse_algorithms,
+    positive,
+)
 from tissuebench.workflows.study import algorithm_case, run_case
 
 
 def add_parser(sub):
-    p = sub.add_parser("run", help="run one benchmark with the chosen algorithms",
-                       description="Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to DIR.")
+    p = sub.add_parser(
+        "run",
+        help="run one benchmark with the chosen algorithms",
+        description="Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to DIR.",
+    )
     p.add_argument("benchmark", help=f"{', '.join(BENCHMARKS)}")
-    p.add_argument("--out", required=True, type=Path,
-                   help="output folder: new, empty, or one that tissuebench wrote")
+    p.add_argument(
+        "--out",
+        required=True,
+        type=Path,
+        help="output folder: new, empty, or one that tissuebench wrote",
+    )
     p.add_argument("--material", help="MP1, MP2, MP3 or a .toml file (default: the benchmark's)")
     p.add_argument("--dt", type=str, help="time step h in s (default 1/30)")
     p.add_argument("--end-time", type=str, help="end time T in s (default 10)")
-    p.add_argument("--algorithms", default=",".join(ALGORITHMS),
-                   help="comma-separated, default all five; implicit (the reference) always runs")
+    p.add_argument(
+        "--algorithms",
+        default=",".join(ALGORITHMS),
+        help="comma-separated, default all five; implicit (the reference) always runs",
+    )
     add_benchmark_options(p, BENCHMARKS)
-    p.add_argument("--plane", choices=["strain", "stress"], help="2D benchmarks only: plane strain (default) or stress")
+    p.add_argument(
+        "--plane",
+        choices=["strain", "stress"],
+        help="2D benchmarks only: plane strain (default) or stress",
+    )
     add_common(p)
     p.set_defaults(func=main)
 
@@ -37,9 +57,19 @@ def main(args):
     end_time = positive(args.end_time) if args.end_time is not None else None
     material = get_material(args.material or entry.material)
     check_common(args)
-    case = algorithm_case(args.out.name or "run", args.benchmark, material, algorithms, mesh_size=args.mesh_size,
-                          dt=dt, end_time=end_time, options=options, plane=args.plane or "strain",
-                          solver=args.solver, petsc=args.petsc)
+    case = algorithm_case(
+        args.out.name or "run",
+        args.benchmark,
+        material,
+        algorithms,
+        mesh_size=args.mesh_size,
+        dt=dt,
+        end_time=end_time,
+        options=options,
+        plane=args.plane or "strain",
+        solver=args.solver,
+        petsc=args.petsc,
+    )
     summary = run_case(case, args.out, force=args.force)
     if MPI.COMM_WORLD.rank == 0 and not summary.get("skipped"):
         print(f"results in {args.out}")

@@ -65,10 +65,16 @@ def versions():
 
     from importlib.metadata import version
 
-    return {"tissuebench": version("tissuebench"), "python": platform.python_version(),
-            "dolfinx": dolfinx.__version__, "petsc4py": petsc4py.__version__,
-            "gmsh": gmsh.__version__, "shapely": shapely.__version__,
-            "manifold3d": version("manifold3d"), "mpi_ranks": MPI.COMM_WORLD.size}
+    return {
+        "tissuebench": version("tissuebench"),
+        "python": platform.python_version(),
+        "dolfinx": dolfinx.__version__,
+        "petsc4py": petsc4py.__version__,
+        "gmsh": gmsh.__version__,
+        "shapely": shapely.__version__,
+        "manifold3d": version("manifold3d"),
+        "mpi_ranks": MPI.COMM_WORLD.size,
+    }
 
 
 def nan_to_none(x):
@@ -79,12 +85,19 @@ def case_inputs(case: Case, mesh_size: int, h: float, n_steps: int, materials: d
     """Every input that changes the case's numbers (its fingerprint is their hash)."""
     v = versions()
     return {
-        "benchmark": case.benchmark, "mesh_size": mesh_size, "options": dict(sorted(case.options.items())),
+        "benchmark": case.benchmark,
+        "mesh_size": mesh_size,
+        "options": dict(sorted(case.options.items())),
         "plane": case.plane if get_entry(case.benchmark).gdim == 2 else None,
-        "h": h, "steps": n_steps, "solver": case.solver, "petsc": " ".join(case.petsc.split()),
+        "h": h,
+        "steps": n_steps,
+        "solver": case.solver,
+        "petsc": " ".join(case.petsc.split()),
         "reference": case.reference,
-        "runs": [{"label": label, "algorithm": algorithm, "material": asdict(materials[material])}
-                 for label, algorithm, material in case.runs],
+        "runs": [
+            {"label": label, "algorithm": algorithm, "material": asdict(materials[material])}
+            for label, algorithm, material in case.runs
+        ],
         "versions": {k: v[k] for k in ("tissuebench", "dolfinx", "petsc4py")},
     }
 
@@ -107,15 +120,24 @@ def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print, force=False):
     with RunFolder(out_dir, comm) as folder:
         if folder.prepare(inputs, force) == "complete":
             if rank0:
-                log(f"{out_dir}: complete results for the same inputs exist, skipped (--force reruns)")
-            return {**comm.bcast(read_summary(folder.path) if rank0 else None, root=0), "skipped": True}
+                log(
+                    f"{out_dir}: complete results for the same inputs exist, skipped (--force reruns)"
+                )
+            return {
+                **comm.bcast(read_summary(folder.path) if rank0 else None, root=0),
+                "skipped": True,
+            }
         need = estimate(entry.gdim, entry.nodes(mesh_size), n_steps, len(case.runs), comm.size)
         check_limits(need, folder.path.parent, comm)
         if rank0 and not math.isclose(n_steps * h, end_time, rel_tol=1e-9):
-            log(f"{case.name}: end time {end_time:g} s is not a multiple of h = {h:g} s; "
-                f"running {n_steps} steps to t = {n_steps * h:.6g} s")
+            log(
+                f"{case.name}: end time {end_time:g} s is not a multiple of h = {h:g} s; "
+                f"running {n_steps} steps to t = {n_steps * h:.6g} s"
+            )
         with folder.writing() as tmp:
-            summary = compute_case(case, tmp, folder.path, inputs, mesh_size, h, n_steps, materials, comm, log)
+            summary = compute_case(
+                case, tmp, folder.path, inputs, mesh_size, h, n_steps, materials, comm, log
+            )
     return summary
 
 
@@ -131,25 +153,45 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
     for label, algorithm, material in case.runs:
         system = systems[material]
         integrator = get_integrator(algorithm, system, h, solver=case.solver)
-        bar = tqdm(total=n_steps, desc=f"{case.name} {label}", unit="step", leave=False,
-                   disable=not rank0, mininterval=0.5)
+        bar = tqdm(
+            total=n_steps,
+            desc=f"{case.name} {label}",
+            unit="step",
+            leave=False,
+            disable=not rank0,
+            mininterval=0.5,
+        )
         try:
-            run = simulate(integrator, n_steps, bench.extent, label,
-                           on_step=lambda state: bar.update(1 if state.i else 0))
+            run = simulate(
+                integrator,
+                n_steps,
+                bench.extent,
+                label,
+                on_step=lambda state: bar.update(1 if state.i else 0),
+            )
         finally:
             bar.close()  # also when interrupted: the last line is then the error's
         series = gather_series(system.V, {"displacement": run.u, "velocity": run.v})
-        collective(comm, lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
-                   target)
+        collective(
+            comm,
+            lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
+            target,
+        )
         results[label] = (run, material, algorithm)
         if bench.probe is not None:
             tips[label] = np.array([probe(system.V, u, bench.probe) for u in run.u])
         if rank0:
-            status = "ok" if run.status == "ok" else f"DIVERGED at step {run.diverged_step} (t = {run.diverged_time:.4g} s)"
+            status = (
+                "ok"
+                if run.status == "ok"
+                else f"DIVERGED at step {run.diverged_step} (t = {run.diverged_time:.4g} s)"
+            )
             if run.reason:
                 status += f": {run.reason}"
-            log(f"{case.name:>18} {label:<18} {systems[material].material.name}: {status}, "
-                f"{run.steps} steps in {run.wall_time_s:.2f} s")
+            log(
+                f"{case.name:>18} {label:<18} {systems[material].material.name}: {status}, "
+                f"{run.steps} steps in {run.wall_time_s:.2f} s"
+            )
 
     ref_run = results[case.reference][0]
     times = np.arange(n_steps + 1) * h
@@ -160,23 +202,40 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
             curves[label][name][: len(values)] = values
         status[label] = np.full(n_steps + 1, "ok", dtype=object)
         if ref_run.status == "diverged":  # NaN from the diverged step on, the reference's too
-            status[label][ref_run.diverged_step:] = "reference diverged"
+            status[label][ref_run.diverged_step :] = "reference diverged"
         if run.status == "diverged":
-            status[label][run.diverged_step:] = "diverged"
+            status[label][run.diverged_step :] = "diverged"
         for name in METRICS:
             curves[label][name][status[label] != "ok"] = np.nan
 
     summary = {
-        "case": case.name, "description": case.description, "benchmark": case.benchmark,
-        "material": sorted({s.material.name for s in systems.values()}), "reference": case.reference,
-        "mesh_size": bench.mesh_size, "num_dofs": next(iter(systems.values())).num_dofs(),
-        "h": h, "end_time": n_steps * h, "steps": n_steps, "plane": inputs["plane"], **case.options,
-        "solver": case.solver, "versions": versions(), "runs": {},
+        "case": case.name,
+        "description": case.description,
+        "benchmark": case.benchmark,
+        "material": sorted({s.material.name for s in systems.values()}),
+        "reference": case.reference,
+        "mesh_size": bench.mesh_size,
+        "num_dofs": next(iter(systems.values())).num_dofs(),
+        "h": h,
+        "end_time": n_steps * h,
+        "steps": n_steps,
+        "plane": inputs["plane"],
+        **case.options,
+        "solver": case.solver,
+        "versions": versions(),
+        "runs": {},
     }
     for label, (run, material, algorithm) in results.items():
-        entry = {"algorithm": algorithm, "material": systems[material].material.name, "status": run.status,
-                 "diverged_step": run.diverged_step, "diverged_time": run.diverged_time, "reason": run.reason,
-                 "steps": run.steps, "wall_time_s": run.wall_time_s}
+        entry = {
+            "algorithm": algorithm,
+            "material": systems[material].material.name,
+            "status": run.status,
+            "diverged_step": run.diverged_step,
+            "diverged_time": run.diverged_time,
+            "reason": run.reason,
+            "steps": run.steps,
+            "wall_time_s": run.wall_time_s,
+        }
         for name in METRICS:
             peak, mean = summarize(curves[label][name])
             entry[f"{name}_max"], entry[f"{name}_mean"] = nan_to_none(peak), nan_to_none(mean)
@@ -195,7 +254,9 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         files += figures.case_figures(tmp, case, summary, times, curves, tips)
         summary["files"] = ["metrics.csv", *files, SUMMARY]
         summary["inputs"], summary["fingerprint"] = inputs, fingerprint(inputs)
-        (tmp / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")  # last: it marks the folder ours
+        (tmp / SUMMARY).write_text(
+            json.dumps(summary, indent=2) + "\n"
+        )  # last: it marks the folder ours
         return summary
 
     return collective(comm, write, target)

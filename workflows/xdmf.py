@@ -54,8 +54,10 @@ def gather_series(V, fields):
     """Collective: on rank 0 (mesh, {name: (steps, nodes, 3) array}); None on other ranks."""
     comm, bs = V.mesh.comm, V.dofmap.bs
     mesh_data, owned = gather_mesh(V)
-    gathered = {name: comm.gather((owned, np.asarray(values).reshape(len(values), -1, bs)), root=0)
-                for name, values in fields.items()}
+    gathered = {
+        name: comm.gather((owned, np.asarray(values).reshape(len(values), -1, bs)), root=0)
+        for name, values in fields.items()
+    }
     if comm.rank != 0:
         return None
     points = mesh_data[0]
@@ -98,15 +100,21 @@ def write_series(path, gathered, times):
         "    </Grid>",
         '    <Grid Name="series" GridType="Collection" CollectionType="Temporal">',
     ]
-    include = "xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]/*[self::Topology or self::Geometry])"
+    include = (
+        "xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]/*[self::Topology or self::Geometry])"
+    )
     for i in range(n_steps):
-        lines += [f'      <Grid Name="step {i}" GridType="Uniform">',
-                  f'        <xi:include xpointer="{include}" />',
-                  f'        <Time Value="{float(times[i])!r}" />']
+        lines += [
+            f'      <Grid Name="step {i}" GridType="Uniform">',
+            f'        <xi:include xpointer="{include}" />',
+            f'        <Time Value="{float(times[i])!r}" />',
+        ]
         for name in fields:
-            lines += [f'        <Attribute Name="{name}" AttributeType="Vector" Center="Node">',
-                      f'          <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" Format="HDF">{h5name}:/Function/{name}/{i}</DataItem>',
-                      "        </Attribute>"]
+            lines += [
+                f'        <Attribute Name="{name}" AttributeType="Vector" Center="Node">',
+                f'          <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" Format="HDF">{h5name}:/Function/{name}/{i}</DataItem>',
+                "        </Attribute>",
+            ]
         lines.append("      </Grid>")
     lines += ["    </Grid>", "  </Domain>", "</Xdmf>", ""]
     path.write_text("\n".join(lines))
