@@ -35,7 +35,6 @@ from tissuebench.solvers.stability import (
 from tissuebench.workflows.output import check_writable, collective
 
 EXPLICIT = explicit_schemes()
-PAPER_MP2_LIMIT = 1e-6  # s: the paper's statement for explicit integration with MP2
 
 
 def add_parser(subparsers):
@@ -99,14 +98,6 @@ def plot(path, cases, benchmark_dt=1 / 30):
             )
     ax.axhline(benchmark_dt, color="k", lw=0.8, ls=":")
     ax.text(0.0035, benchmark_dt * 1.15, "benchmark step h = 1/30 s", fontsize=8)
-    ax.axhline(PAPER_MP2_LIMIT, color="C3", lw=0.8, ls=":")
-    ax.text(
-        0.0035,
-        PAPER_MP2_LIMIT * 1.15,
-        "paper: explicit MP2 needs h < 1e-6 s",
-        fontsize=8,
-        color="C3",
-    )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlim(0.003, 0.2)
