@@ -16,7 +16,7 @@ from mpi4py import MPI
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows import report
 from tissuebench.workflows.output import OutputError, check_writable, collective
-from tissuebench.workflows.run import add_common, check_common
+from tissuebench.workflows.arguments import add_common, check_common
 from tissuebench.workflows.study import Case, algorithm_case, run_case
 
 
