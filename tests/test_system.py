@@ -152,7 +152,9 @@ def test_materials_and_refusals(tmp_path):
     assert Material("x", 1.0, 0.3, 1.0).lame("strain") == pytest.approx(
         (1 / 2.6, 0.3 / (1.3 * 0.4))
     )
-    tmp_path = tmp_path / f"rank{MPI.COMM_WORLD.rank}"  # each rank its own files (tmp_path is shared)
+    tmp_path = (
+        tmp_path / f"rank{MPI.COMM_WORLD.rank}"
+    )  # each rank its own files (tmp_path is shared)
     tmp_path.mkdir()
     good = tmp_path / "liver.toml"
     good.write_text('name = "liver"\nE = 640.0\nnu = 0.45\nrho = 1060\nalpha = 1.0\nbeta = 0.1\n')
