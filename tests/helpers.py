@@ -16,18 +16,30 @@ def mpiexec():
     return str(local) if local.exists() else "mpiexec"
 
 
-def run_script(script, *args, ranks=1, timeout=600):
-    """Run tests/<script> with `ranks` MPI processes; return the JSON it prints last."""
-    cmd = [sys.executable, str(HERE / script), *map(str, args)]
+def job(argv: list, ranks: int = 1) -> tuple[list[str], dict]:
+    """The command line and environment of a fresh job running `python argv...` with `ranks`
+    MPI processes: the launcher variables of the calling (singleton MPI) process dropped."""
+    cmd = [sys.executable, *map(str, argv)]
     if ranks > 1:
         cmd = [mpiexec(), "-n", str(ranks), *cmd]
-    # a fresh MPI job: drop the launcher variables of the calling (singleton MPI) process
     env = {
         k: v
         for k, v in os.environ.items()
         if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))
     }
     env["OMP_NUM_THREADS"] = "1"
+    return cmd, env
+
+
+def tissuebench(*args, ranks: int = 1, timeout: int = 600) -> subprocess.CompletedProcess:
+    """`tissuebench args...` in a fresh job (under mpiexec with `ranks` > 1)."""
+    cmd, env = job(["-m", "tissuebench.workflows.cli", *args], ranks)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def run_script(script, *args, ranks=1, timeout=600):
+    """Run tests/<script> with `ranks` MPI processes; return the JSON it prints last."""
+    cmd, env = job([HERE / script, *args], ranks)
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])

@@ -2,14 +2,11 @@
 
 import csv
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from helpers import mpiexec
+from helpers import tissuebench
 from tissuebench.metrics.series import read_series
 
 COLUMNS = [
@@ -24,15 +21,6 @@ COLUMNS = [
 ]
 
 pytestmark = pytest.mark.serial  # drives the command line in subprocesses
-
-
-def tissuebench(*args, ranks=1):
-    cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]
-    if ranks > 1:
-        cmd = [mpiexec(), "-n", str(ranks), *cmd]
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=600, env=dict(os.environ, OMP_NUM_THREADS="1")
-    )
 
 
 def read_metrics(path):

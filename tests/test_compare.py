@@ -3,9 +3,6 @@ and bad input is refused with one line and nothing written."""
 
 import contextlib
 import csv
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -16,7 +13,7 @@ import pytest
 from dolfinx import fem, io, mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
 
-from helpers import mpiexec, run_script
+from helpers import run_script, tissuebench
 from tissuebench.metrics import NAMES, InputError, Metrics, read_series
 from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.grading import compare
@@ -327,22 +324,6 @@ def test_compare_serial_and_two_ranks_agree(tmp_path):
 LONG = [0.1 * k for k in range(7)]  # steps 0..6
 
 
-def cli(*args, ranks=1):
-    """`tissuebench ...` in a fresh process (under mpiexec with `ranks` > 1)."""
-    cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]
-    if ranks > 1:
-        cmd = [mpiexec(), "-n", str(ranks), *cmd]
-    # a fresh MPI job: drop the launcher variables of the calling (singleton MPI) process
-    env = {
-        k: v
-        for k, v in os.environ.items()
-        if not k.startswith(("PMI_", "PMIX_", "OMPI_", "HYDRA_", "MPIR_"))
-    }
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=600, env=dict(env, OMP_NUM_THREADS="1")
-    )
-
-
 def table(path):
     """(the numbers of metrics.csv: step, time and the metrics per row; its status column)."""
     _, rows = read_csv(path)
@@ -435,7 +416,9 @@ def test_diverged_candidate_on_the_command_line_serial_and_two_ranks(diverging):
     mpiexec -n 2 as in serial."""
     d = diverging
     runs = {
-        n: cli("compare", d / "reference.xdmf", d / "blowup.pvd", "--out", d / f"cli{n}", ranks=n)
+        n: tissuebench(
+            "compare", d / "reference.xdmf", d / "blowup.pvd", "--out", d / f"cli{n}", ranks=n
+        )
         for n in (1, 2)
     }
     for n, r in runs.items():
@@ -496,7 +479,7 @@ def test_ungradable_reference_is_refused_on_one_line(tmp_path, make, problem, ra
     """Exit 2, one line on stderr naming the file and the problem, no traceback, no --out."""
     make(tmp_path / "ref.xdmf")
     make(tmp_path / "cand.xdmf")
-    r = cli(
+    r = tissuebench(
         "compare",
         tmp_path / "ref.xdmf",
         tmp_path / "cand.xdmf",

@@ -17,8 +17,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from helpers import mpiexec
-from test_cli import curves, statuses, tissuebench
+from helpers import job, tissuebench
+from test_cli import curves, statuses
 
 SMALL = ("--mesh-size", 4, "--end-time", 0.1)
 DIVERGING_REFERENCE = "-implicit_ksp_type cg -implicit_pc_type none -implicit_ksp_max_it 1"
@@ -166,16 +166,8 @@ def test_second_writer_is_refused_and_stale_lock_taken_over(tmp_path):
 
 
 def start(args, ranks=1):
-    cmd = [sys.executable, "-m", "tissuebench.workflows.cli", *map(str, args)]
-    if ranks > 1:
-        cmd = [mpiexec(), "-n", str(ranks), *cmd]
-    return subprocess.Popen(
-        cmd,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=dict(os.environ, OMP_NUM_THREADS="1"),
-    )
+    cmd, env = job(["-m", "tissuebench.workflows.cli", *args], ranks)
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
 
 
 def wait_for(path, process, seconds=120):
