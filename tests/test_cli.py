@@ -46,10 +46,9 @@ def statuses(path):
     return out
 
 
-@pytest.fixture(scope="module")
-def block_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("run") / "block"
-    r = tissuebench(
+def block_args(out):
+    """A small block run: N = 6, 1 s, explicit and quasi-static beside the reference."""
+    return (
         "run",
         "block",
         "--out",
@@ -61,6 +60,12 @@ def block_run(tmp_path_factory):
         "--algorithms",
         "explicit,quasi-static",
     )
+
+
+@pytest.fixture(scope="module")
+def block_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "block"
+    r = tissuebench(*block_args(out))
     assert r.returncode == 0, r.stderr[-2000:]
     return out, r
 
@@ -100,18 +105,7 @@ def test_run_writes_the_contract(block_run):
 def test_rerun_skips_complete_results_unless_forced(block_run):
     out, _ = block_run
     before = (out / "summary.json").stat().st_mtime_ns
-    args = (
-        "run",
-        "block",
-        "--out",
-        out,
-        "--mesh-size",
-        6,
-        "--end-time",
-        1.0,
-        "--algorithms",
-        "explicit,quasi-static",
-    )
+    args = block_args(out)
     r = tissuebench(*args)
     assert r.returncode == 0 and "skipped" in r.stdout
     assert (out / "summary.json").stat().st_mtime_ns == before
