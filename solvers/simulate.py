@@ -11,6 +11,7 @@ from petsc4py import PETSc
 
 import numpy as np
 
+from tissuebench.solvers import interrupt
 from tissuebench.solvers.algorithm import Integrator, State
 from tissuebench.solvers.linear import SolveError
 
@@ -52,6 +53,7 @@ def simulate(
     A step whose displacement is not finite or exceeds 100 x `extent` (m), or whose linear
     solve fails, stops the run: it is recorded as diverged at that step and time, with the
     reason, and the steps before it are kept (none if the initial state, step 0, fails).
+    A SIGINT or SIGTERM under mpiexec is raised here, on all ranks at the same step.
     `on_step(state)` is called at step 0 and after every kept step.
     """
     system = integrator.system
@@ -74,7 +76,8 @@ def simulate(
             reason = str(err)
         except (PETSc.Error, FloatingPointError) as err:
             reason = f"{type(err).__name__}: {' '.join(str(err).split())[:200]}"
-        reports = comm.allgather((reason, largest))
+        reports = comm.allgather((reason, largest, interrupt.pending()))
+        interrupt.stop_together(r[2] for r in reports)  # a signal: all ranks stop here
         largest = max(r[1] for r in reports)
         reason = next((r[0] for r in reports if r[0]), None)
         if reason is None and not np.isfinite(largest):

@@ -11,8 +11,8 @@ removed and nothing else is touched.
 
 import argparse
 import importlib
-import signal
 import sys
+import time
 import traceback
 
 from tissuebench.workflows.errors import UserError
@@ -26,14 +26,6 @@ COMMANDS = [
     "tissuebench.workflows.convergence",
     "tissuebench.workflows.bench",
 ]
-
-
-class Terminated(BaseException):
-    """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT."""
-
-
-def _terminate(signum, frame):
-    raise Terminated()
 
 
 def parser():
@@ -54,17 +46,11 @@ def main(argv=None):
     petsc4py.init([sys.argv[0], "-no_signal_handler"])  # SIGINT and SIGTERM are ours (below)
     args = parser().parse_args(argv)
 
+    from tissuebench.solvers import interrupt
     from tissuebench.workflows.output import WriteFailure
 
     comm = MPI.COMM_WORLD
-    # Signals are rank 0's: it removes the partial output and the lock, says so, and ends the
-    # job; the other ranks ignore them, so that none leaves a collective that rank 0 waits in.
-    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-    if comm.rank == 0:
-        signal.signal(signal.SIGTERM, _terminate)
-    else:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    restore = interrupt.install(comm)  # SIGINT and SIGTERM: see solvers/interrupt.py
 
     def say(text):
         if comm.rank == 0:
@@ -78,12 +64,15 @@ def main(argv=None):
     except WriteFailure as err:
         say(f"error: {err}")
         return 1
-    except (KeyboardInterrupt, Terminated) as signalled:
+    except (KeyboardInterrupt, interrupt.Terminated) as signalled:
         status = 130 if isinstance(signalled, KeyboardInterrupt) else 143
         name = "interrupted (SIGINT)" if status == 130 else "terminated (SIGTERM)"
         say(f"{name}; partial output removed")
-        if comm.size > 1:  # the other ranks wait in a collective for this one: end them all
+        if comm.size > 1 and not interrupt.raised_together():
+            # rank 0 alone (no step came in time): the others wait in a collective for it.
+            # MPI_Abort ends them all; the pause lets mpiexec pass the line above on first.
             sys.stderr.flush()
+            time.sleep(1.0)
             comm.Abort(status)
         return status
     except BaseException:
@@ -93,11 +82,10 @@ def main(argv=None):
             comm.Abort(1)
         raise
     finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+        restore()
 
 
-if __name__ == "__main__":  # python -m: run the imported module, so its classes are the ones raised
+if __name__ == "__main__":  # python -m: run the imported module, not a second copy of it
     from tissuebench.workflows.cli import main as cli_main
 
     sys.exit(cli_main())
