@@ -66,6 +66,17 @@ class Entry:
     probe_label: str = ""  # its name in tables and figures
 
 
+LOAD_SCALE_HELP = "load scale s > 0: the prescribed motion and gravity times s (default 1, SPEC 8)"
+
+
+def check_load_scale(s) -> None:
+    """Refuse a load scale that is not a finite positive number (MeshError: bad input)."""
+    from tissuebench.meshes.gmshio import MeshError
+
+    if not (isinstance(s, (int, float)) and not isinstance(s, bool) and 0 < s < float("inf")):
+        raise MeshError(f"load scale must be a finite number > 0, got {s!r}")
+
+
 def fixed(gdim):
     """The motion of a clamped node: u = v = a = 0."""
     zero = np.zeros(gdim)

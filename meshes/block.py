@@ -12,7 +12,14 @@ import dolfinx.mesh
 import gmsh
 import numpy as np
 
-from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
+from tissuebench.meshes.benchmark import (
+    LOAD_SCALE_HELP,
+    Benchmark,
+    Constraint,
+    Entry,
+    check_load_scale,
+    fixed,
+)
 from tissuebench.meshes.gmshio import (
     MeshError,
     TaggedMesh,
@@ -70,22 +77,29 @@ def block_mesh(N: int = 20, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> T
     return to_dolfinx(comm, gdim=2, msh_path=msh_path)
 
 
-def needle_motion(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The needle's prescribed (u, v, a) at time t (s): u = (-0.08 min(t, 2), 0) m,
-    v = (-0.08, 0) m/s for 0 <= t < 2 and 0 after (right derivative), a = 0."""
-    speed = -0.08  # m/s
+def needle_motion(t: float, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The needle's prescribed (u, v, a) at time t (s): u = (-0.08 s min(t, 2), 0) m,
+    v = (-0.08 s, 0) m/s for 0 <= t < 2 and 0 after (right derivative), a = 0; s is the load
+    scale of SPEC section 8 (1: the paper's motion)."""
+    speed = -0.08 * scale  # m/s
     u = np.array([speed * min(t, 2.0), 0.0])
     v = np.array([speed if t < 2.0 else 0.0, 0.0])
     return u, v, np.zeros(2)
 
 
 def benchmark(
-    mesh_size: int = 20, needle_width: float = 0.0, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None
+    mesh_size: int = 20,
+    needle_width: float = 0.0,
+    load_scale: float = 1.0,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    msh_path=None,
 ) -> Benchmark:
     """Benchmark A: the block fixed on its left, bottom and top edges, pushed by the needle at
-    (1, 0.5). With needle_width w > 0 (m) every right-edge node with |y - 0.5| <= w/2 moves."""
+    (1, 0.5). With needle_width w > 0 (m) every right-edge node with |y - 0.5| <= w/2 moves;
+    load_scale s multiplies the needle's motion (SPEC section 8)."""
     if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):
         raise MeshError(f"needle width must satisfy 0 <= w < 1 m, got {needle_width!r}")
+    check_load_scale(load_scale)
     tagged = block_mesh(mesh_size, comm, msh_path)
     mesh = tagged.mesh
     if needle_width > 0:
@@ -99,7 +113,7 @@ def benchmark(
     else:
         needle = tagged.entities("needle")
     constraints = [
-        Constraint("needle", *needle, needle_motion),
+        Constraint("needle", *needle, lambda t: needle_motion(t, load_scale)),
         *(Constraint(edge, *tagged.entities(edge), fixed(2)) for edge in ("left", "bottom", "top")),
     ]
     return Benchmark(
@@ -112,7 +126,7 @@ def benchmark(
         end_time=ENTRY.end_time,
         extent=LENGTH,
         mesh_size=mesh_size,
-        options={"needle_width": needle_width},
+        options={"needle_width": needle_width, "load_scale": load_scale},
     )
 
 
@@ -127,7 +141,10 @@ ENTRY = Entry(
     cell_size=lambda N: LENGTH / N,
     materials=("MP1", "MP2"),
     study_sizes=(10, 20, 40, 80),
-    options={"needle_width": "needle tip width w in m, 0 <= w < 1 (default 0)"},
+    options={
+        "needle_width": "needle tip width w in m, 0 <= w < 1 (default 0)",
+        "load_scale": LOAD_SCALE_HELP,
+    },
     # a point load is singular: refinement studies spread the needle over w = 0.2 m (SPEC 4)
     refinement_options={"needle_width": 0.2},
 )

@@ -8,7 +8,14 @@ from mpi4py import MPI
 
 import gmsh
 
-from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, fixed
+from tissuebench.meshes.benchmark import (
+    LOAD_SCALE_HELP,
+    Benchmark,
+    Constraint,
+    Entry,
+    check_load_scale,
+    fixed,
+)
 from tissuebench.meshes.gmshio import TaggedMesh, check_positive_int, start_gmsh, to_dolfinx
 
 SIZE = (0.5, 0.25, 0.25)  # m: length (x), height (y), depth (z)
@@ -53,20 +60,25 @@ def rod_mesh(n: int = 3, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> Tagg
 GRAVITY = (0.0, -0.05, 0.0)  # m/s^2, switched on at t = 0
 
 
-def benchmark(mesh_size: int = 3, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> Benchmark:
-    """Benchmark B: the rod clamped at x = 0, bending under gravity 0.05 m/s^2 in -y."""
+def benchmark(
+    mesh_size: int = 3, load_scale: float = 1.0, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None
+) -> Benchmark:
+    """Benchmark B: the rod clamped at x = 0, bending under gravity 0.05 s m/s^2 in -y, s the
+    load scale of SPEC section 8 (1: the paper's load)."""
+    check_load_scale(load_scale)
     tagged = rod_mesh(mesh_size, comm, msh_path)
     return Benchmark(
         name="rod",
         tagged=tagged,
         constraints=[Constraint("clamped", *tagged.entities("clamped"), fixed(3))],
-        gravity=GRAVITY,
+        gravity=tuple(load_scale * g for g in GRAVITY),
         material=ENTRY.material,
         dt=ENTRY.dt,
         end_time=ENTRY.end_time,
         extent=max(SIZE),
         mesh_size=mesh_size,
         probe=ENTRY.probe,
+        options={"load_scale": load_scale},
     )
 
 
@@ -81,6 +93,7 @@ ENTRY = Entry(
     cell_size=lambda n: SIZE[1] / n,
     materials=("MP3",),
     study_sizes=(2, 3, 6, 12),
+    options={"load_scale": LOAD_SCALE_HELP},
     probe=TIP,
     probe_label="tip (0.5, 0.25, 0.125) m",
 )

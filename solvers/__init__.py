@@ -7,6 +7,7 @@ stability analysis and the command-line choices derive from this table.
 
 from tissuebench.solvers import explicit, explicit_lumped, implicit, implicit_lumped, quasi_static
 from tissuebench.solvers.algorithm import Algorithm, Integrator
+from tissuebench.solvers.models import MODELS, get_model
 
 ALGORITHMS: dict[str, Algorithm] = {
     "implicit": implicit.ALGORITHM,
@@ -18,11 +19,24 @@ ALGORITHMS: dict[str, Algorithm] = {
 
 REFERENCE = "implicit"
 
+__all__ = ["ALGORITHMS", "MODELS", "REFERENCE", "get_integrator"]
 
-def get_integrator(name: str, system, h: float, solver: str = "direct") -> Integrator:
-    """The integrator `name` (see ALGORITHMS) for `system` with time step h (s)."""
+
+def get_integrator(
+    name: str, system, h: float, solver: str = "direct", model: str = "linear"
+) -> Integrator:
+    """The integrator `name` (see ALGORITHMS) for `system` with time step h (s) and the
+    elastic model `model` (see MODELS; `linear` is the assembled K of SPEC sections 1-7)."""
     if name not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {name!r}: use one of {', '.join(ALGORITHMS)}")
     if not (isinstance(h, (int, float)) and h > 0):
         raise ValueError(f"time step h must be > 0 s, got {h!r}")
-    return ALGORITHMS[name].build(system, h, solver=solver)
+    elastic = get_model(model)
+    if elastic.linear:
+        return ALGORITHMS[name].build(system, h, solver=solver)
+    if system.gdim == 2 and system.plane != "strain":
+        raise ValueError(f"model {model!r} is plane strain only in 2D (SPEC 8), not plane stress")
+    from tissuebench.solvers import nonlinear
+
+    prefix = name.replace("-", "_") + "_"
+    return nonlinear.integrator(ALGORITHMS[name], system, h, elastic, prefix, solver)

@@ -27,21 +27,25 @@ class Newmark:
             raise ValueError(f"time step h must be > 0 s, got {h}")
         self.system, self.h = system, h
         self.beta_N, self.gamma, self.lumped = scheme.beta_N, scheme.gamma, scheme.lumped
-        beta_N, gamma, lumped = self.beta_N, self.gamma, self.lumped
         self.alpha = system.material.alpha
         self.beta = system.material.beta if scheme.stiffness_damping else 0.0
-        self.solve = step_operator(
-            system,
-            1 + gamma * h * self.alpha,
-            gamma * h * self.beta + beta_N * h * h / 2,
-            lumped,
+        self.solve = self.step_solver(prefix, solver)
+        # step 0 only: M a0 = r by CG + Jacobi (linear.MASS_SOLVER), or pointwise for M_L
+        self.mass_solve = step_operator(system, 1.0, 0.0, self.lumped, prefix + "mass_", "mass")
+        K = system.K
+        self._r, self._w, self._delta = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
+
+    def step_solver(self, prefix: str, solver: str):
+        """The solve with S = (1 + gamma h alpha) M + (gamma h beta + beta_N h^2/2) K."""
+        h = self.h
+        return step_operator(
+            self.system,
+            1 + self.gamma * h * self.alpha,
+            self.gamma * h * self.beta + self.beta_N * h * h / 2,
+            self.lumped,
             prefix,
             solver,
         )
-        # step 0 only: M a0 = r by CG + Jacobi (linear.MASS_SOLVER), or pointwise for M_L
-        self.mass_solve = step_operator(system, 1.0, 0.0, lumped, prefix + "mass_", "mass")
-        K = system.K
-        self._r, self._w, self._delta = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
 
     def iterations(self) -> int:
         """Linear-solver iterations of the last step's solve (0: direct or diagonal)."""
@@ -86,12 +90,19 @@ class Newmark:
 
     def step(self, state: State) -> State:
         """Advance (u, v, a) from t_i to t_{i+1} = (i + 1) h, in place."""
+        self.predict(state)
+        r = self.residual(state.a, state.v, state.u)
+        delta = self._delta
+        self.solve(r, delta)
+        delta.array[self.system.constrained] = 0.0
+        return self.correct(state, delta)
+
+    def predict(self, state: State) -> None:
+        """Turn (u_i, v_i, a_i) into (ubar, vbar, a0) of step i + 1, in place: the known part
+        of the update, with the prescribed values on the constrained dofs."""
         s, h = self.system, self.h
-        i = state.i + 1
-        t = i * h
+        uc, vc, ac = s.prescribed((state.i + 1) * h)
         u, v, a = state.u, state.v, state.a
-        uc, vc, ac = s.prescribed(t)
-        # predictors: the known part of the update, with a_{i+1} = a0 on constrained dofs
         u.axpy(h, v)
         u.axpy((1 - self.beta_N) * h * h / 2, a)  # u is now utilde
         v.axpy((1 - self.gamma) * h, a)  # v is now vtilde
@@ -101,12 +112,13 @@ class Newmark:
         v.axpy(self.gamma * h, a)
         u.array[s.constrained] = uc  # ubar
         v.array[s.constrained] = vc  # vbar
-        r = self.residual(a, v, u)
-        delta = self._delta
-        self.solve(r, delta)
-        delta.array[s.constrained] = 0.0
-        u.axpy(self.beta_N * h * h / 2, delta)
-        v.axpy(self.gamma * h, delta)
-        a.axpy(1.0, delta)
-        state.i, state.t = i, t
+
+    def correct(self, state: State, delta) -> State:
+        """Add the free part delta of a_{i+1} (zero on constrained dofs): state is step i + 1."""
+        h = self.h
+        state.u.axpy(self.beta_N * h * h / 2, delta)
+        state.v.axpy(self.gamma * h, delta)
+        state.a.axpy(1.0, delta)
+        state.i += 1
+        state.t = state.i * h
         return state

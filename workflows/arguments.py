@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from tissuebench.meshes.benchmark import Entry
-from tissuebench.solvers import ALGORITHMS
+from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS, set_petsc_options
 from tissuebench.workflows.errors import UserError
 
@@ -46,6 +46,26 @@ def parse_algorithms(text: str) -> list[str]:
             f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}"
         )
     return names
+
+
+def parse_models(text: str) -> list[str]:
+    names = list(dict.fromkeys(m.strip() for m in text.split(",") if m.strip()))
+    unknown = [m for m in names if m not in MODELS]
+    if unknown or not names:
+        raise UserError(
+            f"unknown model(s) {', '.join(unknown) or '(none given)'}: use {', '.join(MODELS)}"
+        )
+    return names
+
+
+def check_models_plane(models: list[str], plane: str | None, gdim: int) -> None:
+    """SPEC section 8: in 2D the nonlinear models are plane strain only."""
+    nonlinear = [m for m in models if not MODELS[m].linear]
+    if gdim == 2 and plane == "stress" and nonlinear:
+        raise UserError(
+            f"--plane stress applies to the linear model only; {', '.join(nonlinear)} "
+            "are plane strain in 2D (SPEC 8)"
+        )
 
 
 def check_common(args: argparse.Namespace) -> None:

@@ -1,21 +1,25 @@
-"""`tissuebench run BENCHMARK --out DIR`: one benchmark, the chosen algorithms, one material."""
+"""`tissuebench run BENCHMARK --out DIR`: one benchmark, the chosen algorithms with the chosen
+elastic models (SPEC section 8), one material."""
 
 from pathlib import Path
 
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
-from tissuebench.solvers import ALGORITHMS
+from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers.models import LINEAR
 from tissuebench.solvers.materials import get_material
 from tissuebench.workflows.arguments import (
     add_benchmark_options,
     add_common,
     benchmark_options,
     check_common,
+    check_models_plane,
     parse_algorithms,
+    parse_models,
     positive,
 )
-from tissuebench.workflows.study import algorithm_case, run_case
+from tissuebench.workflows.study import model_case, run_case
 
 
 def add_parser(sub):
@@ -39,6 +43,17 @@ def add_parser(sub):
         default=",".join(ALGORITHMS),
         help="comma-separated, default all five; implicit (the reference) always runs",
     )
+    p.add_argument(
+        "--models",
+        default=LINEAR,
+        help=f"comma-separated elastic models: {', '.join(MODELS)} (default linear); "
+        "every algorithm runs with every model",
+    )
+    p.add_argument(
+        "--reference",
+        help="the run the others are measured against, ALGORITHM or ALGORITHM+MODEL "
+        "(default implicit, or implicit+neo-hookean when linear is not among the models)",
+    )
     add_benchmark_options(p, BENCHMARKS)
     p.add_argument(
         "--plane",
@@ -53,15 +68,19 @@ def main(args):
     entry = get_entry(args.benchmark)
     options = benchmark_options(args, args.benchmark, BENCHMARKS)
     algorithms = parse_algorithms(args.algorithms)
+    models = parse_models(args.models)
+    check_models_plane(models, args.plane, entry.gdim)
     dt = positive(args.dt) if args.dt is not None else None
     end_time = positive(args.end_time) if args.end_time is not None else None
     material = get_material(args.material or entry.material)
     check_common(args)
-    case = algorithm_case(
+    case = model_case(
         args.out.name or "run",
         args.benchmark,
         material,
         algorithms,
+        models,
+        args.reference,
         mesh_size=args.mesh_size,
         dt=dt,
         end_time=end_time,

@@ -8,6 +8,7 @@ import json
 import math
 import platform
 from dataclasses import asdict, dataclass, field
+from typing import NamedTuple
 
 from mpi4py import MPI
 
@@ -19,19 +20,31 @@ from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.errors import METRICS
-from tissuebench.solvers import REFERENCE, get_integrator
+from tissuebench.solvers import ALGORITHMS, MODELS, REFERENCE, get_integrator
+from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label, split_label
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System, probe
 from tissuebench.workflows.limits import check as check_limits, estimate, step_count
 from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
+from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.files import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.xdmf import gather_series, write_series
 
 
+class RunSpec(NamedTuple):
+    """One run of a case: its label (the name in files and tables), algorithm, material and
+    elastic model (SPEC section 8)."""
+
+    label: str
+    algorithm: str
+    material: object  # a material name, file or Material
+    model: str = LINEAR
+
+
 @dataclass
 class Case:
-    """Runs (label, algorithm, material) on one benchmark; `reference` is a label.
+    """Runs (RunSpec, or tuples of its fields) on one benchmark; `reference` is a label.
 
     None for mesh_size, dt or end_time means the benchmark's default; `options` are the
     benchmark's own options (for the block: needle_width, m); `petsc` the PETSc options text
@@ -50,11 +63,34 @@ class Case:
     petsc: str = ""
     description: str = ""
 
+    def __post_init__(self):
+        self.runs = [RunSpec(*run) for run in self.runs]
+
 
 def algorithm_case(name, benchmark, material, algorithms, **options):
     """The usual case: each algorithm on one material, against `implicit` on that material."""
     labels = list(dict.fromkeys([REFERENCE, *algorithms]))
     return Case(name, benchmark, [(a, a, material) for a in labels], REFERENCE, **options)
+
+
+def model_case(name, benchmark, material, algorithms, models, reference=None, **options):
+    """Every algorithm with every model on one material (SPEC section 8), against `reference`
+    (a run label; default `implicit`, or `implicit+neo-hookean` when `linear` is not among
+    the models). The reference always runs."""
+    if reference is None:
+        reference = REFERENCE if LINEAR in models else run_label(REFERENCE, REFERENCE_MODEL)
+    runs = {run_label(a, m): (a, m) for m in models for a in algorithms}
+    if reference not in runs:
+        algorithm, model = split_label(reference)
+        if algorithm not in ALGORITHMS or model not in MODELS:
+            raise UserError(
+                f"reference {reference!r} is not a run: name one of {', '.join(runs)} "
+                "(ALGORITHM or ALGORITHM+MODEL)"
+            )
+        runs = {reference: (algorithm, model), **runs}
+    specs = [RunSpec(label, a, material, m) for label, (a, m) in runs.items()]
+    specs.sort(key=lambda r: r.label != reference)  # the reference first
+    return Case(name, benchmark, specs, reference, **options)
 
 
 def versions():
@@ -95,8 +131,15 @@ def case_inputs(case: Case, mesh_size: int, h: float, n_steps: int, materials: d
         "petsc": " ".join(case.petsc.split()),
         "reference": case.reference,
         "runs": [
-            {"label": label, "algorithm": algorithm, "material": asdict(materials[material])}
-            for label, algorithm, material in case.runs
+            {
+                "label": run.label,
+                "algorithm": run.algorithm,
+                "material": asdict(materials[run.material]),
+                # the linear model is left out, so that the results of the paper's study
+                # (sections 1-7) keep the fingerprint they had before models existed
+                **({"model": run.model} if run.model != LINEAR else {}),
+            }
+            for run in case.runs
         ],
         "versions": {k: v[k] for k in ("tissuebench", "dolfinx", "petsc4py")},
     }
@@ -114,7 +157,7 @@ def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print, force=False):
     h = entry.dt if case.dt is None else case.dt
     end_time = entry.end_time if case.end_time is None else case.end_time
     n_steps = step_count(h, end_time)
-    materials = {m: get_material(m) for m in dict.fromkeys(m for _, _, m in case.runs)}
+    materials = {m: get_material(m) for m in dict.fromkeys(run.material for run in case.runs)}
     inputs = case_inputs(case, mesh_size, h, n_steps, materials)
 
     with RunFolder(out_dir, comm) as folder:
@@ -150,9 +193,9 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
     metrics = Metrics(next(iter(systems.values())).V)
 
     results, tips = {}, {}
-    for label, algorithm, material in case.runs:
+    for label, algorithm, material, model in case.runs:
         system = systems[material]
-        integrator = get_integrator(algorithm, system, h, solver=case.solver)
+        integrator = get_integrator(algorithm, system, h, solver=case.solver, model=model)
         bar = tqdm(
             total=n_steps,
             desc=f"{case.name} {label}",
@@ -177,7 +220,8 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
             lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
             target,
         )
-        results[label] = (run, material, algorithm)
+        results[label] = (run, material, algorithm, model)
+        integrator.destroy()
         if bench.probe is not None:
             tips[label] = np.array([probe(system.V, u, bench.probe) for u in run.u])
         if rank0:
@@ -196,7 +240,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
     ref_run = results[case.reference][0]
     times = np.arange(n_steps + 1) * h
     curves, status = {}, {}
-    for label, (run, _, _) in results.items():
+    for label, (run, *_) in results.items():
         curves[label] = {name: np.full(n_steps + 1, np.nan) for name in METRICS}
         for name, values in metrics.history(ref_run.u, run.u).items():  # the steps both have
             curves[label][name][: len(values)] = values
@@ -225,9 +269,10 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         "versions": versions(),
         "runs": {},
     }
-    for label, (run, material, algorithm) in results.items():
+    for label, (run, material, algorithm, model) in results.items():
         entry = {
             "algorithm": algorithm,
+            "model": model,
             "material": systems[material].material.name,
             "status": run.status,
             "diverged_step": run.diverged_step,

@@ -1,0 +1,31 @@
+"""What an elastic model is (SPEC section 8): the first Piola stress P(F) of a deformation
+gradient F, from which the internal force f_int(u) = ∫ P(F) : ∇v dX and its tangent follow.
+
+Units: mu and lmbda (the Lamé constants) in Pa, P in Pa; F is dimensionless.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import ufl
+
+
+@dataclass(frozen=True)
+class Model:
+    """first_piola(F, mu, lmbda, R) -> P. R is the per-cell rotation (a piecewise-constant
+    tensor) for a model with `rotated`, None otherwise; its derivative is not taken, so the
+    tangent of such a model drops dR (SPEC 8's corotational). `linear`: f_int = K u, the
+    system's assembled stiffness, with no per-step assembly."""
+
+    name: str
+    first_piola: Callable[..., ufl.core.expr.Expr]
+    linear: bool = False
+    rotated: bool = False
+    description: str = ""
+
+
+def small_strain_stress(eps, mu, lmbda):
+    """Linear isotropic stress 2 mu eps + lambda tr(eps) I of a (symmetric) strain eps."""
+    return 2 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(ufl.shape(eps)[0])

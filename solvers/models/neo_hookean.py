@@ -1,0 +1,25 @@
+"""`neo-hookean` (SPEC section 8): P = dpsi/dF with
+psi = (mu/2)(J^(-2/3) I1 - 3) + (kappa/2)(J - 1)^2, I1 = tr(F^T F), J = det F,
+kappa = lambda + 2 mu / 3: CalculiX's and Abaqus's NEO HOOKE with C10 = mu/2, D1 = 2/kappa.
+In 2D (plane strain) F33 = 1: I1 = tr(C_2D) + 1, J = det F_2D."""
+
+import ufl
+
+from tissuebench.solvers.models.model import Model
+
+
+def strain_energy(F, mu, lmbda):
+    """psi(F) in J/m^3."""
+    d = ufl.shape(F)[0]
+    J = ufl.det(F)
+    I1 = ufl.tr(F.T * F) + (3 - d)  # the out-of-plane stretch 1 in plane strain
+    kappa = lmbda + 2 * mu / 3
+    return mu / 2 * (J ** (-2 / 3) * I1 - 3) + kappa / 2 * (J - 1) ** 2
+
+
+def first_piola(F, mu, lmbda, R=None):
+    F = ufl.variable(F)
+    return ufl.diff(strain_energy(F, mu, lmbda), F)
+
+
+MODEL = Model("neo-hookean", first_piola, description="compressible neo-Hookean (NEO HOOKE)")
