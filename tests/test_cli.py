@@ -164,6 +164,13 @@ def test_diverged_run_is_reported_and_kept(tmp_path):
         (("run", "block", "--mesh-size", "7"), "must be even"),
         (("run", "rod", "--mesh-size", "0"), "positive whole number"),
         (("run", "block", "--solver", "magic"), "unknown solver"),
+        (("run", "block", "--models", "linear,hyperelastic"), "unknown model"),
+        (("run", "rod", "--load-scale", "0"), "load scale must be"),
+        (("run", "block", "--load-scale", "-2"), "load scale must be"),
+        (("run", "rod", "--load-scale", "inf"), "load scale must be"),
+        (("run", "block", "--models", "svk", "--plane", "stress"), "plane strain"),
+        (("run", "block", "--reference", "implicit+svk"), "not among the runs"),
+        (("run", "rod", "--models", "svk", "--reference", "implicit"), "not among the runs"),
     ],
 )
 def test_refusals(tmp_path, args, message):

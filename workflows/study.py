@@ -20,8 +20,8 @@ from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.errors import METRICS
-from tissuebench.solvers import ALGORITHMS, MODELS, REFERENCE, get_integrator
-from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label, split_label
+from tissuebench.solvers import REFERENCE, get_integrator
+from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System, probe
@@ -74,20 +74,19 @@ def algorithm_case(name, benchmark, material, algorithms, **options):
 
 
 def model_case(name, benchmark, material, algorithms, models, reference=None, **options):
-    """Every algorithm with every model on one material (SPEC section 8), against `reference`
-    (a run label; default `implicit`, or `implicit+neo-hookean` when `linear` is not among
-    the models). The reference always runs."""
-    if reference is None:
-        reference = REFERENCE if LINEAR in models else run_label(REFERENCE, REFERENCE_MODEL)
+    """Every algorithm with every model on one material (SPEC section 8), against `reference`,
+    a run label that must be among them. Without one, the reference is `implicit`, or
+    `implicit+neo-hookean` when `linear` is not among the models, and it always runs."""
     runs = {run_label(a, m): (a, m) for m in models for a in algorithms}
-    if reference not in runs:
-        algorithm, model = split_label(reference)
-        if algorithm not in ALGORITHMS or model not in MODELS:
-            raise UserError(
-                f"reference {reference!r} is not a run: name one of {', '.join(runs)} "
-                "(ALGORITHM or ALGORITHM+MODEL)"
-            )
-        runs = {reference: (algorithm, model), **runs}
+    if reference is not None and reference not in runs:
+        raise UserError(
+            f"reference {reference!r} is not among the runs ({', '.join(runs)}): "
+            "name one of them, ALGORITHM or ALGORITHM+MODEL"
+        )
+    if reference is None:
+        model = LINEAR if LINEAR in models else REFERENCE_MODEL
+        reference = run_label(REFERENCE, model)
+        runs = {reference: (REFERENCE, model), **runs}
     specs = [RunSpec(label, a, material, m) for label, (a, m) in runs.items()]
     specs.sort(key=lambda r: r.label != reference)  # the reference first
     return Case(name, benchmark, specs, reference, **options)
