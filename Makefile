@@ -8,7 +8,7 @@ VENV   ?= .venv
 EXTRAS ?= dolfinx,test
 BIN     = $(VENV)/bin
 
-.PHONY: setup paper test bench clean
+.PHONY: setup paper test bench clean external-tools
 
 setup: $(VENV)/.installed
 
@@ -31,6 +31,18 @@ test: setup
 bench: setup
 	$(BIN)/python -m pip install --quiet -e ".[bench]"
 	$(BIN)/tissuebench bench --quick
+
+# CalculiX (ccx), for `tissuebench export --format inp` decks and the tests that run them
+# (skipped where ccx is missing). Installed with apt-get where it is missing and we may.
+external-tools:
+	@if command -v ccx >/dev/null; then echo "ccx: $$(command -v ccx)"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
+			|| echo "apt-get could not install calculix-ccx: the CalculiX tests are skipped"; \
+	elif command -v sudo >/dev/null && sudo -n true 2>/dev/null && command -v apt-get >/dev/null; then \
+		(sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
+			|| echo "apt-get could not install calculix-ccx: the CalculiX tests are skipped"; \
+	else echo "ccx (CalculiX) is missing and cannot be installed here: install calculix-ccx (Debian/Ubuntu) or put ccx on PATH; the CalculiX tests are skipped"; fi
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache
