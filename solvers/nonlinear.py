@@ -65,7 +65,7 @@ def make_snes(system, J: PETSc.Mat, prefix: str, function, jacobian) -> PETSc.SN
     finally:
         for key in added:
             opts.delValue(key)
-    snes.setConvergenceHistory()
+    snes.setConvergenceHistory(reset=True)  # each solve's own history, not all steps
     return snes
 
 
