@@ -12,7 +12,7 @@ metrics.csv; "missing" for the steps after a shorter candidate's last one).
 """
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from mpi4py import MPI
@@ -35,7 +35,12 @@ def columns() -> tuple[str, ...]:
 
 COLUMNS = columns()  # with the SPEC's metrics
 POINT_TOLERANCE = 1e-6  # node coordinates match within this fraction of the mesh's extent
-TIME_RTOL, TIME_ATOL = 1e-6, 1e-9  # time stamps match within rtol |t| + atol (s)
+# Time stamps match within TIME_RTOL max(|t_ref|, h), h the reference's smallest step, and
+# never beyond h/4, so that no step can pass for its neighbour. Six significant digits, as
+# CalculiX prints times in its .frd (E12.5: 3.33333E-02), are within 5e-6 |t| of the exact
+# time: TIME_RTOL accepts them with a factor 2 to spare, up to 25 000 steps of h (beyond
+# that six digits cannot tell neighbouring steps apart, and h/4 decides).
+TIME_RTOL = 1e-5
 
 
 def summarize(curve):
@@ -125,20 +130,81 @@ def check_meshes(ref, cand):
     return match
 
 
+def smallest_step(times) -> float:
+    """The smallest time step of a series (s); for a single time, that time's magnitude (or 1
+    s at t = 0), so that tolerances stay relative."""
+    times = np.asarray(times, dtype=np.float64)
+    if len(times) > 1:
+        return float(np.diff(times).min())
+    return float(abs(times[0])) or 1.0
+
+
+def time_tolerance(t_ref, h: float):
+    """How far a time stamp may be from the reference's t_ref (s) with step h: TIME_RTOL
+    max(|t_ref|, h), at most h/4 (see TIME_RTOL)."""
+    return np.minimum(TIME_RTOL * np.maximum(np.abs(t_ref), h), 0.25 * h)
+
+
 def check_times(ref, cand):
-    """The candidate's times are the reference's, or a prefix of them (a run that stopped)."""
+    """The candidate's times are the reference's, or a prefix of them (a run that stopped),
+    within time_tolerance."""
     if len(cand.times) > len(ref.times):
         raise InputError(
             f"{cand.path}: {len(cand.times)} time steps, more than the {len(ref.times)} of {ref.path}"
         )
     t_ref = ref.times[: len(cand.times)]
-    bad = np.flatnonzero(~np.isclose(cand.times, t_ref, rtol=TIME_RTOL, atol=TIME_ATOL))
+    tolerance = time_tolerance(t_ref, smallest_step(ref.times))
+    bad = np.flatnonzero(~(np.abs(cand.times - t_ref) <= tolerance))
     if len(bad):
         k = bad[0]
         raise InputError(
             f"{cand.path}: time stamps do not match {ref.path}: step {k} is at "
-            f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s"
+            f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s "
+            f"(tolerance {tolerance[k]:.3g} s)"
         )
+
+
+def starts_at_h(series: Series, other: Series) -> bool:
+    """True if the series' first time is one step h after t = 0 (within h/4: a time stamp
+    farther from its step is refused later by check_times), h the other series' first step
+    when that one starts at t = 0, else the series' own. Such a series (CalculiX writes none
+    at t = 0) starts from the SPEC's initial state, u = 0 at t = 0."""
+    t, o = series.times, other.times
+    if t[0] <= 0:
+        return False
+    if len(o) > 1 and o[0] == 0:
+        h = float(o[1] - o[0])
+    elif len(t) > 1:
+        h = float(t[1] - t[0])
+    else:
+        return False
+    return h > 0 and abs(t[0] - h) <= 0.25 * h
+
+
+def with_initial_state(series: Series) -> Series:
+    """The series with the zero state prepended at t = 0."""
+    zero = np.zeros_like(series.displacements[0])
+    return replace(
+        series,
+        times=np.r_[0.0, series.times],
+        displacements=[zero, *series.displacements],
+    )
+
+
+def initial_states(ref: Series, cand: Series) -> tuple[Series, Series, list[str]]:
+    """Both series, each from t = 0: one that starts at t = h gets the zero initial state
+    (SPEC section 3) as its step 0. Returns them and one line for each so completed."""
+    notes, done = [], []
+    for who, series, other in (("reference", ref, cand), ("candidate", cand, ref)):
+        if not starts_at_h(series, other):
+            done.append(series)
+            continue
+        done.append(with_initial_state(series))
+        notes.append(
+            f"{who} {series.path.name} starts at t = {series.times[0]:.6g} s = h: taken to start "
+            "from the SPEC's zero initial state (u = 0 at t = 0, step 0)"
+        )
+    return done[0], done[1], notes
 
 
 def first_non_finite(series: Series) -> int | None:
@@ -227,7 +293,10 @@ class Grading:
     """A candidate series graded against a reference: `times` (s), the metric `curves` keyed as
     METRICS (NaN where a step was not graded), each step's `status` (ok, diverged, reference
     diverged, missing), the one-line `summaries` (where a series diverged or ends, then one per
-    metric: max and time-mean over the graded steps), the candidate's `label` and a `title`."""
+    metric: max and time-mean over the graded steps), the candidate's `label`, a `title`,
+    the `notes` on how the series were read (one line each: a series completed with the zero
+    initial state), the field read from each side (`fields`: reference, candidate), and the
+    divergence steps and number of candidate steps."""
 
     label: str
     title: str
@@ -235,17 +304,30 @@ class Grading:
     curves: dict[str, np.ndarray]
     status: list[str]
     summaries: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+    fields: tuple[str, str] = ("displacement", "displacement")
+    reference_diverged: int | None = None
+    candidate_diverged: int | None = None
+    candidate_steps: int = 0
 
 
 def grade(
     reference: str | Path,
     candidate: str | Path,
-    field: str = "displacement",
+    field: str | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    reference_field: str | None = None,
+    candidate_field: str | None = None,
+    label: str | None = None,
 ) -> Grading:
-    """Measure the candidate series against the reference series (XDMF or PVD files). A
-    series' first step with a non-finite displacement is its divergence: nothing is graded
-    from there on. Collective over comm; the same Grading on every rank.
+    """Measure the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
+    .dat files). The point field of each side is `reference_field` / `candidate_field`, else
+    `field`, else the first of series.DEFAULT_FIELDS that the file holds. A series that
+    starts at t = h starts from the zero initial state at t = 0 (a note says so). A series'
+    first step with a non-finite displacement is its divergence: nothing is graded from
+    there on. `label` names the candidate (default: its file name without suffix).
+    Collective over comm; the same Grading on every rank.
 
     Raises InputError on every rank for unreadable files, meshes or time stamps that do not
     match, degenerate cells, a mesh boundary that touches itself, or a missing field.
@@ -255,12 +337,20 @@ def grade(
     if comm.rank == 0:
         reading = reference
         try:
-            ref = read_series(reference, field)
+            ref = read_series(reference, reference_field or field)
             reading = candidate
-            cand = read_series(candidate, field)
+            cand = read_series(candidate, candidate_field or field)
+            ref, cand, notes = initial_states(ref, cand)
             match = check_meshes(ref, cand)
             check_times(ref, cand)
-            plan = (ref.times, len(cand.times), first_non_finite(ref), first_non_finite(cand))
+            plan = (
+                ref.times,
+                len(cand.times),
+                first_non_finite(ref),
+                first_non_finite(cand),
+                notes,
+                (ref.field, cand.field),
+            )
         except InputError as exc:
             error = str(exc)
         except Exception as exc:  # never leave the other ranks waiting
@@ -271,7 +361,7 @@ def grade(
     if error is not None:
         raise InputError(error)
 
-    times, cand_steps, ref_diverged, cand_diverged = plan
+    times, cand_steps, ref_diverged, cand_diverged, notes, fields = plan
     steps = len(times)
     status = statuses(steps, cand_steps, ref_diverged, cand_diverged)
     graded = status.count(
@@ -282,10 +372,12 @@ def grade(
 
     summaries = {}
     if ref_diverged is not None:
-        summaries["reference"] = _divergence("reference", ref_diverged, times[ref_diverged], field)
+        summaries["reference"] = _divergence(
+            "reference", ref_diverged, times[ref_diverged], fields[0]
+        )
     if cand_diverged is not None:
         summaries["candidate"] = _divergence(
-            "candidate", cand_diverged, times[cand_diverged], field
+            "candidate", cand_diverged, times[cand_diverged], fields[1]
         )
     elif cand_steps < steps:
         summaries["candidate"] = (
@@ -293,7 +385,7 @@ def grade(
             f"steps {cand_steps}..{steps - 1} missing"
         )
 
-    label = Path(candidate).stem
+    label = label or Path(candidate).stem
     title = f"{label} against {Path(reference).stem}"
     if "candidate" in summaries or "reference" in summaries:
         title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
@@ -305,4 +397,16 @@ def grade(
     for name in METRICS:
         peak, mean = summarize(curves[name])
         summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
-    return Grading(label, title, np.asarray(times), curves, status, summaries)
+    return Grading(
+        label,
+        title,
+        np.asarray(times),
+        curves,
+        status,
+        summaries,
+        notes,
+        fields,
+        ref_diverged,
+        cand_diverged,
+        cand_steps,
+    )

@@ -1,10 +1,14 @@
 """Displacement time series read from files written by other simulators.
 
 Formats: XDMF with HDF5 (or inline XML) data, as DOLFINx's XDMFFile.write_function and
-meshio's TimeSeriesWriter write it, and ParaView .pvd collections of .vtu files. The mesh is
+meshio's TimeSeriesWriter write it, ParaView .pvd collections of .vtu files, and CalculiX's
+ASCII .frd and .dat (with its deck, the .inp beside it; metrics/calculix.py). The mesh is
 vector Q1: quadrilaterals (2D; a zero third coordinate, as meshio and ParaView store 2D
 data, is dropped) or hexahedra (3D). Cells are returned in VTK node order, as the files hold
 them. Anything else raises InputError with one line naming the file and the problem.
+
+The field: a name, taken as it is; or none, and then the first of DEFAULT_FIELDS that the
+file holds (`displacement` as we write it, `U` and `DISP` as CalculiX names it, ...).
 """
 
 import xml.etree.ElementTree as ET
@@ -27,11 +31,14 @@ class InputError(UserError):
     """Input files that cannot be compared: the message is one line naming file and problem."""
 
 
+DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
+
+
 @dataclass
 class Series:
     """A displacement time series on one mesh: points (n, d), cells (VTK node order),
     cell_type ("quadrilateral" or "hexahedron"), times (steps,) and displacements, a list of
-    (n, d) arrays, one per time."""
+    (n, d) arrays, one per time; `field` is the name it was read from."""
 
     path: Path
     points: np.ndarray
@@ -39,24 +46,44 @@ class Series:
     cell_type: str
     times: np.ndarray
     displacements: list
+    field: str = "displacement"
 
     @property
     def dim(self):
         return self.points.shape[1]
 
 
-def read_series(path, field="displacement"):
-    """The Series of point field `field` in an .xdmf or .pvd file."""
+def field_names(field: str | None) -> tuple[str, ...]:
+    """The names to look for: the one given, or DEFAULT_FIELDS in order."""
+    return (field,) if field else DEFAULT_FIELDS
+
+
+def missing_field(path, names, fields) -> InputError:
+    """One line: none of `names` is among the file's `fields`."""
+    nor = f" (nor {', '.join(names[1:])})" if len(names) > 1 else ""
+    return InputError(
+        f"{path}: no point field {names[0]!r}{nor}; fields: {', '.join(fields) or 'none'}"
+    )
+
+
+def read_series(path, field=None):
+    """The Series of point field `field` (None: the first of DEFAULT_FIELDS present) in an
+    .xdmf, .pvd, .frd or .dat file."""
+    from tissuebench.metrics.calculix import read_dat, read_frd
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such file")
-    readers = {".xdmf": _read_xdmf, ".pvd": _read_pvd}
+    readers = {".xdmf": _read_xdmf, ".pvd": _read_pvd, ".frd": read_frd, ".dat": read_dat}
     if path.suffix.lower() not in readers:
         raise InputError(
-            f"{path}: unknown format {path.suffix!r}; expected .xdmf (with .h5) or .pvd (with .vtu)"
+            f"{path}: unknown format {path.suffix!r}; expected .xdmf (with .h5), .pvd (with "
+            ".vtu), or CalculiX's .frd or .dat (with its .inp)"
         )
-    points, cells, cell_type, times, values = readers[path.suffix.lower()](path, field)
-    return _finish(path, field, points, cells, cell_type, times, values)
+    points, cells, cell_type, times, values, found = readers[path.suffix.lower()](
+        path, field_names(field)
+    )
+    return _finish(path, found, points, cells, cell_type, times, values)
 
 
 def _finish(path, field, points, cells, cell_type, times, values):
@@ -108,7 +135,7 @@ def _finish(path, field, points, cells, cell_type, times, values):
                 f"{path}: 2D mesh but field {field!r} at time {t:g} has a non-zero third component"
             )
         displacements.append(np.ascontiguousarray(u[:, :dim]))
-    return Series(path, points, cells, cell_type, times, displacements)
+    return Series(path, points, cells, cell_type, times, displacements, field)
 
 
 # --- mesh checks ----------------------------------------------------------------------------
@@ -306,7 +333,7 @@ class _HDF:
         return data
 
 
-def _read_xdmf(path, field):
+def _read_xdmf(path, names):
     root = _parse_xml(path)
     grids = list(root.iter("Grid"))
     mesh = next(
@@ -320,10 +347,11 @@ def _read_xdmf(path, field):
         for g in grids
         if g.get("GridType", "Uniform") == "Uniform" and g.find("Attribute") is not None
     ]
-    names = sorted({a.get("Name") for g in steps for a in g.findall("Attribute")})
+    fields = sorted({a.get("Name") for g in steps for a in g.findall("Attribute")})
+    field = next((n for n in names if n in fields), None)
+    if field is None:
+        raise missing_field(path, names, fields)
     steps = [g for g in steps if _attribute(g, field) is not None]
-    if not steps:
-        raise InputError(f"{path}: no point field {field!r}; fields: {', '.join(names) or 'none'}")
     hdf = _HDF(path)
     try:
         topology, geometry = mesh.find("Topology"), mesh.find("Geometry")
@@ -351,7 +379,7 @@ def _read_xdmf(path, field):
             )
     finally:
         hdf.close()
-    return points, cells, cell_type, times, values
+    return points, cells, cell_type, times, values, field
 
 
 def _attribute(grid, field):
@@ -361,7 +389,7 @@ def _attribute(grid, field):
 # --- PVD + VTU ------------------------------------------------------------------------------
 
 
-def _read_pvd(path, field):
+def _read_pvd(path, names):
     import meshio
 
     root = _parse_xml(path)
@@ -372,7 +400,7 @@ def _read_pvd(path, field):
         raise InputError(
             f"{path}: multi-part (parallel) collections are not supported; write one .vtu per step"
         )
-    points = cells = cell_type = None
+    points = cells = cell_type = field = None
     times, values = [], []
     for k, dataset in enumerate(sorted(datasets, key=lambda d: float(d.get("timestep", 0)))):
         vtu = path.parent / (dataset.get("file") or "")
@@ -387,10 +415,12 @@ def _read_pvd(path, field):
         except Exception as exc:  # meshio raises many kinds on bad files
             message = " ".join(str(exc).split()) or "truncated or corrupt?"
             raise InputError(f"{vtu}: not a readable VTU file ({message})") from None
+        if field is None:  # the first step decides
+            field = next((n for n in names if n in mesh.point_data), None)
+            if field is None:
+                raise missing_field(vtu, names, list(mesh.point_data))
         if field not in mesh.point_data:
-            raise InputError(
-                f"{vtu}: no point field {field!r}; fields: {', '.join(mesh.point_data) or 'none'}"
-            )
+            raise missing_field(vtu, (field,), list(mesh.point_data))
         if points is None:
             points = mesh.points
             blocks = [block for block in mesh.cells if len(block.data)]
@@ -409,4 +439,4 @@ def _read_pvd(path, field):
                 f"{path}: timestep {dataset.get('timestep')!r} is not a number"
             ) from None
         values.append(mesh.point_data[field])
-    return points, cells, cell_type, times, values
+    return points, cells, cell_type, times, values, field

@@ -3,6 +3,7 @@ and bad input is refused with one line and nothing written."""
 
 import contextlib
 import csv
+import json
 from pathlib import Path
 
 from mpi4py import MPI
@@ -119,7 +120,7 @@ def assert_same_curves(out, expected, algorithm):
     assert [r[-1] for r in rows] == ["ok"] * len(TIMES)
     assert np.isnan(float(rows[0][3]))  # E_n at step 0: the reference is zero there
     assert (out / "metrics.png").stat().st_size > 0
-    assert sorted(p.name for p in out.iterdir()) == ["metrics.csv", "metrics.png"]
+    assert sorted(p.name for p in out.iterdir()) == ["metrics.csv", "metrics.png", "summary.json"]
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -547,3 +548,92 @@ def test_ungradable_candidate_is_refused_in_the_library(tmp_path, reference):
     message = refused(ref, tmp_path / "bow.xdmf", tmp_path / "out", "touches itself")
     assert message.startswith(f"{tmp_path / 'bow.xdmf'}:")
     assert not (tmp_path / "out").exists()
+
+
+# --- other simulators' conventions: fields, time stamps, initial state, label -------------------
+
+
+def test_fields_per_side_and_common_names(tmp_path):
+    """Each side's field by name, or found among displacement, U, DISP, Displacement."""
+    V = make_space(2)
+    ref, cand = fields(V)
+    points, cells, cell_type = mesh_data(V)
+    write_meshio_xdmf(tmp_path / "a.xdmf", points, cells, cell_type, ref, field="disp_ref")
+    write_pvd(tmp_path / "b.pvd", points, cells, cell_type, cand, field="U")
+    expected = in_memory(V, ref, cand)
+    compare(tmp_path / "a.xdmf", tmp_path / "b.pvd", tmp_path / "named", reference_field="disp_ref")
+    assert_same_curves(tmp_path / "named", expected, "b")
+    summary = json.loads((tmp_path / "named" / "summary.json").read_text())
+    assert summary["reference"]["field"] == "disp_ref" and summary["candidate"]["field"] == "U"
+    write_meshio_xdmf(tmp_path / "c.xdmf", points, cells, cell_type, ref, field="Displacement")
+    compare(tmp_path / "c.xdmf", tmp_path / "b.pvd", tmp_path / "common")
+    assert_same_curves(tmp_path / "common", expected, "b")
+
+    with pytest.raises(
+        InputError,
+        match=r"a.xdmf: no point field 'displacement' \(nor U, DISP, Displacement\); fields: disp_ref$",
+    ):
+        compare(tmp_path / "a.xdmf", tmp_path / "b.pvd", tmp_path / "out")
+    with pytest.raises(InputError, match="b_000.vtu: no point field 'displacement'; fields: U"):
+        compare(
+            tmp_path / "c.xdmf",
+            tmp_path / "b.pvd",
+            tmp_path / "out",
+            candidate_field="displacement",
+        )
+
+
+def test_times_match_to_six_printed_digits(tmp_path):
+    """300 steps of h = 1/30 s stamped with six significant digits (as CalculiX's .frd) match
+    the reference's; a stamp beyond 1e-5 max(t, h) does not: 0.01 h off at t = 5 s, 1e-4 h
+    off at t = h."""
+    V = make_space(2)
+    times = np.arange(301) / 30
+    printed = [float(f"{t:.5e}") for t in times]
+    relative = np.abs(np.array(printed) - times)[1:] / times[1:]
+    assert 1e-6 < relative.max() <= 5e-6  # six digits: beyond 1e-6 relative, within 5e-6
+    u = [np.zeros((V.dofmap.index_map.size_local, 2)) + t for t in times]
+    points, cells, cell_type = mesh_data(V)
+    write_meshio_xdmf(tmp_path / "ref.xdmf", points, cells, cell_type, u, times=times)
+    write_meshio_xdmf(tmp_path / "six.xdmf", points, cells, cell_type, u, times=printed)
+    compare(tmp_path / "ref.xdmf", tmp_path / "six.xdmf", tmp_path / "six")
+    for step, offset, tolerance in [(150, 0.01 / 30, "5e-05"), (1, 1e-4 / 30, "3.33e-07")]:
+        off = list(times)
+        off[step] += offset
+        write_meshio_xdmf(tmp_path / "off.xdmf", points, cells, cell_type, u, times=off)
+        message = refused(
+            tmp_path / "ref.xdmf", tmp_path / "off.xdmf", tmp_path / "out", f"step {step} "
+        )
+        assert f"(tolerance {tolerance} s)" in message  # 1e-5 max(t, h)
+
+
+def test_series_from_t_equals_h_starts_from_zero(tmp_path):
+    """A candidate without step 0 (it starts at t = h) is graded as if u = 0 at t = 0; a note
+    says so; its label and wall time go to summary.json."""
+    V = make_space(3)
+    ref, cand = fields(V)
+    points, cells, cell_type = mesh_data(V)
+    write_meshio_xdmf(tmp_path / "ref.xdmf", points, cells, cell_type, ref)
+    write_pvd(tmp_path / "sim.pvd", points, cells, cell_type, cand[1:], times=TIMES[1:])
+    lines = compare(
+        tmp_path / "ref.xdmf",
+        tmp_path / "sim.pvd",
+        tmp_path / "out",
+        label="my sim",
+        wall_time="1.5",
+    )
+    assert list(lines)[0] == "note 1" and lines["note 1"].startswith(
+        "candidate sim.pvd starts at t = 0.1 s = h: taken to start from the SPEC's zero"
+    )
+    zero = [np.zeros_like(cand[0])] + cand[1:]
+    assert_same_curves(tmp_path / "out", in_memory(V, ref, zero), "my sim")
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    run = summary["runs"]["my sim"]
+    assert run["wall_time_s"] == 1.5 and run["status"] == "ok" and run["steps"] == 3
+    assert summary["kind"] == "compare" and summary["notes"] == [lines["note 1"]]
+    for name in NAMES:
+        assert run[f"{name}_max"] == pytest.approx(np.nanmax(in_memory(V, ref, zero)[name][1:]))
+    for bad, message in [({"label": ""}, "--label"), ({"wall_time": "inf"}, "--wall-time")]:
+        with pytest.raises(UserError, match=message):
+            compare(tmp_path / "ref.xdmf", tmp_path / "sim.pvd", tmp_path / "bad", **bad)
+    assert not (tmp_path / "bad").exists()

@@ -22,6 +22,7 @@ COMMANDS = [
     "tissuebench.workflows.paper",
     "tissuebench.workflows.compare",
     "tissuebench.workflows.mesh",
+    "tissuebench.workflows.export",
     "tissuebench.workflows.stability",
     "tissuebench.workflows.convergence",
     "tissuebench.workflows.bench",

@@ -5,6 +5,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.metrics.series import DEFAULT_FIELDS
 from tissuebench.workflows.grading import compare
 
 
@@ -12,25 +13,53 @@ def add_parser(sub):
     p = sub.add_parser(
         "compare",
         help="the three metrics of two displacement series on one mesh",
-        description="Compare two displacement time series (XDMF/HDF5 or ParaView .pvd of .vtu) "
-        "on the same mesh: writes DIR/metrics.csv and DIR/metrics.png. A series with "
-        "a non-finite displacement from some step on has diverged there: the metrics "
-        "are NaN from that step on and the status column says so.",
+        description="Compare two displacement time series on the same mesh: XDMF/HDF5, ParaView "
+        ".pvd of .vtu, or CalculiX's output as it comes (the ASCII .frd, or the .dat of "
+        "*NODE PRINT with its deck, the .inp of the same name, beside it). Writes "
+        "DIR/metrics.csv, DIR/metrics.png and DIR/summary.json. A series that starts at t = h "
+        "(CalculiX writes none at t = 0) starts from the zero initial state at t = 0. Time "
+        "stamps match within 1e-5 of max(|t|, h) (six printed digits). A series with a "
+        "non-finite displacement from some step on has diverged there: the metrics are NaN "
+        "from that step on and the status column says so.",
     )
-    p.add_argument("reference", type=Path, help="reference series (.xdmf or .pvd)")
-    p.add_argument("candidate", type=Path, help="candidate series (.xdmf or .pvd)")
+    p.add_argument("reference", type=Path, help="reference series (.xdmf, .pvd, .frd or .dat)")
+    p.add_argument("candidate", type=Path, help="candidate series (.xdmf, .pvd, .frd or .dat)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
+    names = ", ".join(DEFAULT_FIELDS)
     p.add_argument(
-        "--field", default="displacement", help="point field to compare (default displacement)"
+        "--field",
+        help=f"point field of both series (default: the first of {names} that each file holds)",
+    )
+    p.add_argument("--reference-field", help="point field of the reference (overrides --field)")
+    p.add_argument("--candidate-field", help="point field of the candidate (overrides --field)")
+    p.add_argument(
+        "--label",
+        help="the candidate's name in metrics.csv and summary.json (default: its file name "
+        "without suffix)",
+    )
+    p.add_argument(
+        "--wall-time",
+        metavar="SECONDS",
+        help="the candidate's wall time in s, recorded in summary.json",
     )
     p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
-    """Print (rank 0) where a series diverged, if it did, and the metrics' one-line summaries."""
-    summaries = compare(args.reference, args.candidate, args.out, field=args.field)
+    """Print (rank 0) how the series were read, where a series diverged, if it did, and the
+    metrics' one-line summaries."""
+    summaries = compare(
+        args.reference,
+        args.candidate,
+        args.out,
+        field=args.field,
+        reference_field=args.reference_field,
+        candidate_field=args.candidate_field,
+        label=args.label,
+        wall_time=args.wall_time,
+    )
     if MPI.COMM_WORLD.rank == 0:
         for line in summaries.values():
             print(line)
-        print(f"wrote {args.out / 'metrics.csv'} and {args.out / 'metrics.png'}")
+        print(f"wrote {args.out / 'metrics.csv'}, {args.out / 'metrics.png'} and summary.json")
     return 0

@@ -1,9 +1,20 @@
-"""Grading a simulator's output against a reference, with files: `compare` checks that the
-output folder can be written, grades (metrics/compare.py) and writes OUT/metrics.csv and
-OUT/metrics.png, each renamed into place once complete (rank 0 writes)."""
+"""Grading a simulator's output against a reference, with files: `compare` checks the options
+and that the output folder can be written, grades (metrics/compare.py) and writes
+OUT/metrics.csv, OUT/metrics.png and OUT/summary.json, each renamed into place once complete
+(rank 0 writes).
+
+OUT/summary.json is compare's summary, shaped like a run folder's so that an outside run can
+join a table of ours: `kind` "compare", the `reference` and `candidate` files with the field
+read from each, `notes` (how the series were read), `h`, `steps`, `end_time`, and `runs`
+{label: {status, diverged_step, diverged_time, steps, wall_time_s, <metric>_max,
+<metric>_mean for every metric}}; the candidate's label and wall time are `--label` and
+`--wall-time`.
+"""
 
 from __future__ import annotations
 
+import json
+import math
 import os
 from pathlib import Path
 
@@ -11,37 +22,130 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.metrics.compare import grade
+from tissuebench.metrics.compare import Grading, grade, summarize
 from tissuebench.metrics.errors import METRICS, panels
+from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.files import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import check_writable, collective
+
+MAX_LABEL = 64  # characters of a candidate's label (it names rows, figures and tables)
+SUMMARY = "summary.json"
+
+
+class GradingError(UserError):
+    """Options of compare that cannot be taken (a label, a wall time): one line, exit 2."""
+
+
+def check_label(label: str | None) -> None:
+    if label is None:
+        return
+    if not 0 < len(label) <= MAX_LABEL or not label.isprintable() or label.strip() != label:
+        shown = repr(label)[:40] + ("..." if len(repr(label)) > 40 else "")
+        raise GradingError(
+            f"--label must be printable text of 1 to {MAX_LABEL} characters without leading "
+            f"or trailing spaces, got {shown}"
+        )
+
+
+def check_wall_time(wall_time) -> float | None:
+    """The candidate's wall time in s: a finite number >= 0 (text is converted), or None."""
+    if wall_time is None:
+        return None
+    try:
+        value = float(wall_time)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise GradingError(
+            f"--wall-time must be a finite number of seconds >= 0, got {wall_time!r}"
+        )
+    return value
 
 
 def compare(
     reference: str | Path,
     candidate: str | Path,
     out_dir: str | Path,
-    field: str = "displacement",
+    field: str | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    reference_field: str | None = None,
+    candidate_field: str | None = None,
+    label: str | None = None,
+    wall_time: float | str | None = None,
 ) -> dict[str, str]:
-    """Grade the candidate series against the reference series (XDMF or PVD files), write
-    out_dir/metrics.csv and out_dir/metrics.png, and return the one-line summaries (see
-    metrics.compare.Grading). Collective; nothing is written unless everything was read,
-    checked and computed."""
+    """Grade the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
+    .dat), write out_dir/metrics.csv, metrics.png and summary.json, and return the one-line
+    summaries (see metrics.compare.Grading), the notes on how the series were read first
+    (keys "note 1", ...). Collective; nothing is written unless everything was read, checked
+    and computed."""
+    check_label(label)
+    wall = check_wall_time(wall_time)
     check_writable(out_dir, comm)
-    g = grade(reference, candidate, field, comm)
-    collective(comm, lambda: write_grading(Path(out_dir), g), Path(out_dir))
-    return g.summaries
+    g = grade(
+        reference,
+        candidate,
+        field,
+        comm,
+        reference_field=reference_field,
+        candidate_field=candidate_field,
+        label=label,
+    )
+    summary = summary_of(g, reference, candidate, wall)
+    collective(comm, lambda: write_grading(Path(out_dir), g, summary), Path(out_dir))
+    return {**{f"note {k + 1}": note for k, note in enumerate(g.notes)}, **g.summaries}
 
 
-def write_grading(out: Path, g) -> None:
-    """metrics.csv and metrics.png in out, each renamed into place once complete."""
+def none_if_nan(x):
+    return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
+
+
+def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dict:
+    """compare's summary.json (see the module docstring)."""
+    from importlib.metadata import version
+
+    times = g.times
+    graded = g.status.count("ok")
+    worst = next((s for s in g.status if s != "ok"), "ok")
+    entry = {
+        "status": worst,
+        "diverged_step": g.candidate_diverged,
+        "diverged_time": None
+        if g.candidate_diverged is None
+        else float(times[g.candidate_diverged]),
+        "steps": g.candidate_steps - 1,
+        "graded_steps": max(graded - 1, 0),
+        "wall_time_s": wall_time,
+    }
+    for name in METRICS:
+        peak, mean = summarize(g.curves[name])
+        entry[f"{name}_max"], entry[f"{name}_mean"] = none_if_nan(peak), none_if_nan(mean)
+    steps = len(times) - 1
+    return {
+        "kind": "compare",
+        "reference": {"file": str(reference), "field": g.fields[0]},
+        "candidate": {"file": str(candidate), "field": g.fields[1], "label": g.label},
+        "notes": g.notes,
+        "h": float(times[1] - times[0]) if steps else None,
+        "steps": steps,
+        "end_time": float(times[-1]),
+        "reference_diverged_step": g.reference_diverged,
+        "runs": {g.label: entry},
+        "versions": {"tissuebench": version("tissuebench")},
+        "files": ["metrics.csv", "metrics.png", SUMMARY],
+    }
+
+
+def write_grading(out: Path, g: Grading, summary: dict) -> None:
+    """metrics.csv, metrics.png and summary.json in out, each renamed into place once
+    complete."""
     out.mkdir(parents=True, exist_ok=True)
-    final = [out / "metrics.csv", out / "metrics.png"]
+    final = [out / "metrics.csv", out / "metrics.png", out / SUMMARY]
     temporary = [p.with_name(f".{p.name}.{os.getpid()}.tmp") for p in final]
     try:
         write_metrics_csv(temporary[0], g.times, {g.label: g.curves}, {g.label: g.status})
         plot(temporary[1], g.title, g.times, g.curves)
+        temporary[2].write_text(json.dumps(summary, indent=2) + "\n")
         for tmp, path in zip(temporary, final):
             os.replace(tmp, path)
     finally:

@@ -1,0 +1,134 @@
+"""`tissuebench export BENCHMARK --format json|inp|vtu|msh --out FILE`: a benchmark posed for
+another simulator, with our reference's history beside it (workflows/exporting.py)."""
+
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.meshes import BENCHMARKS, get_entry
+from tissuebench.meshes.gmshio import check_positive_int
+from tissuebench.solvers.materials import get_material
+from tissuebench.workflows.arguments import (
+    add_benchmark_options,
+    add_common,
+    benchmark_options,
+    check_common,
+    check_models_plane,
+    parse_models,
+    positive,
+)
+from tissuebench.workflows.exporting import (
+    ELEMENTS,
+    FORMATS,
+    PROCEDURES,
+    ExportError,
+    export,
+    reference_path,
+    step_note,
+)
+from tissuebench.workflows.limits import check as check_limits, estimate, step_count
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "export",
+        help="write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
+        description="Write a benchmark for another simulator: json (mesh, node sets, the "
+        "prescribed motion at every t_i, body force, material, model, h, T; schema "
+        "tissuebench.benchmark version 1), inp (a CalculiX deck ready for `ccx -i NAME`), or "
+        "the mesh alone (vtu, msh). Beside a json or inp, our reference's displacement history "
+        "(NAME.reference.xdmf + .h5: implicit, or quasi-static with --procedure static), so "
+        "that `tissuebench compare NAME.reference.xdmf NAME.frd --out DIR` grades the result.",
+    )
+    p.add_argument("benchmark", help=f"{', '.join(BENCHMARKS)}")
+    p.add_argument("--format", choices=FORMATS, help="default: the suffix of --out")
+    p.add_argument("--out", required=True, type=Path, help="the file to write (.json, .inp, ...)")
+    p.add_argument("--material", help="MP1, MP2, MP3 or a .toml file (default: the benchmark's)")
+    p.add_argument("--dt", type=str, help="time step h in s (default 1/30)")
+    p.add_argument("--end-time", type=str, help="end time T in s (default 10)")
+    p.add_argument("--models", default="linear", help="one elastic model (default linear)")
+    add_benchmark_options(p, BENCHMARKS)
+    p.add_argument(
+        "--plane",
+        choices=["strain", "stress"],
+        help="2D benchmarks only: plane strain (default) or stress",
+    )
+    p.add_argument(
+        "--procedure",
+        choices=list(PROCEDURES),
+        default="dynamic",
+        help="dynamic (default: *DYNAMIC, against implicit) or static (*STATIC at every t_i, "
+        "against quasi-static)",
+    )
+    p.add_argument(
+        "--element",
+        help=f"inp only: the CalculiX element, {', '.join(ELEMENTS)} (default C3D8 in 3D, "
+        "CPE4 in plane strain, CPS4 in plane stress)",
+    )
+    p.add_argument(
+        "--no-reference",
+        action="store_true",
+        help="json and inp: do not run and write our reference beside it",
+    )
+    add_common(p)
+    p.set_defaults(func=main)
+
+
+def main(args):
+    comm = MPI.COMM_WORLD
+    entry = get_entry(args.benchmark)
+    fmt = args.format or args.out.suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise ExportError(
+            f"output {args.out}: cannot tell the format from its suffix; give --format "
+            f"{'|'.join(FORMATS)}"
+        )
+    options = benchmark_options(args, args.benchmark, BENCHMARKS)
+    models = parse_models(args.models)
+    if len(models) != 1:
+        raise ExportError(f"--models: an export holds one model, got {', '.join(models)}")
+    check_models_plane(models, args.plane, entry.gdim)
+    mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
+    check_positive_int("mesh size", mesh_size)
+    h = positive(args.dt) if args.dt is not None else entry.dt
+    end_time = positive(args.end_time) if args.end_time is not None else entry.end_time
+    steps = step_count(h, end_time)
+    material = get_material(args.material or entry.material)
+    check_common(args)
+    reference = not args.no_reference and fmt in ("json", "inp")
+    runs = 1 if reference else 0
+    check_limits(
+        estimate(entry.gdim, entry.nodes(mesh_size), steps if reference else 0, runs, comm.size),
+        args.out.absolute().parent,
+        comm,
+    )
+    note = step_note(h, end_time, steps)
+    if note and comm.rank == 0:
+        print(note)
+    written = export(
+        args.benchmark,
+        fmt,
+        args.out,
+        mesh_size=mesh_size,
+        options=options,
+        material=material,
+        model=models[0],
+        h=h,
+        steps=steps,
+        plane=args.plane or "strain",
+        procedure=args.procedure,
+        element=args.element,
+        reference=reference,
+        solver=args.solver,
+        force=args.force,
+        comm=comm,
+    )
+    if comm.rank == 0:
+        print(f"wrote {', '.join(str(p) for p in written)}")
+        if fmt == "inp" and reference:
+            job = args.out.with_suffix("")
+            print(
+                f"next: ccx -i {job}; tissuebench compare {reference_path(args.out)} "
+                f"{job}.frd --out {job.name}-graded"
+            )
+    return 0
