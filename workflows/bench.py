@@ -7,7 +7,13 @@ first step: step matrix, factorisation or preconditioner, initial acceleration) 
 per step (median after a warm-up) of every algorithm; the peak memory (resident set, summed
 over ranks) during each; the same on 2 ranks; the peer (workflows/peer_skfem.py) doing the same
 steps on the same mesh; whether both give the same displacement; a STREAM-like triad and the
-bytes an explicit-lumped step must move, giving measured / limit.
+bytes an explicit-lumped step must move, giving measured / limit. With the elastic models of
+SPEC 8: the explicit-lumped step with neo-hookean and with corotational beside the linear one
+(ratios), its real-time capacity, and the Newton iterations per implicit step of svk,
+neo-hookean and corotational at the paper's loads.
+
+A quick run never replaces a full one: without --out it writes into a folder of the system's
+temporary directory, and it refuses an --out whose performance.json holds a full run.
 
 The measurements (worker processes, budgets, capacity search) are workflows/bench_measure.py;
 the tables, figure and report are workflows/bench_report.py. Writes DIR/performance.md,
@@ -18,6 +24,7 @@ prints.
 import argparse
 import json
 import os
+import tempfile
 import time
 from pathlib import Path
 
@@ -35,8 +42,28 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "DIR/performance.md, .png and .json. Needs the 'bench' extra.",
     )
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
-    p.add_argument("--out", default="results", type=Path, help="output directory (default results)")
+    p.add_argument(
+        "--out",
+        default=None,
+        type=Path,
+        help="output directory (default results; with --quick, "
+        f"{quick_out()}, so that a quick run never replaces the full results)",
+    )
     p.set_defaults(func=main)
+
+
+def quick_out() -> Path:
+    """Where `bench --quick` writes without --out."""
+    return Path(tempfile.gettempdir()) / "tissuebench-bench-quick"
+
+
+def holds_full_run(out: Path) -> bool:
+    """Whether out/performance.json is the result of a finished full run."""
+    try:
+        data = json.loads((out / "performance.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("mode") == "full" and not data.get("partial")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -51,13 +78,21 @@ def main(args: argparse.Namespace) -> int:
             f"the bench needs the 'bench' extra (pip install -e '.[bench]'): {err}"
         ) from None
     mode = "quick" if args.quick else "full"
-    out = Path(args.out)
+    if args.out is None:
+        out = quick_out() if args.quick else Path("results")
+    else:
+        out = Path(args.out)
+    if args.quick and holds_full_run(out):
+        raise UserError(
+            f"{out / 'performance.json'} holds a full run, which a quick run does not replace: "
+            "give another --out"
+        )
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     print(
         f"tissuebench bench ({mode}): workers pinned to 1 BLAS/OpenMP thread per rank", flush=True
     )
-    records, probes, paper = measure(mode, out, lambda line: print(line, flush=True))
+    records, probes, paper, newton = measure(mode, out, lambda line: print(line, flush=True))
     wall = time.perf_counter() - start
     (out / "performance.json").write_text(
         json.dumps(
@@ -67,12 +102,13 @@ def main(args: argparse.Namespace) -> int:
                 "records": records,
                 "capacity_probes": probes,
                 "paper_s": paper,
+                "newton": newton,
             }
         )
     )
     plot(records, out / "performance.png")
-    write_report(records, probes, paper, mode, wall, out)
-    for title, table in summary_tables(records, probes, paper):
+    write_report(records, probes, paper, mode, wall, out, newton)
+    for title, table in summary_tables(records, probes, paper, newton):
         print(f"\n{title}\n{text_table(*table)}")
     print(f"\nwall {wall:.0f} s; wrote {out / 'performance.md'} and {out / 'performance.png'}")
     return 0

@@ -9,7 +9,10 @@ its budget is skipped from then on.
 
 A record is one (benchmark, size): {"benchmark", "size", "dofs", "ours1", "ours2", "peer",
 "diff_peer", "diff_2ranks", "wall_s"}, each side a worker's result with its "cases" keyed
-'algorithm/solver'. Units: seconds, bytes, degrees of freedom.
+'algorithm/solver'; an algorithm with a nonlinear elastic model (SPEC 8) is named by its run
+label, 'explicit-lumped+neo-hookean/-'. Beside the sweep: the Newton iterations per implicit
+step of each nonlinear model at the paper's loads (newton_iterations). Units: seconds, bytes,
+degrees of freedom.
 """
 
 import gc
@@ -60,6 +63,12 @@ OURS_CASES = [
     ("explicit", "direct"),
     ("quasi-static", "direct"),
 ]
+# SPEC 8: the explicit-lumped step with a nonlinear model, run in the sweep beside the linear
+# one (same worker, same h: the linear scheme's); the first has a real-time target
+MODEL_CASES = [
+    ("explicit-lumped+neo-hookean", "-"),
+    ("explicit-lumped+corotational", "-"),
+]
 MAIN_CASES = {
     ("explicit-lumped", "-"),
     ("implicit", "direct"),
@@ -68,7 +77,14 @@ MAIN_CASES = {
     ("implicit", "pardiso"),
     ("implicit", "superlu"),
     ("implicit", "pyamg"),
+    *MODEL_CASES,
 }
+# the cases whose real-time capacity is bisected between two sizes of the sweep
+CAPACITY_CASES = (("explicit-lumped", "-"), ("implicit", "direct"), MODEL_CASES[0])
+# Newton iterations per implicit step at the paper's loads (SPEC 8: s = 1, h and T of the
+# benchmark, its default material and mesh size: block MP1 N = 20, rod MP3 n = 3)
+NEWTON_MODELS = ("svk", "neo-hookean", "corotational")
+NEWTON_BENCHMARKS = ("block", "rod")
 DIRECT = {"direct", "superlu", "pardiso"}
 EXPLICIT = ("explicit", "explicit-lumped")
 
@@ -87,6 +103,14 @@ def peer_cases(pardiso: bool) -> list[tuple[str, str]]:
 def key(case: tuple) -> str:
     """'algorithm/solver' of a case (algorithm, solver[, steps])."""
     return f"{case[0]}/{case[1]}"
+
+
+def split_case_label(label: str) -> tuple[str, str]:
+    """(algorithm, model) of a case's first entry, 'explicit-lumped+neo-hookean' or
+    'implicit' (the linear model): the run label of SPEC 8 (solvers/models.split_label,
+    without importing the solvers)."""
+    algorithm, _, model = label.partition("+")
+    return algorithm, model or "linear"
 
 
 def get(rec: dict, side: str, case: tuple, field: str):
@@ -116,8 +140,9 @@ def peak_memory() -> int:
 
 
 def median_step(times: list[float]) -> float:
-    """Median time per step (s) of the steps after the warm-up."""
-    return float(np.median(times[WARMUP[len(times)] :]))
+    """Median time per step (s) of the steps after the warm-up (that of STEPS for a run of
+    another length)."""
+    return float(np.median(times[WARMUP.get(len(times), WARMUP[STEPS]) :]))
 
 
 # --- the worker for tissuebench (ours), 1 or 2 ranks ------------------------------------------
@@ -170,7 +195,10 @@ def stable_steps(system, names: Iterable[str]) -> tuple[dict, dict, float]:
 
 
 def ours_worker(spec: dict) -> dict:
-    """Assembly, triad and every case of `spec` with tissuebench, on this process's ranks."""
+    """Assembly, triad (unless spec["triad"] is false) and every case of `spec` with
+    tissuebench, on this process's ranks. A case (label, solver, steps) runs the label's
+    algorithm with its model (split_case_label); a nonlinear model's implicit step records its
+    Newton iterations per step, even up to a divergence."""
     from mpi4py import MPI
     from petsc4py import PETSc
 
@@ -182,7 +210,8 @@ def ours_worker(spec: dict) -> dict:
 
     comm = MPI.COMM_WORLD
     out = {"ranks": comm.size, "cases": {}}
-    out["triad_Bps"] = triad_bandwidth(comm)
+    if spec.get("triad", True):
+        out["triad_Bps"] = triad_bandwidth(comm)
     bench = get_benchmark(spec["benchmark"], mesh_size=spec["size"], comm=comm)
     system = System(bench)  # the defaults of `tissuebench run`
     K = system.K
@@ -204,13 +233,16 @@ def ours_worker(spec: dict) -> dict:
     comm.Barrier()
     out["assembly_s"]["block CSR"] = time.perf_counter() - start
 
-    h = {name: bench.dt for name, _, _ in spec["cases"]}
-    explicit = sorted({a for a, _, _ in spec["cases"] if a in EXPLICIT})
+    # h per case label; a model case runs at its algorithm's (linear) stable step
+    h = {label: bench.dt for label, _, _ in spec["cases"]}
+    explicit = sorted({split_case_label(a)[0] for a, _, _ in spec["cases"]} & set(EXPLICIT))
     if spec.get("h"):
         h.update(spec["h"])
     elif explicit:
         stable, out["omega_from"], out["eigen_s"] = stable_steps(system, explicit)
-        h.update({name: min(bench.dt, value) for name, value in stable.items()})
+        for label in h:
+            if split_case_label(label)[0] in stable:
+                h[label] = min(bench.dt, stable[split_case_label(label)[0]])
     out["h"] = h
 
     if comm.rank == 0 and spec.get("mesh_out"):
@@ -227,48 +259,59 @@ def ours_worker(spec: dict) -> dict:
         )
 
     displacements = {}
-    for algorithm, solver, steps in spec["cases"]:
-        record = {"h": h[algorithm], "steps": steps}
+    for label, solver, steps in spec["cases"]:
+        algorithm, model = split_case_label(label)
+        newton = model != "linear" and algorithm not in EXPLICIT
+        record = {"h": h[label], "steps": steps}
+        times, iterations = [], []
         gc.collect()
         reset_peak_memory()
         try:
             comm.Barrier()
             start = time.perf_counter()
             integrator = get_integrator(
-                algorithm, system, h[algorithm], solver="direct" if solver == "-" else solver
+                algorithm,
+                system,
+                h[label],
+                solver="direct" if solver == "-" else solver,
+                model=model,
             )
             state = integrator.start()
             comm.Barrier()
             record["setup_s"] = time.perf_counter() - start
-            if algorithm == "explicit-lumped":  # the matrix its one product per step reads
+            if label == "explicit-lumped":  # the matrix its one product per step reads
                 A = system.K_csr  # solvers/blockcsr.py: blocks, block columns, row starts
                 record["matrix_type"] = "block CSR"
                 record["bytes"] = explicit_lumped_bytes(comm.allreduce(A.nbytes), system.num_dofs())
-            times, iterations = [], []
             for _ in range(steps):
                 comm.Barrier()
                 start = time.perf_counter()
                 state = integrator.step(state)
                 comm.Barrier()
                 times.append(time.perf_counter() - start)
-                if solver in OURS_ITERATIVE:
+                if solver in OURS_ITERATIVE or newton:
                     iterations.append(integrator.iterations())
             record["step_s"] = median_step(times)
             record["steps_s"] = times
-            if iterations:
-                record["iterations"] = float(np.mean(iterations))
             finite = bool(np.isfinite(state.u.array_r).all())
             record["finite"] = bool(comm.allreduce(finite, op=MPI.LAND))
             gathered = gather_by_coordinates(system.V, state.u.array_r, comm)
             if comm.rank == 0:
-                displacements[key((algorithm, solver))] = gathered[1]
+                displacements[key((label, solver))] = gathered[1]
                 displacements["x"] = gathered[0][:, : system.gdim]
             integrator.destroy()
             del integrator, state
-        except (PETSc.Error, RuntimeError) as err:
+        except (PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
             record["error"] = str(err)[:200]
+            if "setup_s" in record:  # the step that failed
+                record["steps_done"] = len(times)
+                record["diverged_t"] = (len(times) + 1) * h[label]
+        if iterations:
+            record["iterations"] = float(np.mean(iterations))
+        if newton:  # Newton iterations of each step that converged
+            record["newton_iterations"] = iterations
         record["peak_bytes"] = comm.allreduce(peak_memory())
-        out["cases"][key((algorithm, solver))] = record
+        out["cases"][key((label, solver))] = record
     if comm.rank == 0 and spec.get("u_out"):
         np.savez(spec["u_out"], **displacements)
     return out
@@ -473,10 +516,11 @@ def compare_displacements(
 
 def measure(
     mode: str, out: Path, log: Callable[[str], None]
-) -> tuple[list[dict], list[dict], dict]:
-    """Run every worker: the records (one per (benchmark, size)), the capacity probes and the
-    paper's wall times (full mode only). Writes a partial DIR/performance.json after each size
-    and works in DIR/.bench-tmp, removed at the end."""
+) -> tuple[list[dict], list[dict], dict, list[dict]]:
+    """Run every worker: the records (one per (benchmark, size)), the capacity probes, the
+    paper's wall times (full mode only) and the Newton iterations of the nonlinear models
+    (newton_iterations). Writes a partial DIR/performance.json after each size and works in
+    DIR/.bench-tmp, removed at the end."""
     tmp = out / ".bench-tmp"
     tmp.mkdir(parents=True, exist_ok=True)
     budget = Budget(mode)
@@ -491,7 +535,7 @@ def measure(
         tag = f"{benchmark}-{size}"
         rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
         start = time.perf_counter()
-        ocases = [(*c, budget.steps("ours", benchmark, c, dofs)) for c in OURS_CASES]
+        ocases = [(*c, budget.steps("ours", benchmark, c, dofs)) for c in OURS_CASES + MODEL_CASES]
         ocases = [c for c in ocases if c[2]]
         spec = {
             "benchmark": benchmark,
@@ -565,9 +609,50 @@ def measure(
             + (f"  ({'; '.join(errors)})" if errors else "")
         )
     probes = refine_capacity(records, tmp, timeout, log)
+    newton = newton_iterations(tmp, timeout, log)
     paper = time_paper(tmp, log) if mode == "full" else {}
     shutil.rmtree(tmp, ignore_errors=True)
-    return records, probes, paper
+    return records, probes, paper, newton
+
+
+def newton_iterations(tmp: Path, timeout: float, log: Callable[[str], None]) -> list[dict]:
+    """`implicit` with each nonlinear model (NEWTON_MODELS) at the paper's loads, in both modes:
+    each benchmark of NEWTON_BENCHMARKS at its default material and mesh size, s = 1, h and T
+    its defaults (block MP1 N = 20 and rod MP3 n = 3: 300 steps), one 1-rank worker per
+    benchmark. [{"benchmark", "size", "material", "h", "steps", "result"}], the result being
+    the worker's, its cases keyed 'implicit+MODEL/direct' with the Newton iterations of every
+    step that converged (a divergence, such as an inverted element, ends the run there)."""
+    from tissuebench.meshes import get_entry
+
+    runs = []
+    for benchmark in NEWTON_BENCHMARKS:
+        entry = get_entry(benchmark)
+        steps = round(entry.end_time / entry.dt)
+        cases = [(f"implicit+{m}", "direct", steps) for m in NEWTON_MODELS]
+        spec = {"benchmark": benchmark, "size": entry.mesh_size, "cases": cases, "triad": False}
+        start = time.perf_counter()
+        result = run_worker("ours", 1, spec, tmp, f"newton-{benchmark}", timeout)
+        runs.append(
+            {
+                "benchmark": benchmark,
+                "size": entry.mesh_size,
+                "material": entry.material,
+                "h": entry.dt,
+                "steps": steps,
+                "result": result,
+            }
+        )
+        summary = []
+        for c in cases:
+            its = result.get("cases", {}).get(key(c), {}).get("newton_iterations")
+            summary.append(f"{c[0]} " + (f"mean {np.mean(its):.2f} max {max(its)}" if its else "-"))
+        log(
+            f"Newton {benchmark} {entry.material} size {entry.mesh_size}, {steps} steps: "
+            + "; ".join(summary)
+            + f"  ({time.perf_counter() - start:.1f} s)"
+            + (f"  ({result['error']})" if "error" in result else "")
+        )
+    return runs
 
 
 def time_paper(tmp: Path, log: Callable[[str], None]) -> dict[str, float | None]:
@@ -632,7 +717,7 @@ def refine_capacity(
     the largest size of the sweep that runs in real time (step time <= h) and the next size,
     with runs of SHORT steps. The probes: [{case, ranks, n, dofs, step_s, h}]."""
     probes = []
-    for case in (("explicit-lumped", "-"), ("implicit", "direct")):
+    for case in CAPACITY_CASES:
         for ranks, side in ((1, "ours1"), (2, "ours2")):
             points = rod_points(records, [], case, side)
             passing = [n for n, _, step, h in points if step <= h]

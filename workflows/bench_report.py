@@ -13,8 +13,11 @@ from pathlib import Path
 
 from tissuebench.workflows.bench_measure import (
     BUDGET,
+    CAPACITY_CASES,
     DIRECT_TOL,
     MAIN_CASES,
+    MODEL_CASES,
+    NEWTON_MODELS,
     OURS_CASES,
     OURS_ITERATIVE,
     SAFETY,
@@ -25,9 +28,19 @@ from tissuebench.workflows.bench_measure import (
     get,
     key,
     rod_points,
+    split_case_label,
 )
 
 Table = tuple[list[str], list[list]]  # header, rows
+
+# SPEC 8 targets: a nonlinear model's explicit-lumped step costs at most MODEL_STEP_LIMIT x the
+# linear one at >= MODEL_STEP_DOFS dofs (rod); Newton needs at most NEWTON_LIMIT iterations per
+# implicit step on average at the paper's loads; explicit-lumped+neo-hookean runs in real time
+# up to at least MODEL_REAL_TIME_DOFS dofs.
+MODEL_STEP_LIMIT = 4.0
+MODEL_STEP_DOFS = 1e5
+NEWTON_LIMIT = 4.0
+MODEL_REAL_TIME_DOFS = 3e4
 
 # --- tables -------------------------------------------------------------------------------------
 
@@ -258,18 +271,21 @@ def bandwidth_rows(records: list[dict]) -> Table:
     ], rows
 
 
-def capacity(records: list[dict], probes: Iterable[dict] = ()) -> Table:
-    """Per ours case and rank count: the largest rod size with step time <= h (one simulated
-    second in at most one wall second), over the sweep and the capacity probes, and whether
-    the largest size measured still passed."""
+def capacity(
+    records: list[dict], probes: Iterable[dict] = (), cases: Iterable[tuple] = OURS_CASES
+) -> Table:
+    """Per case (ours, by default OURS_CASES) and rank count: the largest rod size with step
+    time <= h (one simulated second in at most one wall second), over the sweep and the
+    capacity probes, and whether the largest size measured still passed."""
+    probes = list(probes)
     rows = []
-    for case in OURS_CASES:
+    for case in cases:
         row = [case[0], case[1]]
         for side in ("ours1", "ours2"):
             points = rod_points(records, probes, case, side)
             passing = [p for p in points if p[2] <= p[3]]
             if not passing:
-                row += ["none", None, None]
+                row += ["none" if points else "not run", None, None]
                 continue
             n, dofs, step, h = passing[-1]
             more = " (largest run)" if passing[-1] is points[-1] else ""
@@ -287,10 +303,94 @@ def capacity(records: list[dict], probes: Iterable[dict] = ()) -> Table:
     ], rows
 
 
+def model_name(case: tuple) -> str:
+    """The model of a case ('neo-hookean' of 'explicit-lumped+neo-hookean')."""
+    return split_case_label(case[0])[1]
+
+
+def model_step_rows(records: list[dict]) -> Table:
+    """The explicit-lumped step with each nonlinear model (MODEL_CASES) against the linear one
+    of the same worker at the same h, on 1 and 2 ranks."""
+    el = ("explicit-lumped", "-")
+    rows = []
+    for rec in records:
+        lin1, lin2 = get(rec, "ours1", el, "step_s"), get(rec, "ours2", el, "step_s")
+        if lin1 is None or not any(get(rec, "ours1", c, "step_s") for c in MODEL_CASES):
+            continue
+        row = [rec["benchmark"], rec["size"], rec["dofs"], get(rec, "ours1", el, "h"), lin1]
+        for c in MODEL_CASES:
+            step = get(rec, "ours1", c, "step_s")
+            row += [step, ratio(step, lin1)]
+        row += [lin2] + [ratio(get(rec, "ours2", c, "step_s"), lin2) for c in MODEL_CASES]
+        diffs = [rec.get("diff_2ranks", {}).get(key(c)) for c in MODEL_CASES]
+        diffs = [d for d in diffs if d is not None and math.isfinite(d)]
+        row += [max(diffs) if diffs else None]
+        rows.append(row)
+    header = ["bench", "size", "dofs", "h s", "linear 1r s"]
+    for c in MODEL_CASES:
+        header += [f"{model_name(c)} 1r s", f"{model_name(c)}/linear 1r"]
+    header += ["linear 2r s"] + [f"{model_name(c)}/linear 2r" for c in MODEL_CASES]
+    return header + ["u diff 2r vs 1r (models)"], rows
+
+
+def newton_case(run: dict, model: str) -> dict:
+    """The record of `implicit` with `model` in one run of newton_iterations ({} if none)."""
+    return run.get("result", {}).get("cases", {}).get(key((f"implicit+{model}", "direct")), {})
+
+
+def newton_status(run: dict, model: str) -> str:
+    """'ok', or why and where the run stopped."""
+    r = newton_case(run, model)
+    if "error" in r:  # the message says where (t) and why
+        return ("diverged: " if "diverged_t" in r else "failed: ") + r["error"][:80]
+    if not r:
+        return "not run: " + run.get("result", {}).get("error", "no result")[:80]
+    return "ok"
+
+
+def newton_rows(newton: Iterable[dict]) -> Table:
+    """Newton iterations per implicit step of each nonlinear model at the paper's loads."""
+    rows = []
+    for run in newton:
+        for model in NEWTON_MODELS:
+            r = newton_case(run, model)
+            its = r.get("newton_iterations") or []
+            rows.append(
+                [
+                    run["benchmark"],
+                    run["material"],
+                    run["size"],
+                    run.get("result", {}).get("dofs"),
+                    f"implicit+{model}",
+                    f"{len(its)}/{run['steps']}",
+                    sum(its) / len(its) if its else None,
+                    max(its) if its else None,
+                    r.get("step_s"),
+                    newton_status(run, model),
+                ]
+            )
+    return [
+        "bench",
+        "material",
+        "size",
+        "dofs",
+        "run",
+        "steps converged",
+        "Newton its mean",
+        "max",
+        "step s (median)",
+        "status",
+    ], rows
+
+
 def targets(
-    records: list[dict], probes: Iterable[dict] = (), paper: dict[str, float | None] | None = None
+    records: list[dict],
+    probes: Iterable[dict] = (),
+    paper: dict[str, float | None] | None = None,
+    newton: Iterable[dict] = (),
 ) -> Table:
     """The issue's targets, each with the measured worst case over the sizes it covers."""
+    probes = list(probes)
     rows = []
 
     def worst(values, larger_is_worse=True):
@@ -399,6 +499,53 @@ def targets(
                     "met" if value is not None and value >= need else "NOT met",
                 ]
             )
+    # SPEC 8: the elastic models
+    big_rod = [r for r in records if r["benchmark"] == "rod" and r["dofs"] >= MODEL_STEP_DOFS]
+    for case in MODEL_CASES:
+        ran = [
+            r for r in big_rod if get(r, "ours1", case, "step_s") and get(r, "ours1", el, "step_s")
+        ]
+        check(
+            f"{case[0]} step / explicit-lumped step (1 rank)",
+            worst(
+                ratio(get(r, "ours1", case, "step_s"), get(r, "ours1", el, "step_s")) for r in ran
+            ),
+            MODEL_STEP_LIMIT,
+            where=f"rod dofs >= {MODEL_STEP_DOFS:.0e}: " + (names(ran) or "none ran"),
+        )
+    for model in NEWTON_MODELS:
+        means, where = [], []
+        for run in newton:
+            its = newton_case(run, model).get("newton_iterations")
+            if its:
+                means.append(sum(its) / len(its))
+                stopped = "" if newton_status(run, model) == "ok" else ", diverged"
+                where.append(
+                    f"{run['benchmark']} {run['material']} {fmt(means[-1])} "
+                    f"({len(its)}/{run['steps']} steps{stopped})"
+                )
+        check(
+            f"implicit+{model}: Newton iterations per step, mean (paper loads, s = 1)",
+            worst(means),
+            NEWTON_LIMIT,
+            where="; ".join(where),
+        )
+    for row in capacity(records, probes, MODEL_CASES[:1])[1]:
+        dofs = [d for d in (row[3], row[6]) if d is not None]
+        value = max(dofs) if dofs else None
+        if row[2] == row[5] == "not run":
+            status = "not measured"
+        else:
+            status = "met" if value is not None and value >= MODEL_REAL_TIME_DOFS else "NOT met"
+        rows.append(
+            [
+                f"real time: {row[0]} (best of 1, 2 ranks)",
+                "rod",
+                fmt(value) if value is not None else "none",
+                fmt(MODEL_REAL_TIME_DOFS),
+                status,
+            ]
+        )
     if paper:  # serial and 2 ranks, warm form cache: the faster of the two is what a user gets
         warm = [t for name, t in paper.items() if name != "serial, cold" and t is not None]
         check(
@@ -411,15 +558,21 @@ def targets(
 
 
 def summary_tables(
-    records: list[dict], probes: list[dict], paper: dict[str, float | None]
+    records: list[dict],
+    probes: list[dict],
+    paper: dict[str, float | None],
+    newton: list[dict] = (),
 ) -> list[tuple[str, Table]]:
     """(title, table) of the tables the command prints at the end."""
     return [
-        ("targets", targets(records, probes, paper)),
+        ("targets", targets(records, probes, paper, newton)),
         ("explicit-lumped vs bandwidth", bandwidth_rows(records)),
         ("steps", step_rows(records)),
         ("assembly", assembly_rows(records)),
         ("real-time capacity (rod)", capacity(records, probes)),
+        ("elastic models: explicit-lumped step against the linear one", model_step_rows(records)),
+        ("elastic models: Newton iterations per implicit step", newton_rows(newton)),
+        ("elastic models: real-time capacity (rod)", capacity(records, probes, MODEL_CASES)),
     ]
 
 
@@ -451,6 +604,8 @@ def plot(records: list[dict], path: Path) -> None:
         ("implicit-lumped", "direct"): "C3",
         ("explicit", "direct"): "C4",
         ("quasi-static", "direct"): "C5",
+        MODEL_CASES[0]: "C8",
+        MODEL_CASES[1]: "C9",
     }
     peer_styles = {
         ("explicit-lumped", "-"): "C0",
@@ -554,6 +709,7 @@ def write_report(
     mode: str,
     wall: float,
     out: Path,
+    newton: list[dict] = (),
 ) -> None:
     """Write out/performance.md (it shows performance.png beside it)."""
     sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in ("rod", "block")}
@@ -596,17 +752,56 @@ def write_report(
         "",
         "## Targets",
         "",
-        markdown_table(*targets(records, probes, paper)),
+        markdown_table(*targets(records, probes, paper, newton)),
         "",
         "## Real-time capacity (rod)",
         "",
         "The largest rod mesh measured whose time per step is at most its step h (one simulated "
         "second in at most one wall second); 'wall/simulated' is step time / h there. For "
-        "explicit-lumped and implicit direct (the cases with a target), the rod size n is also "
+        + ", ".join(f"{a} {s}" if s != "-" else a for a, s in CAPACITY_CASES)
+        + " (the cases with a target), the rod size n is also "
         "bisected between the sweep's last size in real time and the next one, with runs of "
         f"{SHORT} steps: " + (probe_text or "no probe was needed") + ".",
         "",
         markdown_table(*capacity(records, probes)),
+        "",
+        "## Elastic models (SPEC 8)",
+        "",
+        "### The explicit-lumped step with a nonlinear model",
+        "",
+        "Each nonlinear model's explicit-lumped step ran in the sweep's workers beside the "
+        "linear one, at the same h (the linear scheme's: "
+        f"{SAFETY} x 2/omega_max) and with the same steps; ratio = the model's median step "
+        "time / the linear step's. The linear step is one fused pass over the assembled K "
+        "(solvers/blockcsr.py); a model's step assembles f_int(u) from its UFL form (2x2(x2) "
+        "Gauss points), checks det F > 0 at every quadrature point and, for corotational, "
+        "first finds R at every cell centre (solvers/elastic.py). "
+        f"Target: at most {MODEL_STEP_LIMIT:g} x the linear step at >= "
+        f"{MODEL_STEP_DOFS:.0e} dofs on the rod. 'u diff 2r vs 1r': the largest relative "
+        "displacement difference of the model runs between 2 ranks and 1.",
+        "",
+        markdown_table(*model_step_rows(records)),
+        "",
+        "### Newton iterations per implicit step at the paper's loads",
+        "",
+        "`implicit` with each nonlinear model on each benchmark's default material and mesh "
+        "(block MP1 N = 20 with a point needle, rod MP3 n = 3), load scale s = 1, h = 1/30 s "
+        "to T = 10 s, 1 rank. Newton as SPEC 8 (PETSc SNES newtonls with backtracking, "
+        "relative residual 1e-10, MUMPS LU of the Jacobian at every iteration). Mean and max "
+        "over the steps that converged: a run that diverges (Newton fails, or some J <= 0 at a "
+        "quadrature point) stops at that step, and its mean covers the steps before. "
+        f"Target: a mean of at most {NEWTON_LIMIT:g}.",
+        "",
+        markdown_table(*newton_rows(newton)),
+        "",
+        "### Real-time capacity with a nonlinear model (rod)",
+        "",
+        "As in the real-time capacity section above (step time <= h, h = the linear "
+        "scheme's stable step, at most 1/30 s); the size of "
+        f"{MODEL_CASES[0][0]} is also bisected. Target: >= {MODEL_REAL_TIME_DOFS:.0e} dofs "
+        "on 1 or 2 ranks.",
+        "",
+        markdown_table(*capacity(records, probes, MODEL_CASES)),
         "",
         "## Explicit-lumped step against the memory-bandwidth limit",
         "",
