@@ -26,6 +26,7 @@ from tissuebench.solvers.elastic import ElasticForces
 from tissuebench.solvers.linear import SolveError, petsc_message
 from tissuebench.solvers.models.model import Model
 from tissuebench.solvers.newmark import Newmark
+from tissuebench.solvers.quasi_static import initial_state
 
 # SPEC 8: relative residual 1e-10. ATOL_SCALE x max diag(K_0) x extent is the absolute floor:
 # the force of a 1e-13 relative nodal displacement error, a little above round-off.
@@ -237,13 +238,8 @@ class QuasiStaticModel:
         self.forces.jacobian(1.0, 0.0, 0.0)
 
     def start(self) -> State:
-        s = self.system
-        u, v, a = (s.K.createVecLeft() for _ in range(3))
-        for x in (u, v, a):
-            x.set(0.0)
-        u.array[s.constrained] = s.prescribed(0.0)[0]
         self._load = 0.0  # u = 0 is the equilibrium without load
-        return State(0, 0.0, u, v, a)
+        return initial_state(self.system)
 
     def _newton(self, u) -> bool:
         try:

@@ -5,6 +5,15 @@ from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.linear import step_operator
 
 
+def initial_state(system) -> State:
+    """Step 0: u = 0 on free dofs, the prescribed values on constrained ones; v = a = 0."""
+    u, v, a = (system.K.createVecLeft() for _ in range(3))
+    for x in (u, v, a):
+        x.set(0.0)
+    u.array[system.constrained] = system.prescribed(0.0)[0]
+    return State(0, 0.0, u, v, a)
+
+
 class QuasiStatic:
     """An Integrator (solvers/algorithm.py) with one solve with K per step."""
 
@@ -23,12 +32,7 @@ class QuasiStatic:
         self.solve.destroy()
 
     def start(self) -> State:
-        s = self.system
-        u, v, a = (s.K.createVecLeft() for _ in range(3))
-        for x in (u, v, a):
-            x.set(0.0)
-        u.array[s.constrained] = s.prescribed(0.0)[0]
-        return State(0, 0.0, u, v, a)
+        return initial_state(self.system)
 
     def step(self, state: State) -> State:
         """u_{i+1} = ubar + K_bc^-1 (f - K ubar), ubar = prescribed values on constrained dofs."""
