@@ -35,7 +35,12 @@ LONG_RUN = 10.0  # s: deformed.png shows (0, 1, 2, 10) s within the run, and its
 
 
 def case_figures(out, case, summary, times, curves, tips):
-    """Write the case's figures into out; return their file names."""
+    """Write the case's figures into out; return their file names. A case with elastic models
+    other than linear (SPEC section 8) has its own figures (workflows/figures_models.py)."""
+    from tissuebench.workflows import figures_models
+
+    if figures_models.is_model_case(case):
+        return figures_models.case_figures(out, case, summary, times, curves, tips)
     files = [error_curves(out / "errors.png", case, summary, times, curves)]
     if tips:
         files.append(tip_history(out / "tip.png", case, summary, times, tips))

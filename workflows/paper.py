@@ -6,6 +6,12 @@ against implicit MP2); then block-MP1-40s and rod-MP3-30s, the same runs as bloc
 rod-MP3 taken on to 40 s and 30 s, on which the report checks claims 3 (every scheme settles
 on the quasi-static solution) and 6 (the rod oscillates about its static shape). A case whose
 directory is complete is skipped unless --force.
+
+Part 2, beyond the paper (SPEC section 8): the four large-deformation cases, every algorithm
+with every elastic model against implicit+neo-hookean, in OUT/large-deformation/: the block
+(MP1) at the paper's load (s = 1, the point needle) and at s = 2 with a 0.2 m needle, the rod
+(MP3) at s = 1 and s = 3. The report also gives the linear critical step of the explicit
+schemes on each of their meshes (solvers/stability.py), which says why explicit runs diverge.
 """
 
 import os
@@ -13,11 +19,14 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.solvers import ALGORITHMS
+from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import report
 from tissuebench.workflows.output import OutputError, check_writable, collective
 from tissuebench.workflows.arguments import add_common, check_common
-from tissuebench.workflows.study import Case, algorithm_case, run_case
+from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
+
+LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
 
 
 def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
@@ -91,6 +100,61 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
     ]
 
 
+# SPEC section 8's named cases: (name, benchmark, material, load scale s, needle width w)
+LARGE_CASES = [
+    ("block-MP1-s1", "block", "MP1", 1.0, 0.0),
+    ("block-MP1-s2-w0.2", "block", "MP1", 2.0, 0.2),
+    ("rod-MP3-s1", "rod", "MP3", 1.0, None),
+    ("rod-MP3-s3", "rod", "MP3", 3.0, None),
+]
+
+
+def model_cases(solver: str = "direct", petsc: str = "") -> list[Case]:
+    """Part 2 (SPEC section 8): the five algorithms times the four models on each named case,
+    against implicit with the neo-Hookean model."""
+    reference = run_label("implicit", REFERENCE_MODEL)
+    result = []
+    for name, benchmark, material, scale, width in LARGE_CASES:
+        options = {"load_scale": scale}
+        load = f"s = {scale:g}"
+        if width is not None:
+            options["needle_width"] = width
+            load += f", needle width w = {width:g} m" if width else ", point needle (w = 0)"
+        what = "Block and needle" if benchmark == "block" else "Bending rod"
+        result.append(
+            model_case(
+                name,
+                benchmark,
+                material,
+                list(ALGORITHMS),
+                list(MODELS),
+                reference,
+                options=options,
+                solver=solver,
+                petsc=petsc,
+                description=f"{what}, {material}, load scale {load}: the five algorithms with the "
+                f"four elastic models against {reference} (SPEC section 8)",
+            )
+        )
+    return result
+
+
+def explicit_limits(case: Case, comm) -> dict:
+    """{algorithm: critical step in s} of the explicit schemes with the linear model on the
+    case's mesh, material and constraints (SPEC section 3's Newmark analysis, as in
+    stability.md): the step above which central differences diverge. Collective."""
+    from tissuebench.meshes import get_benchmark, get_entry
+    from tissuebench.solvers.stability import explicit_schemes, stability_limits
+    from tissuebench.solvers.system import System
+
+    entry = get_entry(case.benchmark)
+    size = entry.mesh_size if case.mesh_size is None else case.mesh_size
+    bench = get_benchmark(case.benchmark, mesh_size=size, comm=comm, **case.options)
+    material = case.runs[0].material
+    limits = stability_limits(System(bench, material), list(explicit_schemes()))
+    return {name: limit.critical_dt for name, limit in limits.items()}
+
+
 def add_parser(sub):
     p = sub.add_parser(
         "paper",
@@ -123,15 +187,18 @@ def main(args):
     out = args.out
     check_writable(out, comm)
     collective(comm, lambda: check_report(out / "README.md"))
-    summaries = {}
+    summaries, large, limits = {}, {}, {}
     for case in cases(args.solver, args.petsc):
         summaries[case.name] = run_case(case, out / case.name, comm, force=args.force)
+    for case in model_cases(args.solver, args.petsc):
+        large[case.name] = run_case(case, out / LARGE / case.name, comm, force=args.force)
+        limits[case.name] = explicit_limits(case, comm)
 
     def write():
         check_report(out / "README.md")
         tmp = out / f".README.md.{os.getpid()}.tmp"
         try:
-            tmp.write_text(report.paper_report(out, summaries))
+            tmp.write_text(report.paper_report(out, summaries, large, limits))
             os.replace(tmp, out / "README.md")
         finally:
             tmp.unlink(missing_ok=True)

@@ -25,6 +25,7 @@ ROUGHLY = 2  # 'roughly the sum' taken as within a factor 2
 SETTLED = 1e-6  # 'the same static solution' taken as agreeing to 1e-6, relative
 ABOUT = 0.05  # 'at about t = 4.2 s' taken as within 5 %
 PAPER_CROSSING = 4.2  # s, SPEC section 7
+LARGE_DEFORMATION = "large-deformation"  # the folder of part 2 (SPEC section 8) in the output
 
 
 def fmt(x):
@@ -592,7 +593,101 @@ def caption_deformed(out, name, s):
     )
 
 
-def paper_report(out, summaries):
+def model_case_section(out, name, s):
+    """A large-deformation case: its figures with captions and its table."""
+    from tissuebench.workflows.figures_models import SHAPE_ALGORITHM, SHAPE_MODELS, static_tips
+
+    rel = f"{LARGE_DEFORMATION}/{name}"
+    ref = s["reference"]
+    files = s.get("files", [])
+    d = read_deformation(Path(out) / rel)
+    parts = [
+        f"### {name}",
+        "",
+        f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = {s['h']:.6g} s, "
+        f"T = {s['end_time']:.4g} s ({s['steps']} steps), solver {s['solver']}. Files: "
+        f"[metrics.csv]({rel}/metrics.csv), [summary.json]({rel}/summary.json)"
+        + (f", [tip.csv]({rel}/tip.csv)" if "tip.csv" in files else "")
+        + (f", [deformation.json]({rel}/deformation.json)" if "deformation.json" in files else "")
+        + "; the XDMF series (not committed) open in ParaView.",
+        "",
+    ]
+    if "realism.png" in files:
+        parts += [
+            f"![loss of realism]({rel}/realism.png)",
+            "",
+            f"*Loss of realism: the time-mean E_i (m) of every algorithm (rows) with every model (columns) "
+            f"against {ref} over steps 1..{s['steps']}, on a log colour scale (light: close to the "
+            "reference). Hatched grey: a run that diverged, with its divergence time and its mean over the "
+            "steps it kept, which is not comparable with the others.*",
+            "",
+        ]
+    if "errors.png" in files:
+        diverged = [
+            f"{label} (t = {r['diverged_time']:.3g} s)"
+            for label, r in s["runs"].items()
+            if r["status"] == "diverged"
+        ]
+        parts += [
+            f"![errors]({rel}/errors.png)",
+            "",
+            f"*Errors against {ref} at every step: one row of panels per model, one column per metric "
+            "(E_n, E_s, E_i), one line per algorithm, drawn alike in every row (colour, dash pattern, marker); "
+            "log axes where the values span a decade, one y range per column. A cross at a curve's last "
+            "finite value and a dotted line in its colour mark a run that diverged"
+            + (": " + ", ".join(diverged) if diverged else " (none here)")
+            + ".*",
+            "",
+        ]
+    if "shapes.png" in files and d and d.get("largest_deflection"):
+        big = d["largest_deflection"]
+        view = (
+            "the boundary polygon of the deformed domain (SPEC section 6)"
+            if s["benchmark"] == "block"
+            else "the side view: the deformed mesh projected on the x-y plane (the union of the "
+            "projected cells)"
+        )
+        drawn = [f"`{SHAPE_ALGORITHM}+{m}`".replace("+linear", "") for m in SHAPE_MODELS]
+        parts += [
+            f"![deformed shapes]({rel}/shapes.png)",
+            "",
+            f"*Deformed shape of {', '.join(drawn)} at t = {big['time']:.3g} s, the step at which the "
+            f"reference's largest nodal displacement ({big['u_max']:.3g} m) is largest: {view}, over the "
+            "undeformed outline (dotted); the reference wide and pale under the others. Where the outlines "
+            "differ only locally, the right panel enlarges the square about the boundary nodes farthest "
+            "apart. A run that diverged before that time is listed, not drawn.*",
+            "",
+        ]
+    if "tip_path.png" in files:
+        static = static_tips(s)
+        tips = ", ".join(f"{m} ({v[0]:.4g}, {v[1]:.4g}) m" for m, v in static.items())
+        missing = [
+            r.get("model", "linear")
+            for r in s["runs"].values()
+            if r["algorithm"] == "quasi-static" and r["status"] != "ok"
+        ]
+        parts += [
+            f"![tip path]({rel}/tip_path.png)",
+            "",
+            f"*The tip of the implicit run with each model: its path in the x-y plane (left; the axes are "
+            "not to the same scale) and its u_y against time (right). Stars and thin dashed lines: each "
+            f"model's static tip, its quasi-static run at t = {s['end_time']:.3g} s, (u_x, u_y): {tips}"
+            + (
+                f"; {', '.join(missing)}: its quasi-static run diverged, no static tip"
+                if missing
+                else ""
+            )
+            + ".*",
+            "",
+        ]
+    parts += [metric_table(s), ""]
+    return parts
+
+
+def paper_report(out, summaries, large=None, limits=None):
+    """README.md: part 1, the paper's study (summaries: {case: summary}); part 2, the
+    large-deformation cases (large, in OUT/large-deformation/) with the explicit schemes' linear
+    critical steps on their meshes (limits: {case: {algorithm: h_c}})."""
     out = Path(out)
     first = next(iter(summaries.values()))
     v = first["versions"]
@@ -601,7 +696,14 @@ def paper_report(out, summaries):
         "",
         "Written by `tissuebench paper` (do not edit by hand). The study of Alterovitz and Goldberg, "
         "*Comparing Algorithms for Soft Tissue Deformation*, as `../shared/SPEC.md` specifies it: Q1 elements, "
-        "five integrators, three metrics against the `implicit` reference on the same mesh.",
+        "five integrators, three metrics against the `implicit` reference on the same mesh."
+        + (
+            " Part 2 goes beyond the paper (SPEC section 8): large deformation, every integrator with "
+            f"every elastic model against `{next(iter(large.values()))['reference']}` "
+            f"([{LARGE_DEFORMATION}/]({LARGE_DEFORMATION}/))."
+            if large
+            else ""
+        ),
         "",
         f"Software: tissuebench {v['tissuebench']}, DOLFINx {v['dolfinx']}, petsc4py {v['petsc4py']}, "
         f"gmsh {v['gmsh']}, shapely {v['shapely']}, manifold3d {v['manifold3d']}, Python {v['python']}, "
@@ -642,6 +744,10 @@ def paper_report(out, summaries):
             metric_table(s),
             "",
         ]
+    if large:
+        parts += large_deformation(out, large, limits)
+        for name, s in large.items():
+            parts += model_case_section(out, name, s)
     for extra, title in [
         ("stability.md", "Stability"),
         ("convergence.md", "Convergence"),
@@ -650,3 +756,704 @@ def paper_report(out, summaries):
         if (out / extra).is_file():
             parts += [f"## {title}", "", f"See [{extra}]({extra}).", ""]
     return "\n".join(parts)
+
+
+# --- part 2: large deformation (SPEC section 8) --------------------------------------------
+
+LOSS_READING = "interior_error"  # the loss of realism: the time-mean E_i (m) against the reference
+
+
+def read_deformation(folder):
+    """A case's deformation.json (workflows/figures_models.py), or None."""
+    import json
+
+    try:
+        return json.loads((Path(folder) / "deformation.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def loss_runs(summary):
+    """{what is lost: run label} against the reference (ALGORITHM+MODEL): each run differs from
+    the reference in one respect (or two, for lumped explicit stepping)."""
+    from tissuebench.solvers.models import run_label, split_label
+
+    algorithm, model = split_label(summary["reference"])
+    return {
+        "linearisation": run_label(algorithm, "linear"),
+        "svk": run_label(algorithm, "svk"),
+        "corotational": run_label(algorithm, "corotational"),
+        "lumping": run_label("implicit-lumped", model),
+        "explicit stepping": run_label("explicit", model),
+        "lumped explicit stepping": run_label("explicit-lumped", model),
+        "inertia (quasi-static)": run_label("quasi-static", model),
+    }
+
+
+def loss(summary, label):
+    """(time-mean E_i, status, divergence time) of a run; (nan, None, None) if it is absent."""
+    run = summary["runs"].get(label)
+    if run is None:
+        return np.nan, None, None
+    v = run.get(f"{LOSS_READING}_mean")
+    return (np.nan if v is None else float(v)), run["status"], run.get("diverged_time")
+
+
+def loss_text(summary, label):
+    v, status, t = loss(summary, label)
+    if status is None:
+        return "not run"
+    if status != "ok":
+        return f"diverged at t = {t:.3g} s"
+    return f"{v:.3g}"
+
+
+def load_text(summary):
+    text = f"s = {summary.get('load_scale', 1):g}"
+    if summary["benchmark"] == "block":
+        w = summary.get("needle_width", 0) or 0
+        text += f", w = {w:g} m" if w else ", w = 0 (point needle)"
+    return text
+
+
+def ratio_text(r):
+    """A ratio to two significant digits, written out in full above 10."""
+    return f"{float(f'{r:.2g}'):.0f}" if r >= 10 else f"{r:.2g}"
+
+
+def times_text(a, b):
+    """'12 times' for a / b, or '1/12 of'."""
+    r = a / b
+    return f"{ratio_text(r)} times" if r >= 1 else f"1/{ratio_text(1 / r)} of"
+
+
+def place(summary, centre):
+    """Where a cell centre lies, in words, from the benchmark's geometry (SPEC sections 4, 5)."""
+    x = centre
+    text = "(" + ", ".join(f"{c:.3g}" for c in x) + ") m"
+    if summary["benchmark"] == "block":  # the needle: x = 1, |y - 0.5| <= w/2
+        w = summary.get("needle_width", 0) or 0
+        d = np.hypot(1 - x[0], max(abs(x[1] - 0.5) - w / 2, 0.0))
+        if d < 1.5 / summary["mesh_size"]:
+            text += ", beside the needle"
+    elif summary["benchmark"] == "rod":  # clamped at x = 0; height 0.25 m over n cells
+        cell = 0.25 / summary["mesh_size"]
+        if x[0] < cell:
+            text += ", in the first layer of cells at the clamped face x = 0"
+            if x[1] < cell:
+                text += ", at its lower edge (compressed as the rod bends down)"
+    return text
+
+
+def growth(curve, steps=10):
+    """(factor, first, last): how much a curve grew over its last `steps` finite values."""
+    finite = np.flatnonzero(np.isfinite(curve))
+    if len(finite) <= steps:
+        return np.nan, None, None
+    last = finite[-1]
+    return float(curve[last] / curve[last - steps]), last - steps, last
+
+
+def large_deformation(out, large, limits=None):
+    """Part 2 of the report: what linearisation loses against lumping and explicit stepping,
+    and which combinations diverge and why, from the summaries of the large-deformation cases
+    (and their deformation.json, metrics.csv, and the explicit schemes' linear critical steps
+    `limits`: {case: {algorithm: h_c in s}})."""
+    limits = limits or {}
+    folder = Path(out) / LARGE_DEFORMATION
+    first = next(iter(large.values()))
+    ref = first["reference"]
+    lines = [
+        "## Part 2, beyond the paper: large deformation (SPEC section 8)",
+        "",
+        "The paper assumes small strain. Here every algorithm runs with every elastic model (linear, St "
+        f"Venant-Kirchhoff `svk`, `neo-hookean`, `corotational`) against `{ref}`, at the paper's loads "
+        "(load scale s = 1) and at large ones. The loss of realism of a run is its time-mean interior "
+        f"error E_i against `{ref}` over steps 1..N (summary.json `{LOSS_READING}_mean`; in m: the "
+        "distance between the two displacement fields, averaged over the body and the run). A run that "
+        "diverged has a mean over the steps it kept only; it is reported as diverged, not compared.",
+        "",
+        "### What linearisation loses, against lumping and explicit stepping",
+        "",
+    ]
+    names = loss_runs(first)
+    columns = ["linearisation", "corotational", "svk", "lumping", "explicit stepping"]
+    columns += ["lumped explicit stepping", "inertia (quasi-static)"]
+    lines += [
+        "Time-mean E_i (m) against the reference of the run that differs from it in one respect: "
+        "its model (linear, corotational or svk, with the reference's algorithm), its mass (lumped), its "
+        "time stepping (explicit), both, or no inertia (quasi-static).",
+        "",
+        "| case | load | largest nodal displacement of the reference (m) | "
+        + " | ".join(f"{c}: `{names[c]}`" for c in columns)
+        + " |",
+        "|" + "---|" * (3 + len(columns)),
+    ]
+    deformation = {name: read_deformation(folder / name) for name in large}
+    for name, s in large.items():
+        names = loss_runs(s)
+        d = deformation[name]
+        peak = (
+            f"{d['largest_deflection']['u_max']:.3g} (t = {d['largest_deflection']['time']:.3g} s)"
+            if d and d.get("largest_deflection")
+            else "n/a"
+        )
+        lines.append(
+            f"| {name} | {load_text(s)} | {peak} | "
+            + " | ".join(loss_text(s, names[c]) for c in columns)
+            + " |"
+        )
+    lines.append("")
+    lines += static_tip_table(large)
+    for name, s in large.items():
+        lines.append(loss_bullet(name, s))
+    lines += paper_loads(large)
+    lines += load_growth(large)
+    lines += corotational_bullets(large, deformation)
+    lines.append("")
+    lines += divergences(out, large, deformation, limits)
+    return lines
+
+
+def static_tip_table(large):
+    """The static tip of each model (its quasi-static run at the end time; summary.json
+    `tip_displacement_final`) on the cases with a probe point."""
+    from tissuebench.solvers.models import run_label
+
+    with_tip = {
+        n: s
+        for n, s in large.items()
+        if any("tip_displacement_final" in r for r in s["runs"].values())
+    }
+    if not with_tip:
+        return []
+    from tissuebench.solvers import MODELS
+
+    present = {r.get("model", "linear") for s in with_tip.values() for r in s["runs"].values()}
+    models = [m for m in MODELS if m in present] + sorted(present - set(MODELS))
+    lines = [
+        "The static tip (u_x, u_y) in m of each model: its quasi-static run at the end time "
+        "(summary.json `tip_displacement_final`).",
+        "",
+        "| case | " + " | ".join(models) + " |",
+        "|" + "---|" * (1 + len(models)),
+    ]
+    for name, s in with_tip.items():
+        cells = []
+        for m in models:
+            run = s["runs"].get(run_label("quasi-static", m))
+            tip = run.get("tip_displacement_final") if run else None
+            if run is None:
+                cells.append("not run")
+            elif run["status"] != "ok":
+                cells.append(f"diverged at t = {run['diverged_time']:.3g} s")
+            elif tip is None:
+                cells.append("n/a")
+            else:
+                cells.append(f"({tip[0]:.4g}, {tip[1]:.4g})")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
+def loss_bullet(name, s):
+    """One case: linearisation against the other single losses, and the spread of the linear
+    runs over the algorithms."""
+    names = loss_runs(s)
+    lin, lin_status, _ = loss(s, names["linearisation"])
+    if lin_status != "ok":
+        return f"- **{name}**, {load_text(s)}: `{names['linearisation']}` {loss_text(s, names['linearisation'])}."
+    parts = []
+    for what in ("lumping", "explicit stepping", "lumped explicit stepping"):
+        v, status, t = loss(s, names[what])
+        if status is None:
+            continue
+        if status != "ok":
+            parts.append(f"{what} (`{names[what]}`) diverged at t = {t:.3g} s")
+        else:
+            parts.append(f"{times_text(lin, v)} the loss from {what} (`{names[what]}`, {v:.3g} m)")
+    text = (
+        f"- **{name}**, {load_text(s)}: linearisation loses E_i = {lin:.3g} m, "
+        + "; ".join(parts)
+        + "."
+    )
+    linear = [
+        label
+        for label, run in s["runs"].items()
+        if run.get("model", "linear") == "linear"
+        and run["algorithm"] != "quasi-static"
+        and run["status"] == "ok"
+    ]
+    values = [loss(s, label)[0] for label in linear]
+    if len(values) > 1:
+        spread = (max(values) - min(values)) / min(values)
+        text += (
+            f" With the linear model the {len(values)} dynamic algorithms lose {min(values):.3g} to "
+            f"{max(values):.3g} m, within {100 * spread:.2g} % of each other"
+            + (": once the model is linear, the algorithm hardly matters." if spread < 0.1 else ".")
+        )
+    return text
+
+
+def paper_loads(large):
+    """At s = 1: is linearisation the largest single loss on every case?"""
+    at_one = {n: s for n, s in large.items() if s.get("load_scale", 1) == 1}
+    if not at_one:
+        return []
+    verdicts = []
+    for name, s in at_one.items():
+        names = loss_runs(s)
+        lin = loss(s, names["linearisation"])
+        others = {
+            w: loss(s, names[w])
+            for w in ("lumping", "explicit stepping", "lumped explicit stepping")
+            if loss(s, names[w])[1] == "ok"
+        }
+        if lin[1] != "ok" or not others:
+            continue
+        larger = [w for w, v in others.items() if lin[0] > v[0]]
+        worst = max(others, key=lambda w: others[w][0])
+        verdicts.append((name, len(larger) == len(others), lin[0] / others[worst][0], worst))
+    if not verdicts:
+        return []
+    every = all(v[1] for v in verdicts)
+    text = (
+        f"- At the paper's loads (s = 1) linearisation {'is' if every else 'is not'} the largest of these "
+        "losses on every case: "
+        + "; ".join(
+            f"on {n} it is {ratio_text(r)} times the largest of the others ({w})"
+            for n, ok, r, w in verdicts
+        )
+        + "."
+    )
+    if every:
+        text += (
+            " The paper's question, which algorithm comes closest to the reference, is then second to "
+            "which model it runs: an implicit linear simulation is further from the neo-Hookean one than "
+            "every lumped or explicit neo-Hookean simulation that ran."
+        )
+    return [text]
+
+
+def load_growth(large):
+    """How the linear model's loss grows with the load scale, per benchmark."""
+    lines = []
+    by_bench = {}
+    for name, s in large.items():
+        by_bench.setdefault(s["benchmark"], []).append((s.get("load_scale", 1), name, s))
+    for bench, items in by_bench.items():
+        if len(items) < 2:
+            continue
+        (s1, n1, a), (s2, n2, b) = min(items, key=lambda i: i[0]), max(items, key=lambda i: i[0])
+        la, lb = (loss(x, loss_runs(x)["linearisation"]) for x in (a, b))
+        if s2 == s1 or la[1] != "ok" or lb[1] != "ok":
+            continue
+        ratio = lb[0] / la[0]
+        exponent = np.log(ratio) / np.log(s2 / s1)
+        other = (
+            " (the needle width changes too)"
+            if a.get("needle_width", 0) != b.get("needle_width", 0)
+            else ""
+        )
+        lines.append(
+            f"- {bench}: the linear model's loss grows from {la[0]:.3g} m ({n1}) to {lb[0]:.3g} m ({n2}), "
+            f"{ratio:.3g} times for {s2 / s1:g} times the load{other}: as s^{exponent:.3g}. To leading "
+            "order the difference between a linear and a nonlinear solution grows as the square of the "
+            "load (the strain's quadratic term)."
+        )
+    return lines
+
+
+def corotational_bullets(large, deformation):
+    """The corotational model against the linear one, case by case."""
+    parts = []
+    for name, s in large.items():
+        names = loss_runs(s)
+        lin, corot = loss(s, names["linearisation"]), loss(s, names["corotational"])
+        if corot[1] is None or lin[1] != "ok":
+            continue
+        if corot[1] != "ok":
+            parts.append(f"on {name} `{names['corotational']}` diverged at t = {corot[2]:.3g} s")
+            continue
+        r = corot[0] / lin[0]
+        text = (
+            f"on {name} {corot[0]:.3g} m, "
+            + (f"{ratio_text(1 / r)} times less than" if r < 1 else f"{ratio_text(r)} times")
+            + f" the linear model's {lin[0]:.3g} m"
+        )
+        d = deformation.get(name)
+        if r > 1 and d:
+            jc = d["smallest_J"].get(names["corotational"])
+            jr = d["smallest_J"].get(s["reference"])
+            if jc and jr:
+                text += (
+                    f" (its most compressed cell, at {place(s, jc['cell_centre'])}, reaches J = "
+                    f"{jc['J']:.3g} at t = {jc['time']:.3g} s; the reference's smallest J is {jr['J']:.3g})"
+                )
+        parts.append(text)
+    if not parts:
+        return []
+    better = [
+        n
+        for n, s in large.items()
+        if loss(s, loss_runs(s)["corotational"])[1] == "ok"
+        and loss(s, loss_runs(s)["corotational"])[0] < loss(s, loss_runs(s)["linearisation"])[0]
+    ]
+    worse = [
+        n
+        for n, s in large.items()
+        if loss(s, loss_runs(s)["corotational"])[1] == "ok" and n not in better
+    ]
+    summary = (
+        "it removes much of the linear model's loss on "
+        + (", ".join(better) or "no case")
+        + ("; but not on " + ", ".join(worse) if worse else "")
+    )
+    return [
+        "- The corotational model, the real-time codes' repair of linear elasticity, loses "
+        + "; ".join(parts)
+        + f": {summary}."
+    ]
+
+
+def diverged_runs(large):
+    """[(case, label, run)] of every run of the large-deformation cases that diverged, by case
+    and time."""
+    result = []
+    for name, s in large.items():
+        runs = [(label, r) for label, r in s["runs"].items() if r["status"] == "diverged"]
+        result += [
+            (name, label, r) for label, r in sorted(runs, key=lambda x: x[1]["diverged_time"])
+        ]
+    return result
+
+
+def j_text(s, d, label):
+    """A run's smallest J at its last kept step, and where, from deformation.json."""
+    j = d["smallest_J"].get(label) if d else None
+    if not j:
+        return "n/a"
+    if j["last_step"] == 0:
+        return "none kept after step 0"
+    return (
+        f"{j['J_last_step']:.3g} at t = {j['last_step'] * s['h']:.3g} s, in the cell at "
+        f"{place(s, j['cell_centre_last_step'])}"
+    )
+
+
+def divergences(out, large, deformation, limits):
+    """Which runs diverged, the reasons summary.json gives, and what the data say about why."""
+    from tissuebench.solvers.models import split_label
+
+    runs = diverged_runs(large)
+    lines = ["### Which combinations diverge, and why", ""]
+    if not runs:
+        return lines + ["No run diverged.", ""]
+    lines += [
+        "Every run that diverged, with the reason its summary.json gives and the smallest J = det F "
+        "(at the Gauss points, where the solver checks it) at the last step it kept, from the case's "
+        "deformation.json:",
+        "",
+        "| case | run | diverged at | reason | smallest J at the last kept step |",
+        "|---|---|---|---|---|",
+    ]
+    for name, label, r in runs:
+        s = large[name]
+        lines.append(
+            f"| {name} | {label} | t = {r['diverged_time']:.3g} s | {r['reason'] or 'n/a'} | "
+            f"{j_text(s, deformation.get(name), label)} |"
+        )
+    lines.append("")
+    models = {}
+    for name, label, r in runs:
+        models.setdefault(r.get("model", split_label(label)[1]), []).append((name, label, r))
+    for model, items in models.items():
+        if model == "svk":
+            lines.append(why_svk(large, items, deformation))
+        elif model == "neo-hookean":
+            lines.append(why_explicit(out, large, items, deformation, limits))
+        elif model == "corotational":
+            lines.append(why_corotational(large, items, deformation))
+        else:
+            lines.append(
+                f"- {model}: " + ", ".join(f"{label} on {name}" for name, label, _ in items) + "."
+            )
+    lines.append(linear_never(large, deformation))
+    lines.append("")
+    return lines
+
+
+def count_text(large, model, items):
+    per_case = []
+    for name, s in large.items():
+        total = [label for label, r in s["runs"].items() if r.get("model") == model]
+        failed = [label for n, label, _ in items if n == name]
+        if total:
+            per_case.append(f"{len(failed)} of {len(total)} on {name}")
+    return ", ".join(per_case)
+
+
+def why_svk(large, items, deformation):
+    text = f"- **svk** diverged {count_text(large, 'svk', items)}."
+    for name in dict.fromkeys(n for n, _, _ in items):
+        s = large[name]
+        case_items = [(label, r) for n, label, r in items if n == name]
+        newton = [(label, r) for label, r in case_items if "Newton" in (r["reason"] or "")]
+        inverted = [(label, r) for label, r in case_items if "inverted" in (r["reason"] or "")]
+        text += f" On {name}"
+        if newton:
+            label, r = newton[0]
+            text += f" `{label}` found no static solution at t = {r['diverged_time']:.3g} s (Newton failed)"
+            if inverted:
+                later = sum(r["diverged_time"] < q["diverged_time"] for _, q in inverted)
+                text += (
+                    ", before any dynamic svk run stopped"
+                    if later == len(inverted)
+                    else f", before {later} of the {len(inverted)} dynamic svk runs stopped"
+                )
+        if inverted:
+            t = [q["diverged_time"] for _, q in inverted]
+            d = deformation.get(name)
+            js = [d["smallest_J"][lab] for lab, _ in inverted if d and lab in d["smallest_J"]]
+            where = {place(s, j["cell_centre_last_step"]) for j in js}
+            text += ("; " if newton else " ") + (
+                f"{len(inverted)} dynamic svk runs inverted a cell at t = {min(t):.3g} to {max(t):.3g} s"
+                if len(inverted) > 1
+                else f"`{inverted[0][0]}` inverted a cell at t = {t[0]:.3g} s"
+            )
+            if js:
+                text += (
+                    f", after a last kept step with J down to {min(j['J_last_step'] for j in js):.2g}–"
+                    f"{max(j['J_last_step'] for j in js):.2g} in the cell at {' or '.join(sorted(where))}"
+                )
+        text += "."
+    ran = [
+        n
+        for n, s in large.items()
+        if all(r["status"] == "ok" for r in s["runs"].values() if r.get("model") == "svk")
+    ]
+    if ran:
+        text += f" Every svk run ran on {', '.join(ran)}."
+    text += (
+        " St Venant-Kirchhoff softens in compression: in 1D with ν = 0 its stress P = E λ(λ² − 1)/2 peaks at "
+        "the stretch λ = 1/√3 and falls back to 0 as λ → 0, so a cell compressed past the peak has no stiffness "
+        "left against collapse, and beyond the largest load the material can carry there is no static "
+        "solution. Newton failures of quasi-static svk and collapsing cells with J → 0 where the body is "
+        "compressed most are what that predicts."
+    )
+    return text
+
+
+def cases_text(names):
+    names = list(names)
+    return " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
+
+
+def why_explicit(out, large, items, deformation, limits):
+    """The neo-Hookean runs that diverged (explicit ones, so far): the linear critical step of
+    their scheme on the case's mesh against h, and how their error grew before they stopped."""
+    model = "neo-hookean"
+    by_algorithm = {}
+    for name, s in large.items():
+        for label, r in s["runs"].items():
+            if r.get("model") == model and r["algorithm"] != "quasi-static":
+                by_algorithm.setdefault(r["algorithm"], {"diverged": [], "ok": []})
+                key = "ok" if r["status"] == "ok" else "diverged"
+                by_algorithm[r["algorithm"]][key].append((name, r))
+    failed = {a: v for a, v in by_algorithm.items() if v["diverged"]}
+    text = f"- **{model}**: " + "; ".join(
+        f"`{a}+{model}` diverged on "
+        + cases_text(f"{n} (t = {r['diverged_time']:.3g} s)" for n, r in v["diverged"])
+        + (f" and ran on {cases_text(n for n, _ in v['ok'])}" if v["ok"] else "")
+        for a, v in failed.items()
+    )
+    ran = [a for a, v in by_algorithm.items() if not v["diverged"]]
+    if ran:
+        text += "; " + ", ".join(f"`{a}+{model}`" for a in ran) + " ran on every case"
+    text += "."
+    explicit = {
+        name: {a: s["h"] / h for a, h in (limits.get(name) or {}).items() if np.isfinite(h)}
+        for name, s in large.items()
+    }
+    explicit = {n: v for n, v in explicit.items() if v}
+    if explicit:
+        text += (
+            " The linear critical step h_c of central differences on each case's mesh (SPEC section 3's "
+            "analysis, as in stability.md) puts h at "
+            + "; ".join(
+                ", ".join(f"{r:.3g} h_c for {a}" for a, r in ratios.items()) + f" on {n}"
+                for n, ratios in explicit.items()
+            )
+            + "."
+        )
+        margins = [
+            f"{100 * (1 / explicit[n][r['algorithm']] ** 2 - 1):.2g} % for {r['algorithm']} on {n}"
+            for n, label, r in items
+            if r["algorithm"] in explicit.get(n, {})
+        ]
+        if margins:
+            text += (
+                " A tangent stiffer than the linear K₀ by (h_c/h)² − 1 anywhere puts the fastest mode beyond "
+                "2/h: " + ", ".join(margins) + "."
+            )
+    grown = []
+    for name, label, r in items:
+        g = explicit_growth(out, name, label)
+        if np.isfinite(g):
+            collapse = [
+                explicit_growth(out, name, other)
+                for other, q in large[name]["runs"].items()
+                if q["status"] == "diverged"
+                and "inverted" in (q["reason"] or "")
+                and q.get("model") != model
+            ]
+            collapse = [c for c in collapse if np.isfinite(c)]
+            grown.append(
+                f"{g:.3g} times on {name}"
+                + (
+                    f" (the runs of other models that inverted a cell there: at most {max(collapse):.2g} times)"
+                    if collapse
+                    else ""
+                )
+            )
+    if grown:
+        text += (
+            " Over its last 10 kept steps the E_i of a diverged run grew " + "; ".join(grown) + "."
+        )
+    cases = list(dict.fromkeys(n for n, _, _ in items))
+    stable = all(
+        large[n]["runs"].get(label, {}).get("status") == "ok"
+        for n in cases
+        for label in (large[n]["reference"], loss_runs(large[n])["lumped explicit stepping"])
+    )
+    jumps = []
+    for n, label, r in items:
+        d = deformation.get(n)
+        after = reason_j(r["reason"])
+        if d and label in d["smallest_J"] and after is not None:
+            j = d["smallest_J"][label]
+            jumps.append(
+                f"from {j['J_last_step']:.3g} (in the cell at "
+                f"{place(large[n], j['cell_centre_last_step'])}) to {after:.3g} on {n}"
+            )
+    if jumps:
+        text += " In its last step the smallest J went " + "; ".join(jumps) + "."
+    if stable and all(explicit_growth(out, n, label) > 2 for n, label, _ in items):
+        text += (
+            " That is an instability of the step rather than a collapse of the material: the error grows "
+            "geometrically before the run stops, and with the same model neither the reference "
+            "(implicit, unconditionally stable) nor explicit-lumped, whose h_c is about twice as long, "
+            "diverged. It is consistent with the tangent of the compressed neo-Hookean cells being "
+            "stiffer than K₀, and with consistent mass, whose ω_max is the larger, leaving the smaller "
+            "margin."
+        )
+    return text
+
+
+def reason_j(reason):
+    """The J that an 'inverted element: J = ... <= 0' reason gives, or None."""
+    import re
+
+    found = re.search(r"J = (-?[0-9.eE+-]+) <= 0", reason or "")
+    try:
+        return float(found.group(1)) if found else None
+    except ValueError:
+        return None
+
+
+def explicit_growth(out, name, label):
+    """The growth of a run's E_i over its last 10 kept steps, from metrics.csv (nan if unread)."""
+    try:
+        _, curves = read_curves(Path(out) / LARGE_DEFORMATION / name / "metrics.csv")
+        return growth(curves[label][LOSS_READING])[0]
+    except (OSError, KeyError):
+        return np.nan
+
+
+def why_corotational(large, items, deformation):
+    text = "- **corotational** diverged " + count_text(large, "corotational", items) + ":"
+    for name in dict.fromkeys(n for n, _, _ in items):
+        s = large[name]
+        case_items = [(label, r) for n, label, r in items if n == name]
+        t = [r["diverged_time"] for _, r in case_items]
+        text += f" on {name} " + ", ".join(f"`{label}`" for label, _ in case_items)
+        text += f" inverted a cell at t = {min(t):.3g} to {max(t):.3g} s"
+        d = deformation.get(name)
+        if d:
+            where = {
+                place(s, d["smallest_J"][label]["cell_centre_last_step"])
+                for label, _ in case_items
+                if label in d["smallest_J"]
+            }
+            text += f" (at {' or '.join(sorted(where))})"
+        ok = [
+            label
+            for label, r in s["runs"].items()
+            if r.get("model") == "corotational" and r["status"] == "ok"
+        ]
+        if ok:
+            text += "; " + ", ".join(f"`{label}`" for label in ok) + " ran"
+            if d and ok[0] in d["smallest_J"]:
+                text += f" (smallest J {d['smallest_J'][ok[0]]['J']:.3g})"
+        text += "."
+    for name, s in large.items():
+        d = deformation.get(name)
+        label = loss_runs(s)["corotational"]
+        if name in {n for n, _, _ in items} or not d or label not in d["smallest_J"]:
+            continue
+        jc, jr = d["smallest_J"][label], d["smallest_J"].get(s["reference"])
+        if jr:
+            text += (
+                f" On {name}, where it ran, `{label}` reaches J = {jc['J']:.3g} against the reference's "
+                f"{jr['J']:.3g}."
+            )
+    smaller = [
+        n
+        for n, s in large.items()
+        if loss(s, loss_runs(s)["corotational"])[1] == "ok"
+        and deformation.get(n)
+        and loss_runs(s)["corotational"] in deformation[n]["smallest_J"]
+        and s["reference"] in deformation[n]["smallest_J"]
+        and deformation[n]["smallest_J"][loss_runs(s)["corotational"]]["J"]
+        < deformation[n]["smallest_J"][s["reference"]]["J"]
+    ]
+    text += " The corotational element is linear elasticity in a rotated frame: it corrects rotations, not large volume changes"
+    if smaller:
+        text += (
+            f"; on {cases_text(smaller)} its most compressed cell keeps less of its volume (a smaller J) than "
+            "the neo-Hookean reference's"
+        )
+    return text + "."
+
+
+def linear_never(large, deformation):
+    """The linear model: no run diverged, and its smallest J, which the solver does not check."""
+    failed = [
+        label
+        for s in large.values()
+        for label, r in s["runs"].items()
+        if r.get("model", "linear") == "linear" and r["status"] != "ok"
+    ]
+    js = {}
+    for name, s in large.items():
+        d = deformation.get(name)
+        if not d:
+            continue
+        values = [
+            d["smallest_J"][label]["J"]
+            for label, r in s["runs"].items()
+            if r.get("model", "linear") == "linear" and label in d["smallest_J"]
+        ]
+        if values:
+            js[name] = min(values)
+    text = (
+        "- **linear**: "
+        + ("no run diverged" if not failed else f"{', '.join(failed)} diverged")
+        + "; the solver checks no linear run for inverted elements"
+    )
+    if js:
+        text += (
+            (", and none had one" if min(js.values()) > 0 else ", but some had one")
+            + ": the smallest J of the linear runs is "
+            + ", ".join(f"{v:.3g} on {n}" for n, v in js.items())
+        )
+    return text + "."
