@@ -143,19 +143,10 @@ class ElasticForces:
         tdim = mesh.topology.dim
         self._owned = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
         self._b = dolfinx.fem.petsc.create_vector(V)
-        self.bcs = [self._constrained_bc()]
-        self._J = None
-
-    def _constrained_bc(self) -> fem.DirichletBC:
-        """The constrained nodes (owned and ghost) as a DirichletBC, for the Jacobian's rows
-        and columns (set to the identity)."""
-        s = self.system
-        nodes = []
-        for c in s.benchmark.constraints:
-            s.mesh.topology.create_connectivity(c.dim, s.mesh.topology.dim)
-            nodes.append(fem.locate_dofs_topological(s.V, c.dim, c.entities))
-        nodes = np.unique(np.concatenate(nodes)).astype(np.int32)
-        return fem.dirichletbc(np.zeros(s.gdim, dtype=PETSc.ScalarType), nodes, s.V)
+        # the constrained rows and columns of the Jacobian become the identity
+        zero = np.zeros(gdim, dtype=PETSc.ScalarType)
+        self.bcs = [fem.dirichletbc(zero, system.constrained_nodes, V)]
+        self._J, self._d = None, None
 
     def set_u(self, u: PETSc.Vec) -> None:
         """Take the owned values of u (m), update the ghosts and, for a rotated model, R."""
@@ -199,9 +190,11 @@ class ElasticForces:
         dolfinx.fem.petsc.assemble_matrix(J, self.j_form, bcs=self.bcs)
         if lumped is not None:
             J.assemble(PETSc.Mat.AssemblyType.FLUSH)
-            d = lumped.copy()
-            d.scale(c_M)
-            J.setDiagonal(d, addv=PETSc.InsertMode.ADD_VALUES)
+            if self._d is None:
+                self._d = lumped.duplicate()
+            lumped.copy(self._d)
+            self._d.scale(c_M)
+            J.setDiagonal(self._d, addv=PETSc.InsertMode.ADD_VALUES)
         J.assemble()
         return J
 
@@ -216,6 +209,6 @@ class ElasticForces:
         return self.system.comm.allreduce(local, op=MPI.MIN)
 
     def destroy(self) -> None:
-        self._b.destroy()
-        if self._J is not None:
-            self._J.destroy()
+        for x in (self._b, self._J, self._d):
+            if x is not None:
+                x.destroy()

@@ -5,7 +5,10 @@ options already in the PETSc database (from the command line or `set_petsc_optio
 over the defaults below.
 """
 
+from contextlib import contextmanager
+
 from petsc4py import PETSc
+
 from tissuebench.workflows.errors import UserError
 
 SOLVERS = {
@@ -115,26 +118,35 @@ def set_petsc_options(text: str) -> None:
             i += 1
 
 
+@contextmanager
+def petsc_defaults(prefix: str, defaults: dict):
+    """Put `defaults` under `prefix` in PETSc's options database while the block runs (options
+    already there, from the command line or `set_petsc_options`, win), and turn PETSc's
+    refusal of an option into OptionsError. The defaults are removed afterwards, so that they
+    do not leak into the next solver."""
+    opts = PETSc.Options()
+    added = [prefix + k for k in defaults if not opts.hasName(prefix + k)]
+    for key in added:
+        opts[key] = defaults[key[len(prefix) :]]
+    try:
+        yield
+    except PETSc.Error as err:
+        raise OptionsError(f"PETSc options for prefix {prefix!r}: {petsc_message(err)}") from None
+    finally:
+        for key in added:
+            opts.delValue(key)
+
+
 def make_ksp(A, prefix, solver="direct"):
     """A KSP for the constant matrix A, set up (and factorised) once. `solver` is a key of
     SOLVERS or of INTERNAL."""
     if solver not in SOLVERS and solver not in INTERNAL:
         raise ValueError(f"unknown solver {solver!r}: use one of {', '.join(SOLVERS)}")
-    opts = PETSc.Options()
-    chosen = SOLVERS[solver] if solver in SOLVERS else INTERNAL[solver]
-    defaults = {prefix + k: v for k, v in chosen.items() if not opts.hasName(prefix + k)}
-    for key, value in defaults.items():
-        opts[key] = value
     ksp = PETSc.KSP().create(A.getComm())
     ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
-    try:
+    with petsc_defaults(prefix, SOLVERS[solver] if solver in SOLVERS else INTERNAL[solver]):
         ksp.setFromOptions()
-    except PETSc.Error as err:
-        raise OptionsError(f"PETSc options for prefix {prefix!r}: {petsc_message(err)}") from None
-    finally:
-        for key in defaults:  # this KSP's defaults must not leak into the next one
-            opts.delValue(key)
     ksp.setUp()
     return ksp
 

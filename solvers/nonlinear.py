@@ -23,7 +23,7 @@ from petsc4py import PETSc
 
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
-from tissuebench.solvers.linear import SolveError, petsc_message
+from tissuebench.solvers.linear import SolveError, petsc_defaults, petsc_message
 from tissuebench.solvers.models.model import Model
 from tissuebench.solvers.newmark import Newmark
 from tissuebench.solvers.quasi_static import initial_state
@@ -52,20 +52,12 @@ def absolute_tolerance(system) -> float:
 
 def make_snes(system, J: PETSc.Mat, prefix: str, function, jacobian) -> PETSc.SNES:
     """A SNES with NEWTON's defaults under `prefix` (options in PETSc's database win)."""
-    opts = PETSc.Options()
-    defaults = {**NEWTON, "snes_atol": absolute_tolerance(system)}
-    added = [prefix + k for k in defaults if not opts.hasName(prefix + k)]
-    for key in added:
-        opts[key] = defaults[key[len(prefix) :]]
     snes = PETSc.SNES().create(system.comm)
     snes.setOptionsPrefix(prefix)
     snes.setFunction(function, system.K.createVecLeft())
     snes.setJacobian(jacobian, J)
-    try:
+    with petsc_defaults(prefix, {**NEWTON, "snes_atol": absolute_tolerance(system)}):
         snes.setFromOptions()
-    finally:
-        for key in added:
-            opts.delValue(key)
     snes.setConvergenceHistory(reset=True)  # each solve's own history, not all steps
     return snes
 
@@ -100,24 +92,18 @@ class ModelForces:
 
 
 class ExplicitModel(ModelForces, Newmark):
-    """An explicit scheme with a model: f_int(ubar) once per step, ubar being u_{i+1}."""
+    """An explicit scheme with a model: f_int(ubar) once per step, ubar being u_{i+1}
+    (beta_N = 0), so that the forces' last u is the new step's, which is checked for
+    inverted elements."""
 
     def __init__(self, system, h, scheme: Algorithm, model: Model, prefix, solver="direct"):
         self.forces = ElasticForces(system, model)
         super().__init__(system, h, scheme, prefix, solver)
 
-    def residual(self, a0, vbar, ubar):
-        r = super().residual(a0, vbar, ubar)
-        self.check_inversion(self._time)
-        return r
-
-    def start(self) -> State:
-        self._time = 0.0
-        return super().start()
-
     def step(self, state: State) -> State:
-        self._time = (state.i + 1) * self.h
-        return super().step(state)
+        state = super().step(state)
+        self.check_inversion(state.t)
+        return state
 
 
 class NewtonModel(ModelForces, Newmark):

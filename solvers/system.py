@@ -18,6 +18,7 @@ from dolfinx import fem
 
 from tissuebench.meshes.benchmark import Benchmark
 from tissuebench.solvers.materials import Material, get_material
+from tissuebench.solvers.models.model import small_strain_stress
 
 
 def epsilon(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
@@ -26,8 +27,8 @@ def epsilon(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
 
 
 def sigma(u: ufl.core.expr.Expr, mu, lmbda) -> ufl.core.expr.Expr:
-    """Linear isotropic stress, 2 mu eps + lambda tr(eps) I."""
-    return 2 * mu * epsilon(u) + lmbda * ufl.tr(epsilon(u)) * ufl.Identity(len(u))
+    """Linear isotropic stress of u, 2 mu eps + lambda tr(eps) I with eps = epsilon(u)."""
+    return small_strain_stress(epsilon(u), mu, lmbda)
 
 
 class System:
@@ -115,12 +116,15 @@ class System:
     def _constrain(self, constraints):
         V, bs = self.V, self.gdim
         n_owned = V.dofmap.index_map.size_local
-        owner = {}
+        owner, every = {}, []
         for k, c in enumerate(constraints):
             self.mesh.topology.create_connectivity(c.dim, self.mesh.topology.dim)
             nodes = fem.locate_dofs_topological(V, c.dim, c.entities)
+            every.append(nodes)
             for node in nodes[nodes < n_owned]:
                 owner[int(node)] = k  # a later constraint wins on a shared node
+        # owned and ghost nodes, for forms assembled with the constraints as Dirichlet rows
+        self.constrained_nodes = np.unique(np.concatenate(every)).astype(np.int32)
         nodes = np.array(sorted(owner), dtype=np.int64)
         which = np.array([owner[n] for n in nodes], dtype=np.int64)
         self.constrained = (bs * nodes[:, None] + np.arange(bs)).ravel().astype(np.int32)

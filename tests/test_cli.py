@@ -171,6 +171,10 @@ def test_diverged_run_is_reported_and_kept(tmp_path):
         (("run", "block", "--models", "svk", "--plane", "stress"), "plane strain"),
         (("run", "block", "--reference", "implicit+svk"), "not among the runs"),
         (("run", "rod", "--models", "svk", "--reference", "implicit"), "not among the runs"),
+        (
+            ("run", "rod", "--models", "svk", "--petsc", "-implicit_snes_type nonsense"),
+            "SNES type nonsense",
+        ),
     ],
 )
 def test_refusals(tmp_path, args, message):
