@@ -85,6 +85,28 @@ def static_label(summary, reference):
 # --- error curves --------------------------------------------------------------------------
 
 
+def plot_curve(ax, times, y, k, n, every, label=None, small=False) -> str:
+    """Curve k of n from step 1 on: its colour, dash pattern, width and markers differ from
+    curve to curve, the markers (one per `every` steps) staggered so that they do not cover
+    each other. Returns the colour."""
+    color, (dash, width) = f"C{k % 10}", STYLES[k % len(STYLES)]
+    ax.plot(
+        times[1:],
+        y[1:],
+        dash,
+        color=color,
+        lw=width,
+        label=label,
+        zorder=2 + k,
+        marker=MARKERS[k % len(MARKERS)],
+        ms=4 if small else 5,
+        mfc="white",
+        mew=1.0 if small else 1.2,
+        markevery=(k * every // max(1, n), every),
+    )
+    return color
+
+
 def error_figure(case, summary, times, curves):
     """One panel per metric against time, one line per run but the reference (colour, dash pattern,
     width and staggered markers differ from run to run). A diverged run's curve ends at its
@@ -100,27 +122,17 @@ def error_figure(case, summary, times, curves):
         for k, label in enumerate(labels):
             run = summary["runs"][label]
             y = curves[label][name]
-            color, (dash, width) = f"C{k % 10}", STYLES[k % len(STYLES)]
             text = label
             if run["status"] == "diverged":
                 text += f": diverged at step {run['diverged_step']}, t = {run['diverged_time']:.3g} s (dotted line)"
                 ax.axvline(
-                    run["diverged_time"], color=color, ls=":", lw=1.6, gid=f"diverged:{label}"
+                    run["diverged_time"],
+                    color=f"C{k % 10}",
+                    ls=":",
+                    lw=1.6,
+                    gid=f"diverged:{label}",
                 )
-            ax.plot(
-                times[1:],
-                y[1:],
-                dash,
-                color=color,
-                lw=width,
-                label=text,
-                zorder=2 + k,
-                marker=MARKERS[k % len(MARKERS)],
-                ms=5,
-                mfc="white",
-                mew=1.2,
-                markevery=(k * every // max(1, len(labels)), every),
-            )
+            plot_curve(ax, times, y, k, len(labels), every, label=text)
             values.append(y[1:])
         if values and spans_decades(np.concatenate(values)):
             ax.set_yscale("log")

@@ -28,8 +28,8 @@ from matplotlib.ticker import LogFormatter, NullLocator
 
 from tissuebench.metrics.errors import METRICS, panels
 from tissuebench.solvers import ALGORITHMS, MODELS
-from tissuebench.solvers.models import LINEAR
-from tissuebench.workflows.figures import MARKERS, STYLES
+from tissuebench.solvers.models import LINEAR, split_label
+from tissuebench.workflows.figures import MARKERS, STYLES, plot_curve
 from tissuebench.workflows.files import spans_decades
 
 DEFORMATION = "deformation.json"
@@ -145,24 +145,11 @@ def error_figure(case_name, summary, times, curves):
             if label is None or label == ref:
                 continue
             run = summary["runs"][label]
-            color, (dash, width) = f"C{k % 10}", STYLES[k % len(STYLES)]
             if run["status"] == "diverged":
                 diverged.append(f"{a} at t = {run['diverged_time']:.3g} s")
             for ax, name in zip(axes[r], shown):
                 y = np.asarray(curves[label][name], dtype=float)
-                ax.plot(
-                    times[1:],
-                    y[1:],
-                    dash,
-                    color=color,
-                    lw=width,
-                    zorder=2 + k,
-                    marker=MARKERS[k % len(MARKERS)],
-                    ms=4,
-                    mfc="white",
-                    mew=1.0,
-                    markevery=(k * every // max(1, len(algorithms)), every),
-                )
+                color = plot_curve(ax, times, y, k, len(algorithms), every, small=True)
                 if run["status"] == "diverged":
                     ax.axvline(
                         run["diverged_time"],
@@ -176,7 +163,7 @@ def error_figure(case_name, summary, times, curves):
                         last = finite[-1] + 1
                         ax.plot([times[last]], [y[last]], "x", color=color, ms=8, mew=2, zorder=20)
         title = f"model {model}" + (
-            " (the reference's model)" if model == labels_model(ref) else ""
+            " (the reference's model)" if model == split_label(ref)[1] else ""
         )
         if diverged:
             title += "; diverged (cross, dotted line): " + ", ".join(diverged)
@@ -236,12 +223,6 @@ def error_figure(case_name, summary, times, curves):
         handlelength=4.5,
     )
     return fig
-
-
-def labels_model(label):
-    from tissuebench.solvers.models import split_label
-
-    return split_label(label)[1]
 
 
 # --- realism.png ---------------------------------------------------------------------------
@@ -521,7 +502,7 @@ def shapes_figure(folder, case_name, summary, deformation, cache=None):
     first = next(iter(series.values()))
     points, cells = first.points, first.cells
     dim = points.shape[1]
-    ref_model = labels_model(summary["reference"])
+    ref_model = split_label(summary["reference"])[1]
     undeformed = silhouette(points, cells, np.zeros_like(points))
     shapes, absent = {}, {}
     for m, s in series.items():

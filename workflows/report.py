@@ -12,7 +12,10 @@ import numpy as np
 
 from tissuebench.metrics.errors import METRICS as TABLE
 from tissuebench.metrics.series import InputError
+from tissuebench.solvers import MODELS
+from tissuebench.solvers.models import run_label, split_label
 from tissuebench.workflows.figures import crossings, shape_rows, shown_steps, static_label
+from tissuebench.workflows.figures_models import SHAPE_ALGORITHM, SHAPE_MODELS, static_tips
 
 MARKER = (
     "# tissuebench: the paper's study"  # the report's first line: a README.md the paper may replace
@@ -595,8 +598,6 @@ def caption_deformed(out, name, s):
 
 def model_case_section(out, name, s):
     """A large-deformation case: its figures with captions and its table."""
-    from tissuebench.workflows.figures_models import SHAPE_ALGORITHM, SHAPE_MODELS, static_tips
-
     rel = f"{LARGE_DEFORMATION}/{name}"
     ref = s["reference"]
     files = s.get("files", [])
@@ -776,8 +777,6 @@ def read_deformation(folder):
 def loss_runs(summary):
     """{what is lost: run label} against the reference (ALGORITHM+MODEL): each run differs from
     the reference in one respect (or two, for lumped explicit stepping)."""
-    from tissuebench.solvers.models import run_label, split_label
-
     algorithm, model = split_label(summary["reference"])
     return {
         "linearisation": run_label(algorithm, "linear"),
@@ -918,8 +917,6 @@ def large_deformation(out, large, limits=None):
 def static_tip_table(large):
     """The static tip of each model (its quasi-static run at the end time; summary.json
     `tip_displacement_final`) on the cases with a probe point."""
-    from tissuebench.solvers.models import run_label
-
     with_tip = {
         n: s
         for n, s in large.items()
@@ -927,8 +924,6 @@ def static_tip_table(large):
     }
     if not with_tip:
         return []
-    from tissuebench.solvers import MODELS
-
     present = {r.get("model", "linear") for s in with_tip.values() for r in s["runs"].values()}
     models = [m for m in MODELS if m in present] + sorted(present - set(MODELS))
     lines = [
@@ -1142,8 +1137,6 @@ def j_text(s, d, label):
 
 def divergences(out, large, deformation, limits):
     """Which runs diverged, the reasons summary.json gives, and what the data say about why."""
-    from tissuebench.solvers.models import split_label
-
     runs = diverged_runs(large)
     lines = ["### Which combinations diverge, and why", ""]
     if not runs:
