@@ -661,21 +661,6 @@ def reference_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.reference.xdmf")
 
 
-def check_target(out: Path, fmt: str, force: bool, also: list[Path] = ()) -> None:
-    """Refuse an output that does not end in .FORMAT, is a folder, or exists (unless force);
-    likewise for the files written beside it (`also`)."""
-    if out.suffix.lower() != f".{fmt}":
-        raise ExportError(f"output {out} must end in .{fmt} for --format {fmt}")
-    for path in [out, *also]:
-        if path.is_dir():
-            raise ExportError(f"output {path} is a folder: name a .{fmt} file")
-        if path.exists() and not force:
-            raise ExportError(f"output {path} exists: --force replaces it")
-    existing = next(p for p in out.absolute().parents if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise ExportError(f"output {out}: cannot write there ({existing} is not a writable folder)")
-
-
 def replace_atomically(path: Path, write) -> None:
     """write(tmp) into a temporary file beside path, then rename it into place."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
@@ -711,7 +696,7 @@ def export(
     work; every file is written under a temporary name and renamed into place. Collective;
     returns the files written."""
     from tissuebench.meshes import get_entry
-    from tissuebench.workflows.output import collective
+    from tissuebench.workflows.output import check_file_target, collective
 
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r}: use one of {', '.join(FORMATS)}")
@@ -727,7 +712,7 @@ def export(
     with_reference = reference and fmt in ("json", "inp")
     ref_path = reference_path(out)
     also = [ref_path, ref_path.with_suffix(".h5")] if with_reference else []
-    collective(comm, lambda: check_target(out, fmt, force, also))
+    collective(comm, lambda: check_file_target(out, fmt, force, also))
 
     data, bench, _ = build(
         benchmark, mesh_size, options, material, model, h, steps, plane, procedure, comm

@@ -7,9 +7,8 @@ from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
 from tissuebench.meshes.gmshio import check_positive_int
-from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.limits import check as check_limits, estimate
-from tissuebench.workflows.output import collective
+from tissuebench.workflows.output import check_file_target, collective
 
 
 def add_parser(sub):
@@ -27,25 +26,12 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def check_target(out: Path, force: bool) -> None:
-    """Refuse an output that is a folder, is not .msh, or exists (unless force)."""
-    if out.suffix != ".msh":
-        raise UserError(f"output {out} must end in .msh")
-    if out.is_dir():
-        raise UserError(f"output {out} is a folder: name a .msh file")
-    if out.exists() and not force:
-        raise UserError(f"output {out} exists: --force replaces it")
-    existing = next(p for p in out.absolute().parents if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UserError(f"output {out}: cannot write there ({existing} is not a writable folder)")
-
-
 def main(args):
     comm = MPI.COMM_WORLD
     entry = get_entry(args.benchmark)
     mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
     check_positive_int("mesh size", mesh_size)
-    collective(comm, lambda: check_target(args.out, args.force))
+    collective(comm, lambda: check_file_target(args.out, "msh", args.force))
     check_limits(
         estimate(entry.gdim, entry.nodes(mesh_size), 0, 0, comm.size),
         args.out.absolute().parent,

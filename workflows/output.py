@@ -311,6 +311,22 @@ def write_failure(path: Path, err: OSError) -> WriteFailure:
     return WriteFailure(f"{path}: cannot write the results ({reason})")
 
 
+def check_file_target(out: Path, suffix: str, force: bool, also: tuple | list = ()) -> None:
+    """Refuse, before any work, a file output that does not end in .suffix, or that (or one of
+    the files written beside it, `also`) is a folder or exists (unless force), or whose folder
+    cannot be written."""
+    if out.suffix.lower() != f".{suffix}":
+        raise OutputError(f"output {out} must end in .{suffix}")
+    for path in [out, *also]:
+        if path.is_dir():
+            raise OutputError(f"output {path} is a folder: name a .{suffix} file")
+        if path.exists() and not force:
+            raise OutputError(f"output {path} exists: --force replaces it")
+    existing = next(p for p in out.absolute().parents if p.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputError(f"output {out}: cannot write there ({existing} is not a writable folder)")
+
+
 def check_writable(out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     """Raise OutputError on every rank unless rank 0 can create and write out_dir (a folder
     of loose outputs such as stability.md; nothing is created)."""
