@@ -261,6 +261,7 @@ FRD = """\
 """
 
 
+@pytest.mark.serial  # a file reader: nothing parallel, and tmp_path is shared by the ranks
 def test_frd_reader_cuts_fields_by_column(tmp_path):
     """Negative numbers that run together, a three-digit exponent printed without its E, and
     the six-digit times."""
@@ -281,6 +282,7 @@ def test_frd_reader_cuts_fields_by_column(tmp_path):
     assert series.dim == 2 and series.field == "DISP"
 
 
+@pytest.mark.serial  # a file reader: nothing parallel, and tmp_path is shared by the ranks
 @pytest.mark.parametrize(
     "cut, message",
     [
