@@ -8,7 +8,7 @@ VENV   ?= .venv
 EXTRAS ?= dolfinx,test
 BIN     = $(VENV)/bin
 
-.PHONY: setup paper test bench clean external-tools
+.PHONY: setup paper test bench clean external-tools leaderboard
 
 setup: $(VENV)/.installed
 
@@ -32,17 +32,24 @@ bench: setup
 	$(BIN)/python -m pip install --quiet -e ".[bench]"
 	$(BIN)/tissuebench bench --quick
 
-# CalculiX (ccx), for `tissuebench export --format inp` decks and the tests that run them
-# (skipped where ccx is missing). Installed with apt-get where it is missing and we may.
-external-tools:
+# The outside simulators of `tissuebench external` and the leaderboard, and the tests that run
+# them (each skipped where its simulator is missing): SfePy and Newton through pip extras;
+# CalculiX (ccx) through apt-get where it is missing and we may, with a message otherwise.
+EXTERNAL ?= sfepy,newton
+external-tools: setup
+	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS),$(EXTERNAL)]" \
+		|| echo "pip could not install the extras $(EXTERNAL): their runs and tests are skipped"
 	@if command -v ccx >/dev/null; then echo "ccx: $$(command -v ccx)"; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
-			|| echo "apt-get could not install calculix-ccx: the CalculiX tests are skipped"; \
+			|| echo "apt-get could not install calculix-ccx: the CalculiX runs and tests are skipped"; \
 	elif command -v sudo >/dev/null && sudo -n true 2>/dev/null && command -v apt-get >/dev/null; then \
 		(sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
-			|| echo "apt-get could not install calculix-ccx: the CalculiX tests are skipped"; \
-	else echo "ccx (CalculiX) is missing and cannot be installed here: install calculix-ccx (Debian/Ubuntu) or put ccx on PATH; the CalculiX tests are skipped"; fi
+			|| echo "apt-get could not install calculix-ccx: the CalculiX runs and tests are skipped"; \
+	else echo "ccx (CalculiX) is missing and cannot be installed here: install calculix-ccx (Debian/Ubuntu) or put ccx on PATH; the CalculiX runs and tests are skipped"; fi
+
+leaderboard: external-tools
+	$(BIN)/tissuebench leaderboard --out results
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 
+from typing import NamedTuple
+
 from tissuebench.meshes.benchmark import Entry
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS, set_petsc_options
@@ -112,3 +114,61 @@ def benchmark_options(
     if getattr(args, "plane", None) is not None and entry.gdim != 2:
         raise UserError(f"--plane applies to 2D benchmarks only, not to {benchmark}")
     return options
+
+
+class Posed(NamedTuple):
+    """A benchmark posed by the command line (export, external): what an export holds."""
+
+    benchmark: str
+    mesh_size: int
+    options: dict
+    material: object  # Material
+    model: str
+    h: float  # s
+    end_time: float  # s
+    steps: int
+    plane: str
+
+
+def add_posed_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entry]) -> None:
+    """The options that pose a benchmark as `run` does, with one elastic model."""
+    p.add_argument("--material", help="MP1, MP2, MP3 or a .toml file (default: the benchmark's)")
+    p.add_argument("--dt", type=str, help="time step h in s (default 1/30)")
+    p.add_argument("--end-time", type=str, help="end time T in s (default 10)")
+    p.add_argument("--models", default="linear", help="one elastic model (default linear)")
+    add_benchmark_options(p, benchmarks)
+    p.add_argument(
+        "--plane",
+        choices=["strain", "stress"],
+        help="2D benchmarks only: plane strain (default) or stress",
+    )
+
+
+def posed(args: argparse.Namespace, benchmarks: dict[str, Entry]) -> Posed:
+    """The benchmark that add_posed_options' options pose; bad values raise UserError."""
+    from tissuebench.meshes import get_entry
+    from tissuebench.meshes.gmshio import check_positive_int
+    from tissuebench.solvers.materials import get_material
+    from tissuebench.workflows.limits import step_count
+
+    entry = get_entry(args.benchmark)
+    options = benchmark_options(args, args.benchmark, benchmarks)
+    models = parse_models(args.models)
+    if len(models) != 1:
+        raise UserError(f"--models: one model at a time here, got {', '.join(models)}")
+    check_models_plane(models, args.plane, entry.gdim)
+    mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
+    check_positive_int("mesh size", mesh_size)
+    h = positive(args.dt) if args.dt is not None else entry.dt
+    end_time = positive(args.end_time) if args.end_time is not None else entry.end_time
+    return Posed(
+        args.benchmark,
+        mesh_size,
+        options,
+        get_material(args.material or entry.material),
+        models[0],
+        h,
+        end_time,
+        step_count(h, end_time),
+        args.plane or "strain",
+    )

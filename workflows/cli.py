@@ -23,6 +23,8 @@ COMMANDS = [
     "tissuebench.workflows.compare",
     "tissuebench.workflows.mesh",
     "tissuebench.workflows.export",
+    "tissuebench.workflows.external",
+    "tissuebench.workflows.leaderboard",
     "tissuebench.workflows.stability",
     "tissuebench.workflows.convergence",
     "tissuebench.workflows.bench",

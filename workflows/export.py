@@ -6,17 +6,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
-from tissuebench.meshes.gmshio import check_positive_int
-from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.arguments import (
-    add_benchmark_options,
-    add_common,
-    benchmark_options,
-    check_common,
-    check_models_plane,
-    parse_models,
-    positive,
-)
+from tissuebench.workflows.arguments import add_common, add_posed_options, check_common, posed
 from tissuebench.workflows.exporting import (
     ELEMENTS,
     FORMATS,
@@ -26,7 +16,7 @@ from tissuebench.workflows.exporting import (
     reference_path,
     step_note,
 )
-from tissuebench.workflows.limits import check as check_limits, estimate, step_count
+from tissuebench.workflows.limits import check as check_limits, estimate
 
 
 def add_parser(sub):
@@ -43,16 +33,7 @@ def add_parser(sub):
     p.add_argument("benchmark", help=f"{', '.join(BENCHMARKS)}")
     p.add_argument("--format", choices=FORMATS, help="default: the suffix of --out")
     p.add_argument("--out", required=True, type=Path, help="the file to write (.json, .inp, ...)")
-    p.add_argument("--material", help="MP1, MP2, MP3 or a .toml file (default: the benchmark's)")
-    p.add_argument("--dt", type=str, help="time step h in s (default 1/30)")
-    p.add_argument("--end-time", type=str, help="end time T in s (default 10)")
-    p.add_argument("--models", default="linear", help="one elastic model (default linear)")
-    add_benchmark_options(p, BENCHMARKS)
-    p.add_argument(
-        "--plane",
-        choices=["strain", "stress"],
-        help="2D benchmarks only: plane strain (default) or stress",
-    )
+    add_posed_options(p, BENCHMARKS)
     p.add_argument(
         "--procedure",
         choices=list(PROCEDURES),
@@ -76,46 +57,39 @@ def add_parser(sub):
 
 def main(args):
     comm = MPI.COMM_WORLD
-    entry = get_entry(args.benchmark)
     fmt = args.format or args.out.suffix.lower().lstrip(".")
     if fmt not in FORMATS:
         raise ExportError(
             f"output {args.out}: cannot tell the format from its suffix; give --format "
             f"{'|'.join(FORMATS)}"
         )
-    options = benchmark_options(args, args.benchmark, BENCHMARKS)
-    models = parse_models(args.models)
-    if len(models) != 1:
-        raise ExportError(f"--models: an export holds one model, got {', '.join(models)}")
-    check_models_plane(models, args.plane, entry.gdim)
-    mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
-    check_positive_int("mesh size", mesh_size)
-    h = positive(args.dt) if args.dt is not None else entry.dt
-    end_time = positive(args.end_time) if args.end_time is not None else entry.end_time
-    steps = step_count(h, end_time)
-    material = get_material(args.material or entry.material)
+    bench = posed(args, BENCHMARKS)
+    entry = get_entry(bench.benchmark)
+    steps = bench.steps
     check_common(args)
     reference = not args.no_reference and fmt in ("json", "inp")
     runs = 1 if reference else 0
     check_limits(
-        estimate(entry.gdim, entry.nodes(mesh_size), steps if reference else 0, runs, comm.size),
+        estimate(
+            entry.gdim, entry.nodes(bench.mesh_size), steps if reference else 0, runs, comm.size
+        ),
         args.out.absolute().parent,
         comm,
     )
-    note = step_note(h, end_time, steps)
+    note = step_note(bench.h, bench.end_time, steps)
     if note and comm.rank == 0:
         print(note)
     written = export(
         args.benchmark,
         fmt,
         args.out,
-        mesh_size=mesh_size,
-        options=options,
-        material=material,
-        model=models[0],
-        h=h,
+        mesh_size=bench.mesh_size,
+        options=bench.options,
+        material=bench.material,
+        model=bench.model,
+        h=bench.h,
         steps=steps,
-        plane=args.plane or "strain",
+        plane=bench.plane,
         procedure=args.procedure,
         element=args.element,
         reference=reference,

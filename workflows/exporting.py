@@ -86,7 +86,7 @@ SCHEMA_VERSION = 1
 FORMATS = ("json", "inp", "vtu", "msh")
 # procedure -> (our reference algorithm, CalculiX step keyword)
 PROCEDURES = {
-    "dynamic": ("implicit", "*DYNAMIC, DIRECT, ALPHA=0."),
+    "dynamic": ("implicit", "*DYNAMIC, DIRECT"),  # with ALPHA: dynamic_keyword
     "static": ("quasi-static", "*STATIC, DIRECT"),
 }
 # CalculiX element -> (dimension, plane: None in 3D)
@@ -497,8 +497,18 @@ def lines_of(values: list[str], per_line: int) -> list[str]:
     return [", ".join(values[k : k + per_line]) for k in range(0, len(values), per_line)]
 
 
-def inp_text(data: Exported, element: str | None = None) -> str:
-    """The CalculiX deck of the export (see the module docstring)."""
+def dynamic_keyword(alpha: float = 0.0) -> str:
+    """CalculiX's *DYNAMIC line with fixed increments h: implicit HHT-alpha, alpha in
+    [-1/3, 0] (alpha = 0 is the trapezoidal rule, the SPEC's `implicit`; CalculiX's own
+    default is -0.05, which damps high frequencies)."""
+    if not -1 / 3 <= alpha <= 0:
+        raise ExportError(f"CalculiX's HHT alpha must lie in [-1/3, 0], got {alpha!r}")
+    return f"*DYNAMIC, DIRECT, ALPHA={number(alpha)}"
+
+
+def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> str:
+    """The CalculiX deck of the export (see the module docstring); `alpha` is the HHT
+    parameter of the dynamic procedure (dynamic_keyword)."""
     element = element or default_element(data.dim, data.plane)
     check_element(element, data.dim, data.plane)
     check_inp_model(data.model)
@@ -591,7 +601,7 @@ def inp_text(data: Exported, element: str | None = None) -> str:
     flags = ", NLGEOM" if nlgeom else ""
     output = ["*NODE FILE, FREQUENCY=1", "U", "*NODE PRINT, NSET=Nall, FREQUENCY=1", "U"]
     if data.procedure == "dynamic":  # one step of fixed increments h
-        out += [f"*STEP{flags}, INC={data.steps + 10}", PROCEDURES["dynamic"][1]]
+        out += [f"*STEP{flags}, INC={data.steps + 10}", dynamic_keyword(alpha)]
         out.append(f"{number(data.h)}, {number(end)}")
     else:
         # one *STATIC step per t_i: a linear static step is solved once, at its end, whatever
@@ -616,8 +626,13 @@ def inp_text(data: Exported, element: str | None = None) -> str:
     return "\n".join(out)
 
 
-def write_inp(data: Exported, path: Path, element: str | None = None) -> None:
-    Path(path).write_text(inp_text(data, element))
+def write_inp(
+    data: Exported,
+    path: Path,
+    element: str | None = None,
+    alpha: float = 0.0,
+) -> None:
+    Path(path).write_text(inp_text(data, element, alpha))
 
 
 # --- mesh files -------------------------------------------------------------------------------

@@ -6,6 +6,7 @@ velocity at every step), and for the case: metrics.csv, summary.json and the fig
 
 import json
 import math
+import time
 import platform
 from dataclasses import asdict, dataclass, field
 from typing import NamedTuple
@@ -188,13 +189,17 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
     target. Collective."""
     rank0 = comm.rank == 0
     bench = get_benchmark(case.benchmark, mesh_size=mesh_size, comm=comm, **case.options)
+    start = time.perf_counter()
     systems = {m: System(bench, materials[m], plane=case.plane) for m in materials}
+    system_s = (time.perf_counter() - start) / len(systems)  # M, K, f of one material
     metrics = Metrics(next(iter(systems.values())).V)
 
     results, tips = {}, {}
     for label, algorithm, material, model in case.runs:
         system = systems[material]
+        start = time.perf_counter()
         integrator = get_integrator(algorithm, system, h, solver=case.solver, model=model)
+        setup_s = time.perf_counter() - start  # assembly and factorisations before the loop
         bar = tqdm(
             total=n_steps,
             desc=f"{case.name} {label}",
@@ -219,7 +224,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
             lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
             target,
         )
-        results[label] = (run, material, algorithm, model)
+        results[label] = (run, material, algorithm, model, setup_s)
         integrator.destroy()
         if bench.probe is not None:
             tips[label] = np.array([probe(system.V, u, bench.probe) for u in run.u])
@@ -265,10 +270,11 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         "plane": inputs["plane"],
         **case.options,
         "solver": case.solver,
+        "system_time_s": system_s,
         "versions": versions(),
         "runs": {},
     }
-    for label, (run, material, algorithm, model) in results.items():
+    for label, (run, material, algorithm, model, setup_s) in results.items():
         entry = {
             "algorithm": algorithm,
             "model": model,
@@ -279,6 +285,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
             "reason": run.reason,
             "steps": run.steps,
             "wall_time_s": run.wall_time_s,
+            "setup_time_s": setup_s,
         }
         for name in METRICS:
             peak, mean = summarize(curves[label][name])

@@ -16,7 +16,12 @@ import h5py
 import numpy as np
 from dolfinx.io.utils import cell_perm_vtk
 
-TOPOLOGY = {"quadrilateral": "Quadrilateral", "hexahedron": "Hexahedron"}
+TOPOLOGY = {
+    "triangle": "Triangle",
+    "quadrilateral": "Quadrilateral",
+    "tetrahedron": "Tetrahedron",
+    "hexahedron": "Hexahedron",
+}
 
 
 def gather_mesh(V):

@@ -1,0 +1,200 @@
+"""`tissuebench leaderboard --out results`: every algorithm and model of ours and every
+outside simulator that poses each case, graded against one reference and timed in one
+session: OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case (workflows/ranking.py).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers.external import get_simulator
+from tissuebench.solvers.materials import get_material
+from tissuebench.solvers.models import run_label
+from tissuebench.workflows.arguments import add_common, check_common
+from tissuebench.workflows.output import OutputError, check_writable, collective
+from tissuebench.workflows.ranking import (
+    Board,
+    Row,
+    external_rows,
+    mark_pareto,
+    markdown,
+    our_rows,
+    plot_case,
+    user_rows,
+    write_csv,
+)
+from tissuebench.workflows.simulators import SimulatorError, run_external
+from tissuebench.workflows.study import model_case, run_case
+
+FOLDER = "leaderboard"
+MARKER = "# Leaderboard: accuracy against cost"
+
+# The cases: the paper's block and rod (linear), and SPEC 8's rod at three times its load
+# (neo-Hookean reference, every model of ours), at each benchmark's default mesh, h and T.
+BOARDS = [
+    Board(
+        "block-MP1",
+        "block",
+        "MP1",
+        "linear",
+        description="Block and needle (SPEC 4), MP1, 20 x 20 quadrilaterals, plane strain, "
+        "h = 1/30 s, T = 10 s, linear model.",
+    ),
+    Board(
+        "rod-MP3",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, 6 x 3 x 3 hexahedra, h = 1/30 s, T = 10 s, "
+        "linear model.",
+    ),
+    Board(
+        "rod-MP3-s3",
+        "rod",
+        "MP3",
+        "neo-hookean",
+        models=tuple(MODELS),
+        options={"load_scale": 3.0},
+        description="Bending rod, MP3, load scale s = 3 (SPEC 8): large deformation, against "
+        "implicit+neo-hookean; ours with every model, the simulators with the neo-Hookean one.",
+    ),
+]
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "leaderboard",
+        help="accuracy against cost of our algorithms and outside simulators, one session",
+        description="Run every algorithm and model of ours and every variant of every outside "
+        "simulator installed here that poses the case (CalculiX, SfePy, Newton) on each "
+        "leaderboard case, grade each against the case's reference, and write "
+        "OUT/leaderboard.md, OUT/leaderboard.csv and OUT/leaderboard/CASE.png. Runs that a "
+        "user graded with `tissuebench compare --label NAME --wall-time S --out "
+        "OUT/leaderboard/CASE/user/NAME` join their case. Everything is rerun and timed in "
+        "this session.",
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("results"), help="output folder (default results)"
+    )
+    add_common(p)
+    p.set_defaults(func=main)
+
+
+def check_target(out: Path, available: set[str], force: bool) -> None:
+    """Refuse to replace a leaderboard.md we did not write, or, without force, one with rows of
+    a simulator that is not installed here (a partial run never replaces a full one)."""
+    md = out / "leaderboard.md"
+    if md.exists() and not md.read_text(errors="replace").startswith(MARKER):
+        raise OutputError(f"{md}: exists and was not written by tissuebench leaderboard")
+    old = out / "leaderboard.csv"
+    if force or not old.is_file():
+        return
+    with open(old, newline="") as f:
+        labels = [row.get("label", "") for row in csv.DictReader(f)]
+    lost = sorted({lab.split(":")[0] for lab in labels if ":" in lab} - available)
+    if lost:
+        raise OutputError(
+            f"{old}: has rows of {', '.join(lost)}, which cannot run here; install it "
+            "(make external-tools) or pass --force to replace the leaderboard without them"
+        )
+
+
+def run_board(board: Board, out: Path, solver: str, petsc: str, comm, log=print):
+    """Our runs, then every simulator's, of one case; returns (rows, notes)."""
+    folder = out / FOLDER / board.name
+    reference = run_label("implicit", board.model)
+    case = model_case(
+        board.name,
+        board.benchmark,
+        board.material,
+        list(ALGORITHMS),
+        list(board.models),
+        reference,
+        options=board.options,
+        mesh_size=board.mesh_size,
+        end_time=board.end_time,
+        solver=solver,
+        petsc=petsc,
+        description=board.description,
+    )
+    summary = run_case(case, folder / "ours", comm, log, force=True)
+    rows: list[Row] = our_rows(board.name, summary)
+    notes = []
+    for name in board.simulators:
+        missing = comm.bcast(get_simulator(name).available() if comm.rank == 0 else None, root=0)
+        if missing:
+            notes.append(f"{name}: not run on this machine ({missing})")
+            continue
+        try:
+            result = run_external(
+                name,
+                folder / name,
+                benchmark=board.benchmark,
+                mesh_size=int(summary["mesh_size"]),
+                options=board.options,
+                material=get_material(board.material),
+                model=board.model,
+                h=float(summary["h"]),
+                steps=int(summary["steps"]),
+                force=True,
+                comm=comm,
+                log=log,
+            )
+        except SimulatorError as exc:
+            notes.append(str(exc))
+            continue
+        rows += external_rows(board.name, result)
+        for variant, why in (result.get("skipped_variants") or {}).items():
+            notes.append(f"{name}:{variant} not posed: {why}")
+    if comm.rank == 0:
+        rows += user_rows(board.name, folder / "user")
+    mark_pareto(rows)
+    return rows, notes
+
+
+def main(args) -> int:
+    import time
+
+    check_common(args)
+    comm = MPI.COMM_WORLD
+    out = args.out
+    check_writable(out, comm)
+    available = set()
+    for board in BOARDS:
+        for name in board.simulators:
+            if comm.rank == 0 and get_simulator(name).available() is None:
+                available.add(name)
+    collective(comm, lambda: check_target(out, available, args.force))
+    session = time.strftime("%Y-%m-%d %H:%M %Z")
+    rows, notes = {}, {}
+    for board in BOARDS:
+        rows[board.name], notes[board.name] = run_board(board, out, args.solver, args.petsc, comm)
+
+    def write():
+        (out / FOLDER).mkdir(parents=True, exist_ok=True)
+        for board in BOARDS:
+            plot_case(out / FOLDER / f"{board.name}.png", board, rows[board.name])
+        every = [r for board in BOARDS for r in rows[board.name]]
+        for name, text in (
+            ("leaderboard.csv", None),
+            ("leaderboard.md", markdown(BOARDS, rows, notes, session)),
+        ):
+            tmp = out / f".{name}.{os.getpid()}.tmp"
+            try:
+                if text is None:
+                    write_csv(tmp, every)
+                else:
+                    tmp.write_text(text)
+                os.replace(tmp, out / name)
+            finally:
+                tmp.unlink(missing_ok=True)
+
+    collective(comm, write, out)
+    if comm.rank == 0:
+        print(f"wrote {out / 'leaderboard.md'}, {out / 'leaderboard.csv'} and {out / FOLDER}/*.png")
+    return 0
