@@ -64,7 +64,7 @@ def main(args) -> int:
     )
     if comm.rank == 0:
         print(
-            f"{'run':<28} {'status':<9} {'E_n max':>9} {'E_i mean':>9} {'E_i max':>9} {'wall s':>8}"
+            f"{'run':<34} {'status':<9} {'E_n max':>9} {'E_i mean':>9} {'E_i max':>9} {'wall s':>8}"
         )
         for label, e in summary["runs"].items():
             cells = [
@@ -73,7 +73,7 @@ def main(args) -> int:
             ]
             text = " ".join(f"{x:9.3g}" if x is not None else f"{'-':>9}" for x in cells)
             wall = f"{e['wall_time_s']:8.2f}" if e.get("wall_time_s") is not None else f"{'-':>8}"
-            print(f"{label:<28} {e['status']:<9} {text} {wall}")
+            print(f"{label:<34} {e['status']:<9} {text} {wall}")
         for name, why in (summary.get("skipped_variants") or {}).items():
             print(f"not posed: {args.simulator}:{name}: {why}")
         print(f"wrote {args.out}")

@@ -124,7 +124,7 @@ def run_variant(
     if comm.rank == 0:
         state = entry["status"] + (f" ({entry['reason']})" if entry["reason"] else "")
         wall = "" if entry["wall_time_s"] is None else f", {entry['wall_time_s']:.2f} s"
-        log(f"{label:<28} {state}{wall}")
+        log(f"{label:<34} {state}{wall}")
     return entry
 
 

@@ -28,6 +28,7 @@ from types import ModuleType
 # name -> module (imported on first use: a simulator's package may be absent)
 SIMULATORS = {
     "calculix": "tissuebench.solvers.external.calculix",
+    "sfepy": "tissuebench.solvers.external.sfepy",
 }
 
 
