@@ -118,7 +118,7 @@ def external_rows(case: str, summary: dict) -> list[Row]:
                 case,
                 label,
                 source,
-                run["description"],
+                f"{run['description']}; timed: {run.get('timing') or 'around its run'}",
                 run["mesh"],
                 int(run["dofs"]),
                 run["status"],
@@ -371,6 +371,13 @@ def markdown(
             "",
         ]
         out += table(rows[board.name])
+        outside = [r for r in rows[board.name] if r.source != "tissuebench"]
+        if outside:
+            out += ["", "What each outside run is:", ""]
+            out += [
+                f"- `{r.label}`: {r.description}; mesh: {r.mesh}; timing: {r.timing}"
+                for r in outside
+            ]
         if notes.get(board.name):
             out += ["", *[f"- {n}" for n in notes[board.name]]]
         out.append("")

@@ -29,6 +29,7 @@ from types import ModuleType
 SIMULATORS = {
     "calculix": "tissuebench.solvers.external.calculix",
     "sfepy": "tissuebench.solvers.external.sfepy",
+    "newton": "tissuebench.solvers.external.newton",
 }
 
 
