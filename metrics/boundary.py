@@ -1,8 +1,9 @@
-"""The boundary of a distributed Q1 mesh, gathered once to rank 0 for the surface error.
+"""The boundary of a distributed first-order (Q1 or P1) mesh, gathered once to rank 0 for the
+surface error.
 
 In 2D the boundary is a set of edges (a, b) oriented with the domain on their left; in 3D a
-set of quadrilateral faces (a, b, c, d), a cycle around the face counter-clockwise seen from
-outside. Nodes are numbered by their position in `nodes`, the sorted global indices of the
+set of quadrilateral faces (a, b, c, d) (hexahedra) or triangles (a, b, c) (tetrahedra), a
+cycle around the face counter-clockwise seen from outside. Nodes are numbered by their position in `nodes`, the sorted global indices of the
 boundary nodes of V. Orientation is decided once, on the undeformed mesh.
 """
 
@@ -14,7 +15,7 @@ import numpy as np
 
 
 def _oriented_facets(V):
-    """Local node indices of this rank's exterior facets, oriented outward, (facets, 2 or 4)."""
+    """Local node indices of this rank's exterior facets, oriented outward, (facets, 2, 3 or 4)."""
     mesh = V.mesh
     topology = mesh.topology
     tdim, gdim = topology.dim, mesh.geometry.dim
@@ -41,9 +42,14 @@ def _oriented_facets(V):
         edge, to_inside = b - a, inside - a
         left = edge[:, 0] * to_inside[:, 1] - edge[:, 1] * to_inside[:, 0] > 0
         return np.where(left[:, None], nodes, nodes[:, ::-1])
-    cycle = nodes[:, [0, 1, 3, 2]]  # reference quadrilaterals are numbered in tensor order
-    p = X[cycle]
-    normal = np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+    if nodes.shape[1] == 3:  # triangles
+        cycle = nodes
+        p = X[cycle]
+        normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    else:
+        cycle = nodes[:, [0, 1, 3, 2]]  # reference quadrilaterals are numbered in tensor order
+        p = X[cycle]
+        normal = np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
     outward = np.einsum("ij,ij->i", normal, p.mean(axis=1) - inside) > 0
     return np.where(outward[:, None], cycle, cycle[:, ::-1])
 

@@ -1,9 +1,11 @@
-"""`grade`: the metrics of SPEC section 6 for two displacement time series on one mesh,
-read from files (how a user grades any simulator against our reference). The files that
+"""`grade`: the metrics of SPEC section 6 for two displacement time series read from files
+(how a user grades any simulator against our reference). The files that
 `tissuebench compare` writes are written by workflows/grading.py.
 
 Rank 0 reads and checks both series; the reference mesh is then distributed over `comm`
-and every step is measured in parallel.
+and every step is measured in parallel. A candidate on the reference's mesh, node for node
+and cell for cell, is graded node by node (section 6); a candidate on another mesh of the
+same body is graded as SPEC section 9 says (metrics/crossmesh.py), and a note says so.
 
 A series whose displacement has a non-finite value (NaN or inf) at step k has diverged
 there: the metrics are not evaluated from step k on (NaN), and metrics.csv's `status` column
@@ -11,7 +13,6 @@ says so ("diverged" for the candidate, "reference diverged" for the reference, a
 metrics.csv; "missing" for the steps after a shorter candidate's last one).
 """
 
-import itertools
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -24,6 +25,14 @@ import ufl
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
 
+from tissuebench.metrics.cells import NAMES, match_points
+from tissuebench.metrics.crossmesh import (
+    BODY_TOLERANCE,
+    CrossMetrics,
+    Mesh,
+    check_same_body,
+    note,
+)
 from tissuebench.metrics.errors import METRICS, Metrics
 from tissuebench.metrics.series import InputError, Series, read_series
 
@@ -56,68 +65,28 @@ def summarize(curve):
 # --- checks ---------------------------------------------------------------------------------
 
 
-def match_points(a, b, tol):
-    """match[i] = the index of the point of b within tol of a[i] (in every coordinate); -1
-    where there is none. Points are hashed on a grid of spacing tol, so a match lies in the
-    same or a neighbouring grid cell."""
-    low = np.minimum(a.min(axis=0), b.min(axis=0))
-    ka = np.floor((a - low) / tol).astype(np.int64) + 1
-    kb = np.floor((b - low) / tol).astype(np.int64) + 1
-    span = int(max(ka.max(), kb.max())) + 2
-
-    def encode(k):
-        return sum(k[:, j] * span**j for j in range(k.shape[1]))
-
-    keys_b = encode(kb)
-    order = np.argsort(keys_b, kind="stable")
-    sorted_b = keys_b[order]
-    match = np.full(len(a), -1, dtype=np.int64)
-    offsets = sorted(
-        itertools.product((-1, 0, 1), repeat=a.shape[1]), key=lambda o: np.abs(o).sum()
-    )
-    for offset in offsets:
-        todo = np.flatnonzero(match < 0)
-        if len(todo) == 0:
-            break
-        keys = encode(ka[todo] + np.array(offset))
-        pos = np.minimum(np.searchsorted(sorted_b, keys), len(sorted_b) - 1)
-        found = order[pos]
-        ok = (sorted_b[pos] == keys) & (np.abs(a[todo] - b[found]).max(axis=1) <= tol)
-        match[todo[ok]] = found[ok]
-    return match
-
-
-def check_meshes(ref, cand):
-    """For each reference node, the index of the candidate node at its coordinates."""
-    where = f"{cand.path}: mesh differs from {ref.path}"
-    if ref.cell_type != cand.cell_type or ref.dim != cand.dim:
+def check_meshes(ref: Series, cand: Series) -> np.ndarray | None:
+    """For each reference node, the index of the candidate node at its coordinates (within
+    POINT_TOLERANCE of the reference's extent), when the candidate's mesh is the reference's,
+    node for node and cell for cell; None when the meshes differ (the candidate is then graded
+    on its own mesh, SPEC section 9). Raises InputError for meshes of different dimensions."""
+    if ref.dim != cand.dim:
         raise InputError(
-            f"{where}: {cand.dim}D {cand.cell_type} cells vs {ref.dim}D {ref.cell_type} cells"
+            f"{cand.path}: {cand.dim}D {NAMES[cand.cell_type]} cannot be graded against the "
+            f"{ref.dim}D {NAMES[ref.cell_type]} of {ref.path}"
         )
+    if ref.cell_type != cand.cell_type:
+        return None
     if len(ref.points) != len(cand.points) or len(ref.cells) != len(cand.cells):
-        raise InputError(
-            f"{where}: {len(cand.points)} nodes and {len(cand.cells)} cells "
-            f"vs {len(ref.points)} nodes and {len(ref.cells)} cells"
-        )
+        return None
     extent = np.ptp(ref.points, axis=0).max()
     tol = POINT_TOLERANCE * extent
     for bound in (np.min, np.max):
         if np.abs(bound(ref.points, axis=0) - bound(cand.points, axis=0)).max() > tol:
-            raise InputError(
-                f"{where}: the bounding boxes of the nodes differ by more than {tol:.3g}"
-            )
+            return None
     match = match_points(ref.points, cand.points, tol)
-    if np.any(match < 0):
-        missing = np.flatnonzero(match < 0)
-        node = ", ".join(f"{x:.9g}" for x in ref.points[missing[0]])
-        raise InputError(
-            f"{where}: {len(missing)} reference node(s) have no candidate node within {tol:.3g}, "
-            f"e.g. the node at ({node})"
-        )
-    if len(np.unique(match)) != len(match):
-        raise InputError(
-            f"{where}: nodes closer than {tol:.3g} to each other cannot be matched one to one"
-        )
+    if np.any(match < 0) or len(np.unique(match)) != len(match):
+        return None
     in_ref = np.empty_like(match)
     in_ref[match] = np.arange(len(match))
 
@@ -126,7 +95,7 @@ def check_meshes(ref, cand):
         return cells[np.lexsort(cells.T[::-1])]
 
     if not np.array_equal(canonical(ref.cells), canonical(in_ref[cand.cells])):
-        raise InputError(f"{where}: same nodes but different cells")
+        return None
     return match
 
 
@@ -265,9 +234,20 @@ def _curves(
     steps: int,
     graded: int,
     match: np.ndarray | None,
+    cross: CrossMetrics | None = None,
 ) -> dict[str, np.ndarray]:
     """The metric curves (dimensionless, one value per step, keyed as METRICS), evaluated on the
-    first `graded` steps only and NaN on the others. Collective; the series are rank 0's."""
+    first `graded` steps only and NaN on the others. Collective; the series are rank 0's. The
+    candidate is node-matched through `match`, or else on its own mesh, graded by `cross`."""
+    if cross is not None:
+        curves = {name: np.full(steps, np.nan) for name in METRICS}
+        for i in range(graded):
+            u_ref, u_cand = comm.bcast(
+                (ref.displacements[i], cand.displacements[i]) if comm.rank == 0 else None, root=0
+            )
+            for name, value in cross.evaluate(u_ref[points].ravel(), u_cand).items():
+                curves[name][i] = value
+        return curves
     metrics = Metrics(V)
     curves = {name: np.full(steps, np.nan) for name in METRICS}
     for i in range(graded):
@@ -295,7 +275,7 @@ class Grading:
     diverged, missing), the one-line `summaries` (where a series diverged or ends, then one per
     metric: max and time-mean over the graded steps), the candidate's `label`, a `title`,
     the `notes` on how the series were read (one line each: a series completed with the zero
-    initial state), the field read from each side (`fields`: reference, candidate), and the
+    initial state, a candidate graded on its own mesh), the field read from each side (`fields`: reference, candidate), and the
     divergence steps and number of candidate steps."""
 
     label: str
@@ -326,49 +306,92 @@ def grade(
     `field`, else the first of series.DEFAULT_FIELDS that the file holds. A series that
     starts at t = h starts from the zero initial state at t = 0 (a note says so). A series'
     first step with a non-finite displacement is its divergence: nothing is graded from
-    there on. `label` names the candidate (default: its file name without suffix).
-    Collective over comm; the same Grading on every rank.
+    there on. A candidate on another mesh of the reference's body (triangles, quadrilaterals,
+    tetrahedra or hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
+    `label` names the candidate (default: its file name without suffix). Collective over
+    comm; the same Grading on every rank.
 
-    Raises InputError on every rank for unreadable files, meshes or time stamps that do not
-    match, degenerate cells, a mesh boundary that touches itself, or a missing field.
+    Raises InputError on every rank for unreadable files, meshes of different dimensions or
+    bodies, time stamps that do not match, degenerate cells, a mesh boundary that touches
+    itself, or a missing field.
     """
-    ref = cand = match = plan = None
-    error = None
+    ref = cand = error = None
     if comm.rank == 0:
         reading = reference
         try:
             ref = read_series(reference, reference_field or field)
             reading = candidate
             cand = read_series(candidate, candidate_field or field)
-            ref, cand, notes = initial_states(ref, cand)
-            match = check_meshes(ref, cand)
-            check_times(ref, cand)
-            plan = (
-                ref.times,
-                len(cand.times),
-                first_non_finite(ref),
-                first_non_finite(cand),
-                notes,
-                (ref.field, cand.field),
-            )
         except InputError as exc:
             error = str(exc)
         except Exception as exc:  # never leave the other ranks waiting
             error = (
                 f"{reading}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
             )
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise InputError(error)
+    return grade_series(ref, cand, comm, label=label)
+
+
+def grade_series(
+    ref: Series | None,
+    cand: Series | None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    label: str | None = None,
+) -> Grading:
+    """`grade` for two series in memory, rank 0's (None on the other ranks may be passed):
+    checked, completed with the zero initial state, and graded on the reference's mesh node
+    for node when the candidate's mesh is the reference's, else on its own mesh (SPEC 9).
+    Collective over comm; the same Grading on every rank; InputError on every rank as `grade`.
+    """
+    match = plan = None
+    error = None
+    if comm.rank == 0:
+        try:
+            ref, cand, notes = initial_states(ref, cand)
+            match = check_meshes(ref, cand)
+            if match is None:
+                check_same_body(ref, cand)
+                notes.append(note(ref, cand))
+            check_times(ref, cand)
+            plan = (
+                match is None,
+                ref.times,
+                len(cand.times),
+                first_non_finite(ref),
+                first_non_finite(cand),
+                notes,
+                (ref.field, cand.field),
+                (label or cand.path.stem, ref.path.stem),
+                float(np.ptp(ref.points, axis=0).max()),
+            )
+        except InputError as exc:
+            error = str(exc)
+        except Exception as exc:  # never leave the other ranks waiting
+            error = (
+                f"{cand.path}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
+            )
     error, plan = comm.bcast((error, plan), root=0)
     if error is not None:
         raise InputError(error)
 
-    times, cand_steps, ref_diverged, cand_diverged, notes, fields = plan
+    cross, times, cand_steps, ref_diverged, cand_diverged, notes, fields, names, extent = plan
     steps = len(times)
     status = statuses(steps, cand_steps, ref_diverged, cand_diverged)
     graded = status.count(
         "ok"
     )  # the steps before the first that is not "ok" (statuses only get worse)
     V, points = function_space(comm, ref)
-    curves = _curves(comm, V, points, ref, cand, steps, graded, match)
+    grader = None
+    if cross:
+        mesh, paths = comm.bcast(
+            (Mesh.of(cand), (cand.path, ref.path)) if comm.rank == 0 else None, root=0
+        )
+        where = f"{paths[0]}: not a mesh of the body of {paths[1]}"
+        grader = CrossMetrics(V, mesh, BODY_TOLERANCE * extent, where)
+    curves = _curves(comm, V, points, ref, cand, steps, graded, match, grader)
 
     summaries = {}
     if ref_diverged is not None:
@@ -385,8 +408,8 @@ def grade(
             f"steps {cand_steps}..{steps - 1} missing"
         )
 
-    label = label or Path(candidate).stem
-    title = f"{label} against {Path(reference).stem}"
+    label = names[0]
+    title = f"{label} against {names[1]}"
     if "candidate" in summaries or "reference" in summaries:
         title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
     scope = (

@@ -69,7 +69,8 @@ def panels() -> list[list[str]]:
 
 
 class Metrics:
-    """E_n, E_s, E_i and E_i's nodal variant on V (vector Q1 on quadrilaterals or hexahedra).
+    """E_n, E_s, E_i and E_i's nodal variant on V (vector Q1 on quadrilaterals or hexahedra, or
+    P1 on triangles or tetrahedra; a candidate on another mesh: metrics/crossmesh.py).
 
     Built once per V: the interior forms and nodal weights (`interior`), |Ω_0| (`volume`),
     d (`dim`), and the boundary gathered to rank 0 (`boundary`, with `domain` its Polygon or

@@ -12,10 +12,12 @@ from dolfinx import fem, la
 
 
 class InteriorError:
-    """E_i and its nodal variant on the vector Q1 space V, forms compiled once.
+    """E_i and its nodal variant on the vector Q1 (or P1, on simplices) space V, forms compiled
+    once.
 
     `points` Gauss points per direction in each cell: the quadrature degree 2 points - 1 is
-    the highest that basix's Gauss-Jacobi rule with that many points integrates exactly.
+    the highest that basix's Gauss-Jacobi rule with that many points integrates exactly (on
+    triangles and tetrahedra: basix's default rule of that degree, 7 and 15 points for 3).
     """
 
     def __init__(self, V: fem.FunctionSpace, points: int = 3):

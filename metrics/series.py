@@ -3,9 +3,11 @@
 Formats: XDMF with HDF5 (or inline XML) data, as DOLFINx's XDMFFile.write_function and
 meshio's TimeSeriesWriter write it, ParaView .pvd collections of .vtu files, and CalculiX's
 ASCII .frd and .dat (with its deck, the .inp beside it; metrics/calculix.py). The mesh is
-vector Q1: quadrilaterals (2D; a zero third coordinate, as meshio and ParaView store 2D
-data, is dropped) or hexahedra (3D). Cells are returned in VTK node order, as the files hold
-them. Anything else raises InputError with one line naming the file and the problem.
+first order, of one cell type: triangles or quadrilaterals (2D; a zero third coordinate, as
+meshio and ParaView store 2D data, is dropped), tetrahedra or hexahedra (3D); the
+displacement is P1 on simplices and Q1 on the others (SPEC section 9). Cells are returned in
+VTK node order, as the files hold them. Anything else raises InputError with one line naming
+the file and the problem.
 
 The field: a name, taken as it is; or none, and then the first of DEFAULT_FIELDS that the
 file holds (`displacement` as we write it, `U` and `DISP` as CalculiX names it, ...).
@@ -17,12 +19,17 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from tissuebench.metrics.cells import DIM, FACETS, NAMES
 from tissuebench.workflows.errors import UserError
 
-# file cell names -> (our cell type, nodes per cell)
+# file cell names (XDMF topology types lower-cased, meshio's names) -> (our cell type, nodes
+# per cell)
 CELLS = {
+    "triangle": ("triangle", 3),
     "quadrilateral": ("quadrilateral", 4),
     "quad": ("quadrilateral", 4),
+    "tetrahedron": ("tetrahedron", 4),
+    "tetra": ("tetrahedron", 4),
     "hexahedron": ("hexahedron", 8),
 }
 
@@ -37,7 +44,8 @@ DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
 @dataclass
 class Series:
     """A displacement time series on one mesh: points (n, d), cells (VTK node order),
-    cell_type ("quadrilateral" or "hexahedron"), times (steps,) and displacements, a list of
+    cell_type ("triangle", "quadrilateral", "tetrahedron" or "hexahedron"), times (steps,)
+    and displacements, a list of
     (n, d) arrays, one per time; `field` is the name it was read from."""
 
     path: Path
@@ -90,7 +98,8 @@ def _finish(path, field, points, cells, cell_type, times, values):
     """Check shapes, reduce 2D data stored in 3D to d columns and build the Series."""
     if cell_type not in CELLS:
         raise InputError(
-            f"{path}: cells of type {cell_type!r}; only quadrilaterals and hexahedra are supported"
+            f"{path}: cells of type {cell_type!r}; only first-order triangles, quadrilaterals, "
+            "tetrahedra and hexahedra are supported"
         )
     cell_type, per_cell = CELLS[cell_type]
     points = np.asarray(points, dtype=np.float64)
@@ -108,16 +117,17 @@ def _finish(path, field, points, cells, cell_type, times, values):
         raise InputError(f"{path}: cells refer to points outside 0..{n - 1}")
     if not np.isfinite(points).all():
         raise InputError(f"{path}: point coordinates are not finite")
-    dim = 2 if cell_type == "quadrilateral" else 3
+    dim = DIM[cell_type]
     if points.shape[1] < dim:
-        raise InputError(f"{path}: hexahedra with 2D points")
+        raise InputError(f"{path}: {NAMES[cell_type]} with 2D points")
     if points.shape[1] > dim and np.any(points[:, dim:] != 0):
         raise InputError(
-            f"{path}: quadrilaterals with a non-zero third coordinate (a surface in 3D is not supported)"
+            f"{path}: {NAMES[cell_type]} with a non-zero third coordinate (a surface in 3D is "
+            "not supported)"
         )
     points = np.ascontiguousarray(points[:, :dim])
-    check_cells(path, points, cells)
-    check_boundary(path, points, cells)
+    check_cells(path, points, cells, cell_type)
+    check_boundary(path, points, cells, cell_type)
     times = np.asarray(times, dtype=np.float64)
     if len(times) == 0:
         raise InputError(f"{path}: no time steps")
@@ -155,11 +165,20 @@ def _node(points: np.ndarray, i: int) -> str:
     return f"node {i} at ({', '.join(f'{x:.9g}' for x in points[i])})"
 
 
-def cell_measures(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Signed area (quadrilaterals, shoelace of the 4 nodes in VTK order; units of the
-    coordinates squared) or volume estimate (hexahedra, the sum of the six tetrahedra around
-    the diagonal from node 0 to node 6; units cubed) of each cell."""
+def cell_measures(
+    points: np.ndarray, cells: np.ndarray, cell_type: str | None = None
+) -> np.ndarray:
+    """Signed area (2D; units of the coordinates squared) or volume (3D; units cubed) of each
+    cell, positive for VTK's orientation: triangles and tetrahedra exactly; quadrilaterals by
+    the shoelace of the 4 nodes in VTK order; hexahedra estimated by the sum of the six
+    tetrahedra around the diagonal from node 0 to node 6. Without `cell_type`, 4 nodes are a
+    quadrilateral and 8 a hexahedron."""
     x = points[cells]
+    if cell_type in ("triangle", "tetrahedron"):
+        edges = x[:, 1:] - x[:, :1]
+        if cell_type == "triangle":
+            return 0.5 * (edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0])
+        return np.einsum("cj,cj->c", np.cross(edges[:, 0], edges[:, 1]), edges[:, 2]) / 6
     if cells.shape[1] == 4:
         following = np.roll(x, -1, axis=1)
         return 0.5 * np.sum(x[..., 0] * following[..., 1] - following[..., 0] * x[..., 1], axis=1)
@@ -167,7 +186,9 @@ def cell_measures(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.einsum("ckj,cj->c", np.cross(a, b), x[:, 6] - x[:, 0]) / 6
 
 
-def check_cells(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
+def check_cells(
+    path: Path, points: np.ndarray, cells: np.ndarray, cell_type: str | None = None
+) -> None:
     """Refuse (InputError) cells that repeat a node or whose area (2D) or volume (3D) is at
     most DEGENERATE * extent^d, extent the largest side of the nodes' bounding box (in the
     units of the coordinates)."""
@@ -182,7 +203,7 @@ def check_cells(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
         )
     dim = points.shape[1]
     extent = float(np.ptp(points, axis=0).max())
-    measures = cell_measures(points, cells)
+    measures = cell_measures(points, cells, cell_type)
     flat = np.flatnonzero(np.abs(measures) <= DEGENERATE * extent**dim)
     if len(flat):
         c = flat[0]
@@ -205,13 +226,18 @@ def _count_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ordered[first], inverse, np.diff(np.r_[np.flatnonzero(first), len(rows)])
 
 
-def check_boundary(path: Path, points: np.ndarray, cells: np.ndarray) -> None:
+def check_boundary(
+    path: Path, points: np.ndarray, cells: np.ndarray, cell_type: str | None = None
+) -> None:
     """Refuse (InputError) a mesh whose boundary is not a manifold: a facet (2D edge, 3D face)
     shared by more than two cells, or a boundary that touches itself at a node or along an
     edge (as two quadrilaterals sharing only a corner do), where the boundary loops or
     surfaces that the surface error E_s is measured on would be ambiguous."""
     dim = points.shape[1]
-    local = QUAD_EDGES if dim == 2 else HEX_FACES
+    if cell_type is None:
+        local = QUAD_EDGES if dim == 2 else HEX_FACES
+    else:
+        local = FACETS[cell_type]
     facets = cells[:, local].reshape(-1, local.shape[1])  # corners in cycle order
     unique, inverse, counts = _count_rows(facets)
     if np.any(counts > 2):
@@ -427,7 +453,7 @@ def _read_pvd(path, names):
             if len(blocks) != 1:
                 raise InputError(
                     f"{vtu}: cells of types {[b.type for b in blocks]}; "
-                    "expected one of quad or hexahedron"
+                    "expected one of triangle, quad, tetra or hexahedron"
                 )
             cells, cell_type = blocks[0].data, blocks[0].type
         elif len(mesh.points) != len(points):

@@ -3,12 +3,16 @@ boundary nodes x = X + u of a `Boundary`.
 
 2D: the deformed domain is the polygon through the deformed boundary nodes, made valid by
 shapely (a boundary that crosses itself is split at its crossings, never dropped).
-3D: each deformed quadrilateral face is split into four triangles through its centre, and
-the closed triangle surface becomes a manifold3d solid (double precision, Mesh64);
+3D: each deformed quadrilateral face is split into four triangles through its centre
+(triangular faces, of tetrahedra, are taken as they are), and the closed triangle surface
+becomes a manifold3d solid (double precision, Mesh64);
 |A ⊕ B| = |A| + |B| - 2 |A ∩ B|. That difference of volumes carries round-off of a few
 machine epsilons relative to |A| (identical shapes gave -4.4e-16 and +4.4e-16): 3D values
 below ROUND_OFF are reported as 0, so E_s is never negative (a volume cannot be) and
 identical shapes give exactly 0.
+
+The two domains may be bounded by different boundaries (a candidate on its own mesh, SPEC
+section 9): `surface_error(shape, x_ref, x_cand, cand_shape)`.
 """
 
 import manifold3d
@@ -75,24 +79,36 @@ class Polygon:
 
     def error(self, x_ref, x_cand):
         """|A ⊕ B| / |A| for the regions through x_ref (A) and x_cand (B)."""
-        ref, cand = self.region(x_ref), self.region(x_cand)
-        return np.float64(shapely.symmetric_difference(ref, cand).area) / ref.area
+        return area_error(self.region(x_ref), self.region(x_cand))
+
+
+def area_error(ref, cand):
+    """|A ⊕ B| / |A| for two shapely regions A (ref) and B (cand)."""
+    return np.float64(shapely.symmetric_difference(ref, cand).area) / ref.area
 
 
 class Solid:
-    """The 3D deformed domain, bounded by outward quadrilateral faces (a, b, c, d), each split
-    into the triangles (a, b, m), (b, c, m), (c, d, m), (d, a, m) through its centre m."""
+    """The 3D deformed domain, bounded by outward faces: quadrilaterals (a, b, c, d), each split
+    into the triangles (a, b, m), (b, c, m), (c, d, m), (d, a, m) through its centre m, or
+    triangles (a, b, c), taken as they are."""
 
-    def __init__(self, X, quads):
-        self.quads = quads
+    def __init__(self, X, faces):
+        if faces.shape[1] == 3:
+            self.quads = None
+            self.triangles = np.ascontiguousarray(faces, dtype=np.uint64)
+            return
+        self.quads = quads = faces
         a, b, c, d = quads.T
         m = len(X) + np.arange(len(quads))
         triangles = [np.stack(t, axis=1) for t in ((a, b, m), (b, c, m), (c, d, m), (d, a, m))]
         self.triangles = np.ascontiguousarray(np.concatenate(triangles), dtype=np.uint64)
 
     def region(self, x):
-        """The manifold3d solid bounded by the split faces through x."""
-        vertices = np.vstack([x, x[self.quads].mean(axis=1)])
+        """The manifold3d solid bounded by the (split) faces through x."""
+        if self.quads is None:
+            vertices = x
+        else:
+            vertices = np.vstack([x, x[self.quads].mean(axis=1)])
         solid = manifold3d.Manifold(
             manifold3d.Mesh64(
                 vert_properties=np.ascontiguousarray(vertices, dtype=np.float64),
@@ -111,21 +127,33 @@ class Solid:
         can come out negative (-4.4e-16 for identical shapes): a value below ROUND_OFF
         (16 eps, 3.6e-15), negative ones included, is clipped to 0, since a volume cannot be
         negative; identical shapes thus give exactly 0."""
-        ref, cand = self.region(x_ref), self.region(x_cand)
-        common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
-        value = np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
-        return np.float64(0.0) if value < ROUND_OFF else value
+        return volume_error(self.region(x_ref), self.region(x_cand))
+
+
+def volume_error(ref, cand):
+    """|A ⊕ B| / |A| for two manifold3d solids A (ref) and B (cand), from |A| + |B| - 2 |A ∩ B|,
+    clipped to 0 below ROUND_OFF (see Solid.error)."""
+    common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
+    value = np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
+    return np.float64(0.0) if value < ROUND_OFF else value
 
 
 def domain(X, facets):
-    """Polygon (2D edges) or Solid (3D quadrilateral faces) for the undeformed boundary."""
+    """Polygon (2D edges) or Solid (3D quadrilateral or triangular faces) for the undeformed
+    boundary."""
     return Polygon(X, facets) if facets.shape[1] == 2 else Solid(X, facets)
 
 
-def surface_error(shape, x_ref, x_cand):
+def surface_error(shape, x_ref, x_cand, cand_shape=None):
     """E_s of a Polygon or Solid for deformed boundary nodes x_ref, x_cand; NaN if either is
-    not finite or the reference domain is empty."""
+    not finite or the reference domain is empty. The candidate's domain is bounded by
+    `cand_shape` through x_cand when given (its own boundary), else by `shape`."""
     if not (np.isfinite(x_ref).all() and np.isfinite(x_cand).all()):
         return np.nan
     with np.errstate(divide="ignore", invalid="ignore"):
-        return float(shape.error(x_ref, x_cand))
+        if cand_shape is None:
+            return float(shape.error(x_ref, x_cand))
+        ref, cand = shape.region(x_ref), cand_shape.region(x_cand)
+        if isinstance(shape, Polygon):
+            return float(area_error(ref, cand))
+        return float(volume_error(ref, cand))

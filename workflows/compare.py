@@ -12,8 +12,11 @@ from tissuebench.workflows.grading import compare
 def add_parser(sub):
     p = sub.add_parser(
         "compare",
-        help="the three metrics of two displacement series on one mesh",
-        description="Compare two displacement time series on the same mesh: XDMF/HDF5, ParaView "
+        help="the three metrics of two displacement series, on one mesh or two",
+        description="Compare two displacement time series of the same body, on the same mesh or "
+        "each on its own (first-order triangles, quadrilaterals, tetrahedra or hexahedra; SPEC "
+        "9: the candidate is evaluated at the reference's nodes and quadrature points): XDMF/HDF5, "
+        "ParaView "
         ".pvd of .vtu, or CalculiX's output as it comes (the ASCII .frd, or the .dat of "
         "*NODE PRINT with its deck, the .inp of the same name, beside it). Writes "
         "DIR/metrics.csv, DIR/metrics.png and DIR/summary.json. A series that starts at t = h "

@@ -1,0 +1,278 @@
+"""Grading a candidate on its own mesh M′ against a reference on M (SPEC section 9).
+
+- Same body: every node of either mesh lies within τ = 1e-6 · (the reference's extent) of
+  the other mesh's undeformed domain, and |Ω′_0| agrees with |Ω_0| within 1e-6 relative
+  (`check_same_body`, on rank 0, before anything is distributed).
+- Π u′: the candidate's displacement u′_h evaluated at the reference's nodes X_n, found in
+  the undeformed M′ (`Locator`); a reference node within τ of a candidate node (in every
+  coordinate, the rule by which compare matches the nodes of one mesh) takes that node's
+  value. E_n = ‖Π u′ − u‖ / ‖u‖ and the nodal E_i use Π u′ as section 6 uses u′.
+- E_i = |Ω_0|^(−1/d) Σ_cells Σ_q w_q |det J_q| ‖u′_h(x_q) − u_h(x_q)‖, with the reference's
+  cells and the quadrature rule that InteriorError's form uses, u′_h located at every x_q.
+- E_s: Ω′_t is bounded by the candidate's own deformed boundary facets.
+
+The candidate mesh is whole on every rank; each rank locates its own reference nodes and
+quadrature points in it, so that a point's value does not depend on the partition.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import basix
+import numpy as np
+from dolfinx import fem
+
+from tissuebench.metrics.cells import (
+    NAMES,
+    Locator,
+    Surface,
+    boundary_facets,
+    match_points,
+    measures,
+    shape_functions,
+)
+from tissuebench.metrics.errors import METRICS, Metrics
+from tissuebench.metrics.series import InputError, Series
+from tissuebench.metrics.surface import domain, surface_error
+
+BODY_TOLERANCE = 1e-6  # τ: node distances, as a fraction of the reference's extent
+VOLUME_RTOL = 1e-6  # |Ω′_0| within this fraction of |Ω_0|
+INSIDE = 1e-9  # a point at most this far outside a cell, in reference units, is inside it
+
+
+@dataclass
+class Mesh:
+    """A first-order mesh: points (N, d), cells (VTK order) and their cell_type."""
+
+    points: np.ndarray
+    cells: np.ndarray
+    cell_type: str
+
+    @classmethod
+    def of(cls, series: Series) -> Mesh:
+        return cls(series.points, series.cells, series.cell_type)
+
+
+# --- same body ------------------------------------------------------------------------------
+
+
+def distances_to_domain(x: np.ndarray, mesh: Mesh, tol: float) -> np.ndarray:
+    """Distance (units of the coordinates) from each point x (n, d) to the mesh's undeformed
+    domain: 0 inside a cell (within INSIDE reference units), else the exact distance to its
+    boundary where that is at most tol, else the exact distance found by `Surface.farthest`
+    for the farthest such point only, and inf for the others (which are nearer)."""
+    cell, _, how_far = Locator(mesh.points, mesh.cells, mesh.cell_type, tol).locate(x)
+    distance = np.zeros(len(x))
+    out = np.flatnonzero(how_far > INSIDE)
+    if len(out) == 0:
+        return distance
+    surface = Surface(mesh.points, boundary_facets(mesh.points, mesh.cells, mesh.cell_type))
+    distance[out] = surface.within(x[out], tol)
+    far = out[np.isinf(distance[out])]
+    if len(far):
+        k, d = surface.farthest(x[far])
+        distance[far] = np.inf
+        distance[far[k]] = d
+    return distance
+
+
+def farthest_node(distance: np.ndarray) -> int:
+    """The node of largest distance; among infinite ones (nearer than the finite farthest one
+    of them, see distances_to_domain), that finite one."""
+    finite = np.where(np.isinf(distance), -1.0, distance)
+    return int(np.argmax(finite))
+
+
+def _at(points: np.ndarray, i: int) -> str:
+    return f"({', '.join(f'{x:.9g}' for x in points[i])})"
+
+
+def check_same_body(ref: Series, cand: Series) -> tuple[str, float]:
+    """Refuse (InputError, one line naming the farthest node and its distance) a candidate mesh
+    that is not a mesh of the reference's body (see the module docstring). Returns the
+    farthest node (a phrase) and its distance (units of the coordinates)."""
+    extent = float(np.ptp(ref.points, axis=0).max())
+    tol = BODY_TOLERANCE * extent
+    worst = []
+    for who, series, other in (("reference", ref, cand), ("candidate", cand, ref)):
+        distance = distances_to_domain(series.points, Mesh.of(other), tol)
+        node = farthest_node(distance)
+        other_name = "candidate" if who == "reference" else "reference"
+        phrase = f"{who} node {node} at {_at(series.points, node)}"
+        worst.append((float(distance[node]), phrase, other_name))
+    distance, phrase, other_name = max(worst, key=lambda w: w[0])
+    where = f"{cand.path}: not a mesh of the body of {ref.path}"
+    if distance > tol:
+        raise InputError(
+            f"{where}: {phrase} is {distance:.3g} from the {other_name}'s undeformed domain, "
+            f"beyond {tol:.3g} (1e-6 of the reference's extent {extent:.6g})"
+        )
+    v_ref = float(measures(ref.points, ref.cells, ref.cell_type).sum())
+    v_cand = float(measures(cand.points, cand.cells, cand.cell_type).sum())
+    if abs(v_cand - v_ref) > VOLUME_RTOL * v_ref:
+        what = "area" if ref.dim == 2 else "volume"
+        raise InputError(
+            f"{where}: its {what} {v_cand:.9g} differs from the reference's {v_ref:.9g} by "
+            f"{abs(v_cand - v_ref) / v_ref:.3g} relative, beyond 1e-6 (the farthest node, "
+            f"{phrase}, is {distance:.3g} from the {other_name}'s undeformed domain)"
+        )
+    return phrase, distance
+
+
+def quadrature_points(cell_type: str, points: int = 3) -> int:
+    """The number of quadrature points per cell of InteriorError with `points` Gauss points per
+    direction (the rule of degree 2 points − 1)."""
+    return len(basix.make_quadrature(basix.CellType[cell_type], 2 * points - 1)[1])
+
+
+def note(ref: Series, cand: Series, points: int = 3) -> str:
+    """One line saying that the candidate is graded on its own mesh, and where u′ is
+    evaluated."""
+    q = len(ref.cells) * quadrature_points(ref.cell_type, points)
+    return (
+        f"candidate on its own mesh: {len(cand.points):,} nodes, {NAMES[cand.cell_type]} "
+        f"(reference: {len(ref.points):,} nodes, {NAMES[ref.cell_type]}); interpolated at the "
+        f"reference's {len(ref.points):,} nodes and {q:,} quadrature points"
+    )
+
+
+# --- evaluation -----------------------------------------------------------------------------
+
+
+class PointValues:
+    """u′_h at fixed points of the candidate mesh: (Σ_k φ_k(ξ_p) u′_{c_p,k})_p for nodal values
+    u′ (N′, d), from the points' cells and reference coordinates. `missing`: the points
+    farther than the locator's padding from every cell."""
+
+    def __init__(self, locator: Locator, x: np.ndarray, snap: float | None = None):
+        mesh_points, cells, cell_type = locator.points, locator.cells, locator.cell_type
+        cell, xi, _ = locator.locate(x)
+        self.missing = np.flatnonzero(cell < 0)
+        found = np.where(cell < 0, 0, cell)
+        self.nodes = cells[found]  # (n, nodes per cell)
+        self.weights = shape_functions(cell_type, np.nan_to_num(xi))
+        if snap is not None and len(x):
+            same = match_points(x, mesh_points, snap)  # a node of M′ here: its own value
+            hit = np.flatnonzero(same >= 0)
+            self.nodes[hit] = same[hit, None]
+            self.weights[hit] = 0.0
+            self.weights[hit, 0] = 1.0
+            self.missing = np.setdiff1d(self.missing, hit)
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """u′_h at the points, (n, d)."""
+        components = np.ascontiguousarray(np.asarray(u).T)  # gathers of rows are the fastest
+        return np.stack([np.einsum("pk,pk->p", self.weights, c[self.nodes]) for c in components], 1)
+
+
+class CrossInterior:
+    """E_i of a candidate on its own mesh by quadrature on V's cells (the rule of
+    InteriorError), and the nodal form from Π u′. `candidate` holds the candidate's nodal
+    displacement (N′, d) being graded (set by CrossMetrics.evaluate)."""
+
+    def __init__(self, V: fem.FunctionSpace, reference, locator: Locator, points: int = 3):
+        mesh = V.mesh
+        self.reference = reference  # the InteriorError of V: weights, volume, scale
+        self.comm, self.dim = mesh.comm, mesh.geometry.dim
+        self.owned = reference.owned
+        d, tdim = self.dim, mesh.topology.dim
+        cells = mesh.topology.index_map(tdim).size_local
+        cell = basix.CellType[mesh.topology.cell_name()]
+        xi, w = basix.make_quadrature(cell, 2 * points - 1)
+        table = basix.create_element(basix.ElementFamily.P, cell, 1).tabulate(1, xi)[..., 0]
+        self.phi = table[0]  # (q, nodes): V's and the geometry's P1/Q1 basis at ξ_q
+        X = mesh.geometry.x[mesh.geometry.dofmaps[0][:cells], :d]  # (cells, nodes, d)
+        x_q = np.einsum("qk,cki->cqi", self.phi, X)
+        J = np.einsum("jqk,cki->cqij", table[1:], X)
+        self.dx = w * np.abs(np.linalg.det(J))  # w_q |det J_q|, (cells, q)
+        self.dofs = V.dofmap.list[:cells]  # nodes of V, in the basis' order
+        self.points = x_q.reshape(-1, d)
+        self.at_points = PointValues(locator, self.points)
+        self.shape = x_q.shape
+        self.e = fem.Function(V)
+        self.candidate = None
+
+    def quadrature(self, u_ref: np.ndarray, at_nodes: np.ndarray) -> float:
+        """E_i = |Ω_0|^(−1/d) Σ_c Σ_q w_q |det J_q| ‖u′_h(x_q) − u_h(x_q)‖ (`at_nodes` unused:
+        u′_h comes from the candidate's own nodes)."""
+        self.e.x.array[: self.owned] = u_ref
+        self.e.x.scatter_forward()
+        u = self.e.x.array.reshape(-1, self.dim)[self.dofs]  # (cells, nodes, d)
+        u_h = np.matmul(self.phi, u)  # (cells, q, d): Σ_k φ_k(ξ_q) u_k
+        u_cand = self.at_points(self.candidate).reshape(self.shape)
+        local = float(np.sum(self.dx * np.linalg.norm(u_cand - u_h, axis=2)))
+        return self.reference.scale * self.comm.allreduce(local, op=MPI.SUM)
+
+    def nodal(self, u_ref: np.ndarray, at_nodes: np.ndarray) -> float:
+        """The nodal form |Ω_0|^(−1/d) Σ_n w_n ‖(Π u′)_n − u_n‖."""
+        return self.reference.nodal(u_ref, at_nodes)
+
+
+class CrossMetrics:
+    """The metrics of METRICS for a candidate on its own mesh M′ (whole on every rank) against
+    a reference on V. `evaluate(u_ref, u_cand)` takes V's owned dof values and the candidate's
+    nodal displacement (N′, d); each metric is given Π u′ as its candidate (E_n and the nodal
+    E_i as SPEC 9 defines them), while E_i and E_s take u′ from M′ itself.
+
+    Collective. Raises InputError on every rank if some reference node or quadrature point
+    lies farther than `tol` (units of the coordinates) outside M′ (`where` starts the message).
+    """
+
+    def __init__(
+        self, V: fem.FunctionSpace, candidate: Mesh, tol: float, where: str, points: int = 3
+    ):
+        self.comm, self.dim = V.mesh.comm, V.mesh.geometry.dim
+        self.metrics = Metrics(V, points)
+        locator = Locator(candidate.points, candidate.cells, candidate.cell_type, tol)
+        owned = V.dofmap.index_map.size_local
+        X = V.tabulate_dof_coordinates()[:owned, : self.dim]
+        self.at_nodes = PointValues(locator, X, snap=tol)
+        self.interior = CrossInterior(V, self.metrics.interior, locator, points)
+        self._check_located(X, tol, where)
+        self.candidate = None
+        if self.comm.rank == 0:
+            facets = boundary_facets(candidate.points, candidate.cells, candidate.cell_type)
+            self.boundary_nodes = np.unique(facets)
+            self.X_b = candidate.points[self.boundary_nodes]  # its undeformed boundary nodes
+            self.shape = domain(self.X_b, np.searchsorted(self.boundary_nodes, facets))
+
+    def _check_located(self, X: np.ndarray, tol: float, where: str) -> None:
+        """Refuse, on every rank, reference nodes or quadrature points outside M′ by more than
+        tol (possible only where M′ passed check_same_body but its boundary cuts inside V's
+        cells)."""
+        nodes, q = self.at_nodes.missing, self.interior.at_points.missing
+        first = X[nodes[0]] if len(nodes) else self.interior.points[q[0]] if len(q) else None
+        what = "reference node" if len(nodes) else "quadrature point of the reference"
+        everyone = self.comm.allgather((len(nodes), len(q), first, what))
+        lost_nodes, lost_points = sum(e[0] for e in everyone), sum(e[1] for e in everyone)
+        if lost_nodes + lost_points == 0:
+            return
+        _, _, point, what = next(e for e in everyone if e[2] is not None)
+        raise InputError(
+            f"{where}: {lost_nodes} reference node(s) and {lost_points} quadrature point(s) lie "
+            f"farther than {tol:.3g} outside the candidate's mesh, e.g. the {what} at "
+            f"({', '.join(f'{c:.9g}' for c in point)})"
+        )
+
+    def surface(self, u_ref: np.ndarray, at_nodes: np.ndarray) -> float:
+        """E_s with Ω′_t bounded by the candidate's own deformed boundary (`at_nodes` unused)."""
+        boundary = self.metrics.boundary
+        x_ref = boundary.gather(u_ref)
+        value = None
+        if self.comm.rank == 0:
+            x_cand = self.X_b + self.candidate[self.boundary_nodes]
+            value = surface_error(self.metrics.domain, boundary.X + x_ref, x_cand, self.shape)
+        return self.comm.bcast(value, root=0)
+
+    def evaluate(self, u_ref: np.ndarray, u_cand: np.ndarray) -> dict[str, float]:
+        """The metrics of the candidate's nodal displacement u_cand (N′, d) against V's owned
+        dof values u_ref, a dict keyed as METRICS."""
+        u_ref = self.metrics._check(u_ref)
+        self.candidate = self.interior.candidate = np.asarray(u_cand, dtype=np.float64)
+        at_nodes = self.at_nodes(self.candidate).ravel()
+        return {
+            name: float(metric.value(self, u_ref, at_nodes)) for name, metric in METRICS.items()
+        }
