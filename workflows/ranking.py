@@ -112,7 +112,8 @@ def external_rows(case: str, summary: dict) -> list[Row]:
     """Rows of a simulator folder's summary.json (workflows/simulators.py)."""
     rows = []
     for label, run in summary["runs"].items():
-        source = f"{run['title']} {run.get('version') or ''}".strip()
+        version = run.get("version") or ""
+        source = run["title"] if version in run["title"] else f"{run['title']} {version}"
         rows.append(
             Row(
                 case,
