@@ -6,7 +6,6 @@ session: OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case (workflow
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 
 from mpi4py import MPI
@@ -16,6 +15,7 @@ from tissuebench.solvers.external import get_simulator
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.arguments import add_common, check_common
+from tissuebench.workflows.exporting import replace_atomically
 from tissuebench.workflows.output import OutputError, check_writable, collective
 from tissuebench.workflows.ranking import (
     Board,
@@ -180,19 +180,9 @@ def main(args) -> int:
         for board in BOARDS:
             plot_case(out / FOLDER / f"{board.name}.png", board, rows[board.name])
         every = [r for board in BOARDS for r in rows[board.name]]
-        for name, text in (
-            ("leaderboard.csv", None),
-            ("leaderboard.md", markdown(BOARDS, rows, notes, session)),
-        ):
-            tmp = out / f".{name}.{os.getpid()}.tmp"
-            try:
-                if text is None:
-                    write_csv(tmp, every)
-                else:
-                    tmp.write_text(text)
-                os.replace(tmp, out / name)
-            finally:
-                tmp.unlink(missing_ok=True)
+        replace_atomically(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
+        text = markdown(BOARDS, rows, notes, session)
+        replace_atomically(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
     if comm.rank == 0:

@@ -14,7 +14,6 @@ with every elastic model against implicit+neo-hookean, in OUT/large-deformation/
 schemes on each of their meshes (solvers/stability.py), which says why explicit runs diverge.
 """
 
-import os
 from pathlib import Path
 
 from mpi4py import MPI
@@ -24,6 +23,7 @@ from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import report
 from tissuebench.workflows.output import OutputError, check_writable, collective
 from tissuebench.workflows.arguments import add_common, check_common
+from tissuebench.workflows.exporting import replace_atomically
 from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
@@ -196,12 +196,8 @@ def main(args):
 
     def write():
         check_report(out / "README.md")
-        tmp = out / f".README.md.{os.getpid()}.tmp"
-        try:
-            tmp.write_text(report.paper_report(out, summaries, large, limits))
-            os.replace(tmp, out / "README.md")
-        finally:
-            tmp.unlink(missing_ok=True)
+        text = report.paper_report(out, summaries, large, limits)
+        replace_atomically(out / "README.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
     if comm.rank == 0:

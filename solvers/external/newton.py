@@ -438,6 +438,13 @@ def simulate(data, variant: str, steps: int | None = None) -> dict:
     }
 
 
+def not_run(dofs: int, reason: str) -> ExternalRun:
+    """A variant that stopped before writing a series, with why."""
+    return ExternalRun(
+        None, None, dofs, mesh=MESH, status="failed", reason=reason, version=_version()
+    )
+
+
 def run(data, variant: str, workdir: Path) -> ExternalRun:
     """Run one variant serially in workdir and write newton.xdmf there: the displacement
     (particle position - rest position, m) on the tetrahedra at every t_i = i h; NaN from a
@@ -448,40 +455,19 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
     nodes = np.asarray(data.nodes, dtype=np.float64)
     dofs = 3 * len(nodes)
     if variant not in variants(data):
-        return ExternalRun(
-            series=None,
-            wall_time_s=None,
-            dofs=dofs,
-            mesh=MESH,
-            status="failed",
-            reason=f"Newton variant {variant!r} does not pose this export "
+        return not_run(
+            dofs,
+            f"Newton variant {variant!r} does not pose this export "
             f"(posed: {', '.join(variants(data)) or 'none'})",
-            version=_version(),
         )
     tets = split_hexahedra(nodes, data.cells)
     if not conforming(tets, data.cells):
-        return ExternalRun(
-            series=None,
-            wall_time_s=None,
-            dofs=dofs,
-            mesh=MESH,
-            status="failed",
-            reason="the six-tetrahedra split of these hexahedra does not conform",
-            version=_version(),
-        )
+        return not_run(dofs, "the six-tetrahedra split of these hexahedra does not conform")
     try:
         result = simulate(data, variant)
     except Exception as err:  # Newton or Warp refusing the model: a failed run, not a crash
         first = (str(err).splitlines() or [""])[0]
-        return ExternalRun(
-            series=None,
-            wall_time_s=None,
-            dofs=dofs,
-            mesh=MESH,
-            status="failed",
-            reason=f"Newton raised {type(err).__name__}: {first}",
-            version=_version(),
-        )
+        return not_run(dofs, f"Newton raised {type(err).__name__}: {first}")
     path = workdir / "newton.xdmf"
     points = np.zeros((len(nodes), 3))
     points[:, : data.dim] = nodes
