@@ -279,6 +279,23 @@ def test_refuses_an_output_path_that_is_a_file(tmp_path, reference):
         compare(ref, ref, tmp_path / "taken")
 
 
+def serial_and_two_ranks(reference: Path, candidate: Path) -> tuple[np.ndarray, str]:
+    """compare() in serial and under mpiexec -n 2 (tests/mpi_metrics.py), into folders beside
+    the candidate; asserts that the two metrics.csv agree to 1e-12 and returns the serial
+    values (step, time, metrics) and the parallel metrics.csv."""
+    out = candidate.parent
+    compare(reference, candidate, out / "serial")
+    serial = (out / "serial" / "metrics.csv").read_text()
+    parallel = run_script("mpi_metrics.py", reference, candidate, out / "parallel", ranks=2)
+    parallel = parallel["compare"]
+    tables = [
+        np.array([row.split(",")[1:-1] for row in text.strip().splitlines()[1:]], dtype=float)
+        for text in (serial, parallel)
+    ]
+    np.testing.assert_allclose(tables[1], tables[0], rtol=1e-12, atol=1e-15)
+    return tables[0], parallel
+
+
 @pytest.mark.serial
 def test_compare_serial_and_two_ranks_agree(tmp_path):
     """compare() under mpiexec -n 2 (mesh read on rank 0 and distributed, nodal values mapped
@@ -289,22 +306,9 @@ def test_compare_serial_and_two_ranks_agree(tmp_path):
     write_meshio_xdmf(tmp_path / "reference.xdmf", points, cells, cell_type, ref)
     p, c, values = shuffled(points, cells, cand)
     write_pvd(tmp_path / "cand.pvd", p, c, cell_type, values)
-    compare(tmp_path / "reference.xdmf", tmp_path / "cand.pvd", tmp_path / "serial")
-    serial = (tmp_path / "serial" / "metrics.csv").read_text()
-    parallel = run_script(
-        "mpi_metrics.py",
-        tmp_path / "reference.xdmf",
-        tmp_path / "cand.pvd",
-        tmp_path / "parallel",
-        ranks=2,
-    )["compare"]
-    tables = [
-        np.array([row.split(",")[1:-1] for row in text.strip().splitlines()[1:]], dtype=float)
-        for text in (serial, parallel)
-    ]
-    np.testing.assert_allclose(tables[1], tables[0], rtol=1e-12, atol=1e-15)
+    table, parallel = serial_and_two_ranks(tmp_path / "reference.xdmf", tmp_path / "cand.pvd")
     assert all(row.endswith(",ok") for row in parallel.strip().splitlines()[1:])
-    assert np.isfinite(tables[0][1:, 2:]).all()
+    assert np.isfinite(table[1:, 2:]).all()
 
 
 # --- diverged series --------------------------------------------------------------------------

@@ -85,11 +85,9 @@ from tissuebench.workflows.errors import UserError
 SCHEMA = "tissuebench.benchmark"
 SCHEMA_VERSION = 1
 FORMATS = ("json", "inp", "vtu", "msh")
-# procedure -> (our reference algorithm, CalculiX step keyword)
-PROCEDURES = {
-    "dynamic": ("implicit", "*DYNAMIC, DIRECT"),  # with ALPHA: dynamic_keyword
-    "static": ("quasi-static", "*STATIC, DIRECT"),
-}
+# procedure -> our reference algorithm (the CalculiX step: dynamic_keyword, STATIC_KEYWORD)
+PROCEDURES = {"dynamic": "implicit", "static": "quasi-static"}
+STATIC_KEYWORD = "*STATIC, DIRECT"
 # CalculiX element -> (dimension, plane: None in 3D)
 ELEMENTS = {
     "C3D8": (3, None),
@@ -282,7 +280,7 @@ def run_reference(
         else None,
         root=0,
     )
-    algorithm = PROCEDURES[procedure][0]
+    algorithm = PROCEDURES[procedure]
     label = run_label(algorithm, model)
     system = System(bench, material, plane=plane)
     integrator = get_integrator(algorithm, system, h, solver=solver, model=model)
@@ -608,7 +606,7 @@ def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> 
         # one *STATIC step per t_i: a linear static step is solved once, at its end, whatever
         # its increments; the loads and boundaries carry over from step to step
         out += ["** quasi-static: one *STATIC step of length h per t_i (amplitudes in total time)"]
-        out += [f"*STEP{flags}", PROCEDURES["static"][1], f"{number(data.h)}, {number(data.h)}"]
+        out += [f"*STEP{flags}", STATIC_KEYWORD, f"{number(data.h)}, {number(data.h)}"]
     fixed = [line for amp, line in boundaries if not amp]
     if fixed:
         out += ["*BOUNDARY", *fixed]
@@ -621,7 +619,7 @@ def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> 
     out += [*output, "*END STEP"]
     if data.procedure == "static":
         for _ in range(data.steps - 1):
-            out += [f"*STEP{flags}", PROCEDURES["static"][1], f"{number(data.h)}, {number(data.h)}"]
+            out += [f"*STEP{flags}", STATIC_KEYWORD, f"{number(data.h)}, {number(data.h)}"]
             out += [*output, "*END STEP"]
     out.append("")
     return "\n".join(out)

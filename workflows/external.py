@@ -59,6 +59,7 @@ def main(args) -> int:
         steps=bench.steps,
         plane=bench.plane,
         variants=variants,
+        solver=args.solver,
         force=args.force,
         comm=comm,
     )

@@ -141,6 +141,7 @@ def run_board(board: Board, out: Path, solver: str, petsc: str, comm, log=print)
                 model=board.model,
                 h=float(summary["h"]),
                 steps=int(summary["steps"]),
+                solver=solver,
                 force=True,
                 comm=comm,
                 log=log,

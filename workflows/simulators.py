@@ -46,7 +46,7 @@ def choose_variants(simulator: str, data: Exported, wanted: list[str] | None) ->
         return offered
     unknown = [v for v in wanted if v not in offered]
     if unknown:
-        why = getattr(sim, "skipped", lambda d: {})(data)
+        why = sim.skipped(data)
         said = "; ".join(f"{k}: {v}" for k, v in why.items())
         raise SimulatorError(
             f"{simulator} has no variant {', '.join(unknown)} for this benchmark: use "
@@ -151,6 +151,7 @@ def run_external(
     steps: int,
     plane: str = "strain",
     variants: list[str] | None = None,
+    solver: str = "direct",
     force: bool = False,
     comm: MPI.Comm = MPI.COMM_WORLD,
     log=print,
@@ -173,7 +174,7 @@ def run_external(
         choose_variants(simulator, data, variants) if comm.rank == 0 else None, root=0
     )
     if not chosen:
-        why = comm.bcast(getattr(sim, "skipped", lambda d: {})(data) if comm.rank == 0 else None)
+        why = comm.bcast(sim.skipped(data) if comm.rank == 0 else None)
         raise SimulatorError(
             f"{simulator} poses no variant of this benchmark"
             + (f": {'; '.join(f'{k}: {v}' for k, v in why.items())}" if why else "")
@@ -188,7 +189,7 @@ def run_external(
         "steps": steps,
         "plane": plane,
     }
-    inputs = external_inputs(simulator, posed, chosen)
+    inputs = external_inputs(simulator, {**posed, "solver": solver}, chosen)
     with RunFolder(out, comm) as folder:
         if folder.prepare(inputs, force) == "complete":
             if comm.rank == 0:
@@ -199,7 +200,7 @@ def run_external(
             return {**summary, "skipped": True}
         with folder.writing() as tmp:
             reference = tmp / "reference.xdmf"
-            info = run_reference(data, bench, material, reference, comm=comm, log=log)
+            info = run_reference(data, bench, material, reference, solver, comm, log)
             if comm.rank == 0:
                 from tissuebench.workflows.exporting import write_json
 
@@ -218,9 +219,7 @@ def run_external(
                 "num_dofs": int(data.nodes.size) if comm.rank == 0 else None,
                 "end_time": steps * h,
                 "reference": {**info, "file": "reference.xdmf"},
-                "skipped_variants": getattr(sim, "skipped", lambda d: {})(data)
-                if comm.rank == 0
-                else None,
+                "skipped_variants": sim.skipped(data) if comm.rank == 0 else None,
                 "runs": runs,
                 "files": ["benchmark.json", "reference.xdmf", "reference.h5", SUMMARY],
                 "inputs": inputs,

@@ -10,6 +10,8 @@ One module per simulator, with a small fixed interface (as benchopt's solvers):
   missing and how to install it.
 - `variants(data: Exported) -> dict[str, str]`: the variants that pose this export
   faithfully, name -> one line of what the variant is (scheme, element, parameters).
+- `skipped(data: Exported) -> dict[str, str]`: what it cannot pose of this export and why
+  (name -> one line; {} when nothing is left out).
 - `run(data: Exported, variant: str, workdir: Path) -> ExternalRun`: run one variant in
   workdir (an empty folder of its own), serially, and return what it produced. A run that
   fails or blows up is not an exception: it comes back with status "failed" and the reason,

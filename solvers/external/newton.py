@@ -201,6 +201,18 @@ def variants(data) -> dict[str, str]:
     return {name: spec[4] for name, spec in VARIANTS.items()}
 
 
+def skipped(data) -> dict[str, str]:
+    """Why no variant poses this export, when none does."""
+    if data.procedure != "dynamic":
+        return {"all": "Newton steps dynamics only; the static procedure has no counterpart"}
+    if data.dim != 3 or data.cell_type != "hexahedron":
+        return {"all": "a Newton particle is fixed in every direction or free: a one-layer slab "
+                "of a 2D benchmark cannot hold only its z motion"}  # fmt: skip
+    if not variants(data):
+        return {"all": "a moving constrained set has no counterpart in Newton's particles"}
+    return {}
+
+
 # --- the mesh ---------------------------------------------------------------------------------
 
 
