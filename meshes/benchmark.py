@@ -66,6 +66,49 @@ class Entry:
     probe_label: str = ""  # its name in tables and figures
 
 
+# SPEC 9: the cell shapes of each dimension, the default first, and the two kinds of mesh
+CELLS = {2: ("quadrilateral", "triangle"), 3: ("hexahedron", "tetrahedron")}
+MESHES = ("structured", "unstructured")
+SIMPLICES = ("triangle", "tetrahedron")
+PLURAL = {
+    "triangle": "triangles",
+    "quadrilateral": "quadrilaterals",
+    "tetrahedron": "tetrahedra",
+    "hexahedron": "hexahedra",
+}
+
+
+def check_shape(gdim: int, cell: str, mesh: str) -> None:
+    """Refuse a cell shape or mesh kind that SPEC 9 does not define for a gdim-D benchmark
+    (MeshError: bad input). Unstructured meshes are simplices: gmsh's Delaunay/Frontal."""
+    from tissuebench.meshes.gmshio import MeshError
+
+    if cell not in CELLS[gdim]:
+        raise MeshError(f"cell {cell!r}: a {gdim}D benchmark takes {' or '.join(CELLS[gdim])}")
+    if mesh not in MESHES:
+        raise MeshError(f"mesh {mesh!r}: use {' or '.join(MESHES)}")
+    if mesh == "unstructured" and cell not in SIMPLICES:
+        raise MeshError(
+            f"an unstructured mesh is made of simplices: use --cell {CELLS[gdim][1]} with it "
+            f"({PLURAL[cell]} come as the structured grid only)"
+        )
+
+
+def shape_options(gdim: int, cell: str | None, mesh: str | None) -> dict:
+    """The benchmark options {cell, mesh} that differ from the defaults (quadrilaterals or
+    hexahedra, structured), checked: the defaults stay out, so today's runs keep their
+    options and fingerprints."""
+    cell = cell or CELLS[gdim][0]
+    mesh = mesh or MESHES[0]
+    check_shape(gdim, cell, mesh)
+    options = {}
+    if cell != CELLS[gdim][0]:
+        options["cell"] = cell
+    if mesh != MESHES[0]:
+        options["mesh"] = mesh
+    return options
+
+
 LOAD_SCALE_HELP = "load scale s > 0: the prescribed motion and gravity times s (default 1, SPEC 8)"
 
 

@@ -1,4 +1,5 @@
-"""The 2D block of benchmark A (SPEC section 4): [0, 1] x [0, 1] m, N x N quadrilaterals.
+"""The 2D block of benchmark A (SPEC section 4): [0, 1] x [0, 1] m, N x N quadrilaterals, or
+triangles on that grid or unstructured (SPEC 9).
 
 The right edge is split at the needle node (1, 0.5), so that N must be even. Physical groups:
 "left", "right", "bottom", "top" (edges) and "needle" (the node at (1, 0.5)).
@@ -18,7 +19,9 @@ from tissuebench.meshes.benchmark import (
     Constraint,
     Entry,
     check_load_scale,
+    check_shape,
     fixed,
+    shape_options,
 )
 from tissuebench.meshes.gmshio import (
     MeshError,
@@ -32,40 +35,62 @@ LENGTH = 1.0  # m, both sides
 NEEDLE = (1.0, 0.5)  # m
 
 
-def gmsh_block(N: int) -> None:
-    """Build the structured N x N quadrilateral block in the current gmsh model."""
+def gmsh_block(
+    N: int, cell: str = "quadrilateral", mesh: str = "structured", needle_width: float = 0.0
+) -> None:
+    """Build the N x N block in the current gmsh model: the structured grid of quadrilaterals
+    or of triangles (each square split in two, alternating diagonals), or gmsh's unstructured
+    Frontal-Delaunay triangles at spacing 1/N m. The right edge is split at the needle node
+    (1, 0.5) and, on an unstructured mesh with needle_width w > 0, at y = 0.5 -/+ w/2 too, so
+    that every mesh carries the needle's nodes (SPEC 9)."""
+    structured = mesh == "structured"
+    size = LENGTH / N  # m, the target spacing of an unstructured mesh
+    marks = [] if structured or needle_width <= 0 else [0.5 - needle_width / 2, 0.5 + needle_width / 2]
+    right_y = sorted({0.0, NEEDLE[1], 1.0, *marks})
     geo = gmsh.model.geo
-    p = [geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (1, 0), NEEDLE, (1, 1), (0, 1)]]
-    bottom = geo.addLine(p[0], p[1])
-    right_low = geo.addLine(p[1], p[2])
-    right_high = geo.addLine(p[2], p[3])
-    top = geo.addLine(p[3], p[4])
-    left = geo.addLine(p[4], p[0])
-    loop = geo.addCurveLoop([bottom, right_low, right_high, top, left])
+    corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    p0, p1, p3, p4 = (geo.addPoint(x, y, 0.0, size) for x, y in corners)
+    on_right = [p1, *(geo.addPoint(1.0, y, 0.0, size) for y in right_y[1:-1]), p3]
+    needle = on_right[right_y.index(NEEDLE[1])]
+    bottom = geo.addLine(p0, p1)
+    right = [geo.addLine(a, b) for a, b in zip(on_right[:-1], on_right[1:])]
+    top = geo.addLine(p3, p4)
+    left = geo.addLine(p4, p0)
+    loop = geo.addCurveLoop([bottom, *right, top, left])
     surface = geo.addPlaneSurface([loop])
     geo.synchronize()
-    for curve, cells in [
-        (bottom, N),
-        (top, N),
-        (left, N),
-        (right_low, N // 2),
-        (right_high, N // 2),
-    ]:
-        gmsh.model.mesh.setTransfiniteCurve(curve, cells + 1)
-    gmsh.model.mesh.setTransfiniteSurface(surface, cornerTags=[p[0], p[1], p[3], p[4]])
-    gmsh.model.mesh.setRecombine(2, surface)
+    if structured:
+        for curve, cells in [(bottom, N), (top, N), (left, N), *((c, N // 2) for c in right)]:
+            gmsh.model.mesh.setTransfiniteCurve(curve, cells + 1)
+        gmsh.model.mesh.setTransfiniteSurface(
+            surface,
+            arrangement="Left" if cell == "quadrilateral" else "Alternate",
+            cornerTags=[p0, p1, p3, p4],
+        )
+        if cell == "quadrilateral":
+            gmsh.model.mesh.setRecombine(2, surface)
+    else:
+        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
     gmsh.model.addPhysicalGroup(2, [surface], 1, name="block")
     gmsh.model.addPhysicalGroup(1, [left], 1, name="left")
-    gmsh.model.addPhysicalGroup(1, [right_low, right_high], 2, name="right")
+    gmsh.model.addPhysicalGroup(1, right, 2, name="right")
     gmsh.model.addPhysicalGroup(1, [bottom], 3, name="bottom")
     gmsh.model.addPhysicalGroup(1, [top], 4, name="top")
-    gmsh.model.addPhysicalGroup(0, [p[2]], 5, name="needle")
+    gmsh.model.addPhysicalGroup(0, [needle], 5, name="needle")
     gmsh.model.mesh.generate(2)
 
 
-def block_mesh(N: int = 20, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> TaggedMesh:
+def block_mesh(
+    N: int = 20,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    msh_path=None,
+    cell: str = "quadrilateral",
+    mesh: str = "structured",
+    needle_width: float = 0.0,
+) -> TaggedMesh:
     """The N x N block as a TaggedMesh distributed over `comm` (N even, cell size 1/N m)."""
     check_positive_int("mesh size N", N)
+    check_shape(2, cell, mesh)
     if N % 2:
         raise MeshError(
             f"mesh size N must be even so that the needle (1, 0.5) sits on a node, got {N}"
@@ -73,7 +98,7 @@ def block_mesh(N: int = 20, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> T
     if comm.rank == 0:
         start_gmsh()
         gmsh.model.add(f"block-{N}")
-        gmsh_block(N)
+        gmsh_block(N, cell, mesh, needle_width)
     return to_dolfinx(comm, gdim=2, msh_path=msh_path)
 
 
@@ -93,14 +118,19 @@ def benchmark(
     load_scale: float = 1.0,
     comm: MPI.Comm = MPI.COMM_WORLD,
     msh_path=None,
+    cell: str = "quadrilateral",
+    mesh: str = "structured",
 ) -> Benchmark:
     """Benchmark A: the block fixed on its left, bottom and top edges, pushed by the needle at
     (1, 0.5). With needle_width w > 0 (m) every right-edge node with |y - 0.5| <= w/2 moves;
-    load_scale s multiplies the needle's motion (SPEC section 8)."""
+    load_scale s multiplies the needle's motion (SPEC section 8); cell and mesh pick the
+    mesh (SPEC 9: quadrilateral or triangle, structured or unstructured)."""
     if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):
         raise MeshError(f"needle width must satisfy 0 <= w < 1 m, got {needle_width!r}")
     check_load_scale(load_scale)
-    tagged = block_mesh(mesh_size, comm, msh_path)
+    tagged = block_mesh(mesh_size, comm, msh_path, cell, mesh, needle_width)
+    options = {"needle_width": needle_width, "load_scale": load_scale}
+    options.update(shape_options(2, cell, mesh))
     mesh = tagged.mesh
     if needle_width > 0:
         half = needle_width / 2 + 1e-10
@@ -126,7 +156,7 @@ def benchmark(
         end_time=ENTRY.end_time,
         extent=LENGTH,
         mesh_size=mesh_size,
-        options={"needle_width": needle_width, "load_scale": load_scale},
+        options=options,
     )
 
 

@@ -1,5 +1,5 @@
 """The 3D rod of benchmark B (SPEC section 5): [0, 0.5] x [0, 0.25] x [0, 0.25] m,
-2n x n x n hexahedra. Physical group "clamped": the face x = 0; "free_end": the face x = 0.5.
+2n x n x n hexahedra, or tetrahedra on that grid or unstructured (SPEC 9). Physical group "clamped": the face x = 0; "free_end": the face x = 0.5.
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ from tissuebench.meshes.benchmark import (
     Constraint,
     Entry,
     check_load_scale,
+    check_shape,
     fixed,
+    shape_options,
 )
 from tissuebench.meshes.gmshio import TaggedMesh, check_positive_int, start_gmsh, to_dolfinx
 
@@ -22,18 +24,29 @@ SIZE = (0.5, 0.25, 0.25)  # m: length (x), height (y), depth (z)
 TIP = (0.5, 0.25, 0.125)  # m: middle of the top edge of the free end
 
 
-def gmsh_rod(n: int) -> None:
-    """Build the structured 2n x n x n hexahedral rod in the current gmsh model."""
+def gmsh_rod(n: int, cell: str = "hexahedron", mesh: str = "structured") -> None:
+    """Build the 2n x n x n rod in the current gmsh model: the structured grid of hexahedra or
+    of tetrahedra (each grid cell split into six: the side face's squares into triangles,
+    extruded in layers), or gmsh's unstructured Delaunay tetrahedra at spacing 0.25/n m."""
     L, H, D = SIZE
+    structured = mesh == "structured"
+    size = H / n  # m, the target spacing of an unstructured mesh
     geo = gmsh.model.geo
-    p = [geo.addPoint(x, y, 0.0) for x, y in [(0, 0), (L, 0), (L, H), (0, H)]]
+    p = [geo.addPoint(x, y, 0.0, size) for x, y in [(0, 0), (L, 0), (L, H), (0, H)]]
     lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
     rect = geo.addPlaneSurface([geo.addCurveLoop(lines)])
-    for curve, cells in zip(lines, [2 * n, n, 2 * n, n]):
-        geo.mesh.setTransfiniteCurve(curve, cells + 1)
-    geo.mesh.setTransfiniteSurface(rect)
-    geo.mesh.setRecombine(2, rect)
-    out = geo.extrude([(2, rect)], 0, 0, D, numElements=[n], recombine=True)
+    if structured:
+        for curve, cells in zip(lines, [2 * n, n, 2 * n, n]):
+            geo.mesh.setTransfiniteCurve(curve, cells + 1)
+        geo.mesh.setTransfiniteSurface(rect)
+        hexahedra = cell == "hexahedron"
+        if hexahedra:
+            geo.mesh.setRecombine(2, rect)
+        out = geo.extrude([(2, rect)], 0, 0, D, numElements=[n], recombine=hexahedra)
+    else:
+        out = geo.extrude([(2, rect)], 0, 0, D)
+        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay on the faces
+        gmsh.option.setNumber("Mesh.Algorithm3D", 1)  # Delaunay inside
     geo.synchronize()
     volume = [tag for dim, tag in out if dim == 3]
     eps = 1e-9
@@ -47,13 +60,20 @@ def gmsh_rod(n: int) -> None:
     gmsh.model.mesh.generate(3)
 
 
-def rod_mesh(n: int = 3, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None) -> TaggedMesh:
+def rod_mesh(
+    n: int = 3,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    msh_path=None,
+    cell: str = "hexahedron",
+    mesh: str = "structured",
+) -> TaggedMesh:
     """The 2n x n x n rod as a TaggedMesh distributed over `comm` (cell size 0.25/n m)."""
     check_positive_int("mesh size n", n)
+    check_shape(3, cell, mesh)
     if comm.rank == 0:
         start_gmsh()
         gmsh.model.add(f"rod-{n}")
-        gmsh_rod(n)
+        gmsh_rod(n, cell, mesh)
     return to_dolfinx(comm, gdim=3, msh_path=msh_path)
 
 
@@ -61,12 +81,18 @@ GRAVITY = (0.0, -0.05, 0.0)  # m/s^2, switched on at t = 0
 
 
 def benchmark(
-    mesh_size: int = 3, load_scale: float = 1.0, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=None
+    mesh_size: int = 3,
+    load_scale: float = 1.0,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    msh_path=None,
+    cell: str = "hexahedron",
+    mesh: str = "structured",
 ) -> Benchmark:
     """Benchmark B: the rod clamped at x = 0, bending under gravity 0.05 s m/s^2 in -y, s the
-    load scale of SPEC section 8 (1: the paper's load)."""
+    load scale of SPEC section 8 (1: the paper's load); cell and mesh pick the mesh (SPEC 9:
+    hexahedron or tetrahedron, structured or unstructured)."""
     check_load_scale(load_scale)
-    tagged = rod_mesh(mesh_size, comm, msh_path)
+    tagged = rod_mesh(mesh_size, comm, msh_path, cell, mesh)
     return Benchmark(
         name="rod",
         tagged=tagged,
@@ -78,7 +104,7 @@ def benchmark(
         extent=max(SIZE),
         mesh_size=mesh_size,
         probe=ENTRY.probe,
-        options={"load_scale": load_scale},
+        options={"load_scale": load_scale, **shape_options(3, cell, mesh)},
     )
 
 

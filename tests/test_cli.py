@@ -231,9 +231,17 @@ def test_interrupted_output_is_replaced_whole(tmp_path):
     ) == 3
 
 
-@pytest.mark.parametrize("benchmark, size", [("block", 8), ("rod", 2)])
-def test_run_serial_equals_mpiexec(tmp_path, benchmark, size):
-    args = ("run", benchmark, "--mesh-size", size, "--end-time", 1.0)
+@pytest.mark.parametrize(
+    "benchmark, size, shape",
+    [
+        ("block", 8, ()),
+        ("rod", 2, ()),
+        ("block", 8, ("--cell", "triangle", "--mesh", "unstructured", "--needle-width", 0.2)),
+        ("rod", 2, ("--cell", "tetrahedron")),
+    ],
+)
+def test_run_serial_equals_mpiexec(tmp_path, benchmark, size, shape):
+    args = ("run", benchmark, "--mesh-size", size, "--end-time", 1.0, *shape)
     serial = tissuebench(*args, "--out", tmp_path / "serial")
     parallel = tissuebench(*args, "--out", tmp_path / "parallel", ranks=2)
     assert serial.returncode == 0 and parallel.returncode == 0, parallel.stderr[-2000:]

@@ -7,7 +7,7 @@ import argparse
 
 from typing import NamedTuple
 
-from tissuebench.meshes.benchmark import Entry
+from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS, set_petsc_options
 from tissuebench.workflows.errors import UserError
@@ -77,10 +77,28 @@ def check_common(args: argparse.Namespace) -> None:
         set_petsc_options(args.petsc)
 
 
+def add_shape_options(p: argparse.ArgumentParser) -> None:
+    """--cell and --mesh (SPEC 9): the element shape and the kind of mesh."""
+    p.add_argument(
+        "--cell",
+        choices=sorted({c for cells in CELLS.values() for c in cells}),
+        help="element shape: quadrilateral (default) or triangle in 2D, hexahedron (default) "
+        "or tetrahedron in 3D; P1 elements on simplices (SPEC 9)",
+    )
+    p.add_argument(
+        "--mesh",
+        choices=list(MESHES),
+        help="structured: the grid, simplices splitting its cells (default); unstructured: "
+        "gmsh's Frontal-Delaunay simplices at the grid's spacing",
+    )
+
+
 def add_benchmark_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entry]) -> None:
-    """--mesh-size, and every benchmark's own options (numbers) as --name, from the registry."""
+    """--mesh-size, --cell, --mesh, and every benchmark's own options (numbers) as --name,
+    from the registry."""
     sizes = ", ".join(f"{name} {e.mesh_size}" for name, e in benchmarks.items())
     p.add_argument("--mesh-size", type=int, help=f"mesh size (default: {sizes})")
+    add_shape_options(p)
     takers: dict[str, list[str]] = {}
     helps: dict[str, str] = {}
     for name, entry in benchmarks.items():
@@ -99,11 +117,12 @@ def add_benchmark_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entr
 def benchmark_options(
     args: argparse.Namespace, benchmark: str, benchmarks: dict[str, Entry]
 ) -> dict:
-    """The benchmark's own options given on the command line; refuse those it does not take,
-    and --plane for a benchmark that is not 2D."""
+    """The benchmark's own options given on the command line, with --cell and --mesh when
+    they are not the defaults; refuse those it does not take, and --plane for a benchmark
+    that is not 2D."""
     entry = benchmarks[benchmark]
     every = {option for e in benchmarks.values() for option in e.options}
-    options = {}
+    options = shape_options(entry.gdim, getattr(args, "cell", None), getattr(args, "mesh", None))
     for option in sorted(every):
         value = getattr(args, option, None)
         if value is None:
@@ -153,6 +172,12 @@ def posed(args: argparse.Namespace, benchmarks: dict[str, Entry]) -> Posed:
 
     entry = get_entry(args.benchmark)
     options = benchmark_options(args, args.benchmark, benchmarks)
+    if "cell" in options or "mesh" in options:
+        raise UserError(
+            "--cell and --mesh do not apply here: an export, and the outside simulators' input, "
+            "is our structured grid of quadrilaterals or hexahedra (grade a run on other cells "
+            "with `tissuebench compare`)"
+        )
     models = parse_models(args.models)
     if len(models) != 1:
         raise UserError(f"--models: one model at a time here, got {', '.join(models)}")

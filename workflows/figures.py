@@ -332,9 +332,12 @@ class ShapeRenderer:
         )  # no display here: off-screen is intended
         self.dim = series.dim
         self.x0 = _pad3(series.points)
-        cell_type = (
-            pv.CellType.QUAD if series.cell_type == "quadrilateral" else pv.CellType.HEXAHEDRON
-        )
+        cell_type = {
+            "triangle": pv.CellType.TRIANGLE,
+            "quadrilateral": pv.CellType.QUAD,
+            "tetrahedron": pv.CellType.TETRA,
+            "hexahedron": pv.CellType.HEXAHEDRON,
+        }[series.cell_type]
         undeformed = pv.UnstructuredGrid({cell_type: series.cells}, self.x0.copy())
         outline = undeformed.extract_surface(algorithm="dataset_surface").extract_feature_edges(
             feature_angle=30,

@@ -1,4 +1,5 @@
-"""`tissuebench mesh BENCHMARK --mesh-size N --out FILE.msh`: save a benchmark's gmsh mesh."""
+"""`tissuebench mesh BENCHMARK --mesh-size N [--cell C --mesh KIND] --out FILE.msh`: save a
+benchmark's gmsh mesh."""
 
 import os
 from pathlib import Path
@@ -7,6 +8,8 @@ from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
 from tissuebench.meshes.gmshio import check_positive_int
+from tissuebench.workflows.arguments import add_shape_options
+from tissuebench.meshes.benchmark import shape_options
 from tissuebench.workflows.limits import check as check_limits, estimate
 from tissuebench.workflows.output import check_file_target, collective
 
@@ -19,6 +22,7 @@ def add_parser(sub):
     )
     p.add_argument("benchmark", help=" or ".join(BENCHMARKS))
     p.add_argument("--mesh-size", type=int, help="mesh size (default: the benchmark's)")
+    add_shape_options(p)
     p.add_argument(
         "--out", required=True, type=Path, help="the .msh file to write (a new one, unless --force)"
     )
@@ -31,6 +35,7 @@ def main(args):
     entry = get_entry(args.benchmark)
     mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size
     check_positive_int("mesh size", mesh_size)
+    shape = shape_options(entry.gdim, args.cell, args.mesh)
     collective(comm, lambda: check_file_target(args.out, "msh", args.force))
     check_limits(
         estimate(entry.gdim, entry.nodes(mesh_size), 0, 0, comm.size),
@@ -39,7 +44,7 @@ def main(args):
     )
     tmp = args.out.with_name(f".{args.out.name}.{os.getpid()}.tmp.msh")
     try:
-        bench = get_benchmark(args.benchmark, mesh_size=mesh_size, msh_path=tmp)
+        bench = get_benchmark(args.benchmark, mesh_size=mesh_size, msh_path=tmp, **shape)
         collective(comm, lambda: os.replace(tmp, args.out), args.out)
     finally:
         if comm.rank == 0:
