@@ -45,7 +45,9 @@ def gmsh_block(
     that every mesh carries the needle's nodes (SPEC 9)."""
     structured = mesh == "structured"
     size = LENGTH / N  # m, the target spacing of an unstructured mesh
-    marks = [] if structured or needle_width <= 0 else [0.5 - needle_width / 2, 0.5 + needle_width / 2]
+    marks = (
+        [] if structured or needle_width <= 0 else [0.5 - needle_width / 2, 0.5 + needle_width / 2]
+    )
     right_y = sorted({0.0, NEEDLE[1], 1.0, *marks})
     geo = gmsh.model.geo
     corners = [(0, 0), (1, 0), (1, 1), (0, 1)]

@@ -25,6 +25,7 @@ COMMANDS = [
     "tissuebench.workflows.export",
     "tissuebench.workflows.external",
     "tissuebench.workflows.leaderboard",
+    "tissuebench.workflows.sensitivity",
     "tissuebench.workflows.stability",
     "tissuebench.workflows.convergence",
     "tissuebench.workflows.bench",

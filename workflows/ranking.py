@@ -67,6 +67,7 @@ class Row:
     timing: str  # "this session" or "reported by the user"
     reference: bool = False
     pareto: dict = field(default_factory=dict)  # "mean" / "max" -> bool
+    group: str | None = None  # its own legend entry and marker in the figure (default: source)
 
     @property
     def cost(self) -> float | None:
@@ -219,10 +220,15 @@ def write_csv(path: Path, rows: list[Row]) -> None:
             )
 
 
+LABELLED = 24  # a case with more runs shown labels its Pareto front only
+
+
 def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     """Two panels, time-mean and maximum E_i against wall time per simulated second (log-log),
     one marker per source, the Pareto front as a dashed staircase, the reference's cost as a
-    dotted line (in the legend)."""
+    dotted line (in the legend); labels on every point, or on the front's when more than
+    LABELLED are shown; a group of rows (our runs on simplices) has its own marker, and labels
+    on the front only."""
     from matplotlib.figure import Figure
 
     markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "user": "*"}
@@ -240,9 +246,10 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
             and r.errors.get(f"{E_I}_{kind}")
         ]
         placed = []
-        for source in dict.fromkeys(r.source for r in shown):
-            group = [r for r in shown if r.source == source]
-            marker = markers.get(source.split()[0], "P")
+        crowded = sum(r.group is None for r in shown) > LABELLED
+        for source in dict.fromkeys(r.group or r.source for r in shown):
+            group = [r for r in shown if (r.group or r.source) == source]
+            marker = "v" if group[0].group else markers.get(source.split()[0], "P")
             ax.scatter(
                 [r.cost for r in group],
                 [r.errors[f"{E_I}_{kind}"] for r in group],
@@ -252,6 +259,8 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 zorder=3,
             )
             for r in group:
+                if (crowded or r.group) and not r.pareto.get(kind):
+                    continue  # a crowd, or a group: only its front is labelled (the table has all)
                 xy = (r.cost, r.errors[f"{E_I}_{kind}"])
                 near = sum(  # labels already placed next to this point go above it
                     abs(math.log(xy[0] / p[0])) < 0.25 and abs(math.log(xy[1] / p[1])) < 0.25
