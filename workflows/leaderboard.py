@@ -171,8 +171,9 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
     from tissuebench.workflows.sensitivity import shapes
 
     reference = folder / "ours" / f"{summary['reference']}.xdmf"
+    gdim = get_entry(board.benchmark).gdim
     rows = []
-    for shape, options in list(shapes(get_entry(board.benchmark).gdim).items())[1:]:
+    for shape, options in list(shapes(gdim).items())[1:]:
         name = shape.replace(" ", "-")
         sub = replace(case, name=f"{board.name}-{name}", options={**board.options, **options})
         on_shape = run_case(sub, folder / f"ours-{name}", comm, log, force=True)
@@ -181,7 +182,7 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
             for metric, curve in graded.curves.items():
                 row.errors[f"{metric}_max"], row.errors[f"{metric}_mean"] = summarize(curve)
             row.label = f"{row.label} ({shape})"
-            row.mesh = f"{shape}: {on_shape['num_dofs'] // get_entry(board.benchmark).gdim} nodes"
+            row.mesh = f"{shape}: {on_shape['num_dofs'] // gdim} nodes"
             row.reference = False
             row.group = "tissuebench on simplices"
             rows.append(row)

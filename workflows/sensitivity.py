@@ -32,12 +32,12 @@ from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, CrossMetrics, Mesh
-from tissuebench.metrics.relative import relative_error
 from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.arguments import add_common, check_common
 from tissuebench.workflows.exporting import replace_atomically
+from tissuebench.workflows.ranking import Board, Row, error_keys, fmt
 from tissuebench.workflows.output import OutputError, check_writable, collective, fingerprint
 from tissuebench.workflows.xdmf import gather_mesh, gather_series, write_series
 
@@ -126,18 +126,14 @@ def whole_mesh(V, comm: MPI.Comm) -> tuple[Mesh, dict]:
     return mesh, {"nodes": len(mesh.points), "cells": len(mesh.cells)}
 
 
-def grade_run(grader: CrossMetrics, ref_u: list, cand_u: np.ndarray, comm: MPI.Comm) -> dict:
-    """Max and time-mean (steps 1..) of E_n and E_i (both forms) of a candidate's nodal series
+def grade_run(grader: CrossMetrics, ref_u: list, cand_u: np.ndarray) -> dict:
+    """Max and time-mean (steps 1..) of the GRADED metrics of a candidate's nodal series
     (steps, N′, d), on every rank, over the steps that both runs have."""
     steps = min(len(ref_u), len(cand_u))
     curves = {name: np.full(steps, np.nan) for name in GRADED}
     for i in range(steps):
-        u_ref = ref_u[i]
-        at_nodes = grader.at_nodes(cand_u[i]).ravel()
-        grader.interior.candidate = cand_u[i]
-        curves["relative_error"][i] = relative_error(u_ref, at_nodes, comm)
-        curves["interior_error"][i] = grader.interior.quadrature(u_ref, at_nodes)
-        curves["interior_error_nodal"][i] = grader.interior.nodal(u_ref, at_nodes)
+        for name, value in grader.evaluate(ref_u[i], cand_u[i], GRADED).items():
+            curves[name][i] = value
     out = {}
     for name, curve in curves.items():
         out[f"{name}_max"], out[f"{name}_mean"] = summarize(curve)
@@ -165,7 +161,7 @@ def run_mesh(study, shape, options, size, ref, h, steps, solver, folder, comm, l
             folder,
         )
         cand = comm.bcast(gathered[1]["displacement"][:, :, : system.gdim] if gathered else None)
-        errors = grade_run(grader, ref["u"], cand, comm)
+        errors = grade_run(grader, ref["u"], cand)
         wall = system_s + setup_s + run.wall_time_s
         row = {
             "case": study.name,
@@ -369,10 +365,6 @@ def trade_off_lines(found: list[tuple[dict, dict, str, float]]) -> list[str]:
     return lines
 
 
-def fmt(x, spec=".3g"):
-    return "—" if x is None or (isinstance(x, float) and np.isnan(x)) else format(x, spec)
-
-
 def timed(studies, results) -> str:
     """When the runs were timed: one session, or (a resumed study) which."""
     sessions = sorted({t for s in studies for t in results[s.name]["sessions"]})
@@ -469,17 +461,7 @@ def write_csv(path: Path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
-STYLES = {"grid": "-", "simplex grid": "--", "unstructured": ":"}
-
-
-def style(shape: str) -> str:
-    if shape.endswith("unstructured"):
-        return STYLES["unstructured"]
-    return (
-        STYLES["grid"]
-        if shape.split()[0] in ("quadrilateral", "hexahedron")
-        else STYLES["simplex grid"]
-    )
+LINES = ("-", "--", ":")  # the shapes' line styles, in the order of shapes()
 
 
 def plot(path: Path, study: Study, rows: list[dict]) -> None:
@@ -493,6 +475,7 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
     axes = fig.subplots(1, 3)
     colours = dict(zip(ALGORITHMS, ["C0", "C1", "C2", "C3", "C4"]))
     shape_names = list(dict.fromkeys(r["shape"] for r in rows))
+    line = dict(zip(shape_names, LINES))
     keys = ("interior_error_max", "interior_error_mean", "interior_error_max")
     for algorithm in ALGORITHMS:
         for shape in shape_names:
@@ -509,7 +492,7 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
                 ax.plot(
                     x,
                     [r[key] for r in mine],
-                    style(shape),
+                    line[shape],
                     marker="o",
                     ms=4,
                     color=colours[algorithm],
@@ -544,7 +527,7 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
     axes[2].xaxis.set_minor_formatter(NullFormatter())  # decades only: no crowded labels
     axes[2].set_xlabel("cost: wall time per simulated second (s/s)")
     handles = [Line2D([], [], color=colours[a], marker="o", ms=4, label=a) for a in ALGORITHMS]
-    handles += [Line2D([], [], color="k", ls=style(s), label=s) for s in shape_names]
+    handles += [Line2D([], [], color="k", ls=line[s], label=s) for s in shape_names]
     fig.legend(handles=handles, loc="outside right center", fontsize=8)
     diverged = sorted(
         f"{r['algorithm']} ({r['shape']}, {r['size']})" for r in rows if r["status"] != "ok"
@@ -604,8 +587,6 @@ def main(args) -> int:
 def leaderboard_boards(out: Path) -> list[tuple]:
     """The full study's runs in OUT as leaderboard cases: [(ranking.Board, [ranking.Row])], one
     per case (none without a full study's report)."""
-    from tissuebench.workflows.ranking import Board, Row, error_keys
-
     md, table = out / f"{NAME}.md", out / f"{NAME}.csv"
     if not (md.is_file() and table.is_file()):
         return []
