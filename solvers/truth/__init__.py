@@ -1,0 +1,34 @@
+"""The truth (SPEC section 10): a reference that converges to the continuum problem without
+locking (Q2 displacement, Taylor-Hood Q2-Q1 for nu >= 0.45 and neo-Hookean, the trapezoidal
+rule with consistent mass), its cases on the benchmarks, and its own error from a hierarchy.
+
+- solver.py: Problem, Truth (forms and solvers built once; static solve, time integration),
+  TruthRun (the displacement history as owned dof values of the Q2 space, and the probe).
+- cases.py: the SPEC 10 cases on the benchmarks' grids; hierarchy(): levels plus h/2.
+- estimate.py: E_i between levels and time steps; estimate_error(): order and own error.
+"""
+
+from tissuebench.solvers.truth.cases import (
+    CASES,
+    Hierarchy,
+    benchmark_problem,
+    case_truth,
+    hierarchy,
+)
+from tissuebench.solvers.truth.estimate import ErrorEstimate, estimate_error, interior_difference
+from tissuebench.solvers.truth.solver import Boundary, Problem, Truth, TruthRun
+
+__all__ = [
+    "CASES",
+    "Boundary",
+    "ErrorEstimate",
+    "Hierarchy",
+    "Problem",
+    "Truth",
+    "TruthRun",
+    "benchmark_problem",
+    "case_truth",
+    "estimate_error",
+    "hierarchy",
+    "interior_difference",
+]

@@ -1,0 +1,76 @@
+"""The truth's own error (SPEC 10): E_i between levels and time steps, and the estimate from
+a hierarchy."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+from mpi4py import MPI
+
+import numpy as np
+import ufl
+from dolfinx import fem
+
+from tissuebench.solvers.truth.solver import TruthRun
+
+
+def interior_difference(coarse: TruthRun, fine: TruthRun, time_ratio: int = 1) -> np.ndarray:
+    """E_i (SPEC 6: |Omega|^(-1/d) int ||u_f - u_c|| dX; m^3 in 3D, m^2 in 2D) between two
+    truth runs at the coarse run's kept steps, the coarse one interpolated into the fine space
+    (exact for nested uniform refinements); `time_ratio` pairs coarse step k with fine step
+    time_ratio k (2 for h against h/2 on one mesh). Collective."""
+    Vf, Vc = fine.V, coarse.V
+    mesh = Vf.mesh
+    tdim = mesh.topology.dim
+    ncells = mesh.topology.index_map(tdim).size_local
+    cells = np.arange(ncells, dtype=np.int32)
+    data = fem.create_interpolation_data(Vf, Vc, cells)
+    uc, uf, d = fem.Function(Vc), fem.Function(Vf), fem.Function(Vf)
+    form = fem.form(ufl.sqrt(ufl.inner(d, d)) * ufl.dx(metadata={"quadrature_degree": 6}))
+    volume = mesh.comm.allreduce(
+        fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=mesh))), op=MPI.SUM
+    )
+    out = []
+    for k in range(len(coarse.u)):
+        uc.x.array[: coarse.u.shape[1]] = coarse.u[k]
+        uc.x.scatter_forward()
+        d.interpolate_nonmatching(uc, cells, data)
+        uf.x.array[: fine.u.shape[1]] = fine.u[time_ratio * k]
+        uf.x.scatter_forward()
+        d.x.array[:] = uf.x.array - d.x.array
+        local = fem.assemble_scalar(form)
+        out.append(mesh.comm.allreduce(local, op=MPI.SUM) * volume ** (-1 / mesh.geometry.dim))
+    return np.array(out)
+
+
+@dataclass
+class ErrorEstimate:
+    """The truth's own error (SPEC 10), in the units of the differences given: observed order
+    p in space, the space error of the finest level, the time error of step h, their sum."""
+
+    order: np.ndarray | float
+    space: np.ndarray | float
+    time: np.ndarray | float
+    total: np.ndarray | float
+
+
+def estimate_error(
+    level_differences: Sequence, time_difference=None, time_order: float = 2.0
+) -> ErrorEstimate:
+    """The own error from a hierarchy: level_differences = [E(l1, l0), E(l2, l1)] (the last
+    two differences of consecutive uniformly refined levels, scalars or arrays over steps, any
+    quantity that scales as h^p); p = log2(d1 / d2) and E(finest) ~= d2 / (2^p - 1).
+    time_difference = E(h, h/2) on the finest level gives the time error of step h,
+    d_t 2^q / (2^q - 1) with q the trapezoidal rule's order 2. Where the levels do not
+    converge (d2 >= d1) the order and the space error are NaN."""
+    d1, d2 = (np.abs(np.asarray(d, dtype=float)) for d in level_differences[-2:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = np.where((d2 > 0) & (d1 > d2), np.log2(d1 / d2), np.nan)
+        space = np.where(d2 == 0, 0.0, d2 / (2.0**p - 1))
+    q = 2.0**time_order
+    tdiff = 0.0 if time_difference is None else np.abs(np.asarray(time_difference, dtype=float))
+    terr = tdiff * q / (q - 1)
+    scalar = np.ndim(p) == 0
+    fix = (lambda a: float(a)) if scalar and np.ndim(terr) == 0 else (lambda a: a)
+    return ErrorEstimate(fix(p), fix(space), fix(terr), fix(space + terr))

@@ -1,0 +1,459 @@
+"""The truth (SPEC section 10): a DOLFINx solver that converges to the continuum problem of
+sections 1-5 and 8 without locking, and the estimate of its own error from a hierarchy.
+
+Discretisation (all in SI units: m, s, Pa, kg/m^3):
+
+- Displacement: second-order Lagrange (Q2 on the benchmarks' quadrilateral/hexahedral grids,
+  P2 on simplices) on the benchmarks' own first-order meshes (the boxes are straight).
+- Displacement only (`displacement`) for the linear law with nu < 0.45:
+  sigma_lin(u + beta v) : eps(w).
+- Taylor-Hood (Q2-Q1) for the linear law with nu >= 0.45 (`mixed`): unknowns (u, p) with
+  p = -lambda div(u + beta v), the Kelvin-Voigt form of SPEC 10's Rayleigh damping:
+      2 mu eps(u + beta v) : eps(w) - p div w - q (div(u + beta v) + p / lambda) = 0,
+  exactly the linear law with stiffness-proportional damping beta sigma_lin(v), and free of
+  volumetric locking as lambda -> infinity.
+- Taylor-Hood for `neo-hookean` (always, `mixed-nh`): unknowns (u, p, p_d). The elastic part
+  is the stationary point in p of psi_iso(F) + p (J - 1) - p^2 / (2 kappa), with
+  psi_iso = (mu/2)(J^(-2/3) I1 - 3): eliminating p = kappa (J - 1) gives SPEC 8's psi exactly.
+  The damping beta sigma_lin(v) = beta (2 mu eps(v) + lambda div v I) carries its volumetric
+  part through p_d = lambda beta div v (a second Q1 field, again with 1/lambda), so that it
+  does not lock either:
+      P_iso(F) : grad w + p J F^-T : grad w + 2 mu beta eps(v) : eps(w) + p_d div w
+      + q (J - 1 - p / kappa) + q_d (beta div v - p_d / lambda) = 0.
+  2D is plane strain (F33 = 1: I1 = tr(C_2D) + 1, J = det F_2D).
+- Time: the trapezoidal rule (Newmark beta = 1/4, gamma = 1/2, SPEC 3) with consistent mass,
+  a_{n+1} = 4/h^2 (u_{n+1} - u_n - h v_n) - a_n, v_{n+1} = 2/h (u_{n+1} - u_n) - v_n; the
+  equation of motion rho a.w + alpha rho v.w + (elastic) = f.w holds at every t_{n+1};
+  constrained dofs take their prescribed u, v, a exactly (SPEC 3); u = v = 0 at t = 0 on the
+  free dofs and a(0) solves the equation of motion at t = 0.
+- Solvers: linear law: the step matrix is assembled and factorised (MUMPS) once; each step is
+  one solve for the correction of a predictor whose constrained dofs hold g(t_{n+1}).
+  neo-Hookean: Newton (PETSc SNES through dolfinx's NonlinearProblem, MUMPS, relative residual
+  1e-10) every step, forms and solver built once.
+
+The displacement history is returned as arrays of the owned dof values of the Q2 space V
+(`TruthRun.u[i]` at t_i = i h), with V itself, so that it can be graded by interpolation;
+the rod's tip (0.5, 0.25, 0.125) m is evaluated at every step.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import basix.ufl
+import dolfinx.fem.petsc
+import dolfinx.geometry
+import dolfinx.mesh
+import numpy as np
+import ufl
+from dolfinx import fem
+
+# motion(t, x) -> (u, v, a): prescribed displacement (m), velocity (m/s) and acceleration
+# (m/s^2) at time t (s) of the nodes at coordinates x (n x 3); each broadcastable to (n, gdim)
+Motion = Callable[[float, np.ndarray], tuple]
+# body_force(x, t) -> a UFL vector in N/m^3, x the SpatialCoordinate, t a Constant (s)
+BodyForce = Callable[[ufl.core.expr.Expr, fem.Constant], ufl.core.expr.Expr]
+
+MIXED_NU = 0.45  # Poisson's ratio from which the linear law is solved in Taylor-Hood form
+LU = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+
+
+@dataclass
+class Boundary:
+    """Every component of the nodes `nodes` (local block indices of V, owned and ghost)
+    follows `motion`."""
+
+    nodes: np.ndarray
+    motion: Motion
+
+
+@dataclass
+class Problem:
+    """The continuum problem of SPEC 10 on one mesh. mu, lmbda in Pa, rho in kg/m^3, alpha in
+    1/s, beta in s; model "linear" or "neo-hookean"; `boundaries(V)` gives the constrained
+    nodes of the Q2 space V; `probe` a point (m) whose displacement is recorded."""
+
+    mesh: dolfinx.mesh.Mesh
+    mu: float
+    lmbda: float
+    rho: float
+    alpha: float
+    beta: float
+    model: str
+    body_force: BodyForce
+    boundaries: Callable[[fem.FunctionSpace], list[Boundary]]
+    probe: tuple | None = None
+    degree: int = 2
+
+    @property
+    def form(self) -> str:
+        """`displacement`, `mixed` (linear Taylor-Hood) or `mixed-nh` (neo-Hookean)."""
+        if self.model == "neo-hookean":
+            return "mixed-nh"
+        if self.model != "linear":
+            raise ValueError(f"the truth takes the models linear and neo-hookean, not {self.model}")
+        nu = self.lmbda / (2 * (self.lmbda + self.mu))
+        return "mixed" if nu >= MIXED_NU else "displacement"
+
+
+@dataclass
+class TruthRun:
+    """A truth computation: V the Q2 displacement space; u[k] the owned dof values (m) of V
+    at times[k] (s); tip[k] the probe's displacement (m); dofs the global number of unknowns;
+    wall the wall time (s)."""
+
+    V: fem.FunctionSpace
+    times: np.ndarray
+    u: np.ndarray | None
+    tip: np.ndarray | None
+    dofs: int
+    wall: float
+
+
+def _eps(u):
+    return ufl.sym(ufl.grad(u))
+
+
+class Truth:
+    """The discrete truth problem: spaces, forms and solvers of one Problem, built once."""
+
+    def __init__(self, problem: Problem):
+        self.problem = pb = problem
+        mesh = pb.mesh
+        self.comm = mesh.comm
+        self.gdim = gdim = mesh.geometry.dim
+        self.kind = pb.form
+        cell = mesh.basix_cell()
+        vector = basix.ufl.element("Lagrange", cell, pb.degree, shape=(gdim,))
+        scalar = basix.ufl.element("Lagrange", cell, pb.degree - 1)
+        n_pressures = {"displacement": 0, "mixed": 1, "mixed-nh": 2}[self.kind]
+        if n_pressures:
+            self.W = fem.functionspace(
+                mesh, basix.ufl.mixed_element([vector] + [scalar] * n_pressures)
+            )
+            self.V, dofs = self.W.sub(0).collapse()
+            self.to_W = np.asarray(dofs).reshape(-1)
+        else:
+            self.W = self.V = fem.functionspace(mesh, vector)
+            self.to_W = None
+        if self.kind != "displacement" and pb.lmbda <= 0:
+            raise ValueError("the Taylor-Hood truth needs lambda > 0 Pa")
+        V = self.V
+        self.bs = gdim
+        self.n_owned = V.dofmap.index_map.size_local * gdim
+
+        # constrained nodes: later boundaries win on shared nodes
+        self.boundaries = pb.boundaries(V)
+        nodes = np.unique(
+            np.concatenate([b.nodes for b in self.boundaries] + [np.zeros(0, np.int32)])
+        )
+        self.cnodes = nodes.astype(np.int32)
+        self.cdofs = (gdim * nodes[:, None] + np.arange(gdim)).ravel()
+        self.xnodes = V.tabulate_dof_coordinates()
+        self.g = fem.Function(V)  # prescribed values of the current solve
+        zero = fem.Function(V)
+        if self.to_W is None:
+            self.bc = fem.dirichletbc(self.g, self.cnodes)
+            self.bc0 = fem.dirichletbc(zero, self.cnodes)
+        else:
+            wdofs = self.to_W[self.cdofs]
+            order = np.argsort(wdofs)
+            pair = [wdofs[order].astype(np.int32), self.cdofs[order].astype(np.int32)]
+            self.bc = fem.dirichletbc(self.g, pair, self.W.sub(0))
+            self.bc0 = fem.dirichletbc(zero, pair, self.W.sub(0))
+
+        # state at t_n (V), and the known parts of v_{n+1}, a_{n+1}
+        self.un, self.vn, self.an = (fem.Function(V) for _ in range(3))
+        self.vpred, self.apred = fem.Function(V), fem.Function(V)
+        self.c1 = fem.Constant(mesh, 0.0)  # 2/h, 1/s
+        self.c2 = fem.Constant(mesh, 0.0)  # 4/h^2, 1/s^2
+        self.t = fem.Constant(mesh, 0.0)  # s
+        self.load = fem.Constant(mesh, 1.0)  # load factor of the static solve's sub-steps
+        self.U = fem.Function(self.W)
+        self.f = pb.body_force(ufl.SpatialCoordinate(mesh), self.t)
+        self._step_solver = None
+        self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
+
+    # -- forms -----------------------------------------------------------------------------
+    def _split(self, U):
+        if self.to_W is None:
+            return U, ()
+        parts = ufl.split(U)
+        return parts[0], tuple(parts[1:])
+
+    def _elastic(self, u, v, ps, w, qs):
+        """The elastic and stiffness-damping terms of the residual (N/m^3 times w)."""
+        pb = self.problem
+        mu, lmbda, beta = pb.mu, pb.lmbda, pb.beta
+        if self.kind == "displacement":
+            z = u + beta * v
+            return ufl.inner(
+                2 * mu * _eps(z) + lmbda * ufl.div(z) * ufl.Identity(self.gdim), _eps(w)
+            )
+        if self.kind == "mixed":
+            (p,), (q,) = ps, qs
+            z = u + beta * v
+            return (
+                2 * mu * ufl.inner(_eps(z), _eps(w)) - p * ufl.div(w) - q * (ufl.div(z) + p / lmbda)
+            )
+        (p, pd), (q, qd) = ps, qs
+        kappa = lmbda + 2 * mu / 3
+        F = ufl.variable(ufl.Identity(self.gdim) + ufl.grad(u))
+        J = ufl.det(F)
+        I1 = ufl.tr(F.T * F) + (3 - self.gdim)
+        P_iso = ufl.diff(mu / 2 * (J ** (-2 / 3) * I1 - 3), F)
+        return (
+            ufl.inner(P_iso + p * J * ufl.inv(F).T, ufl.grad(w))
+            + 2 * mu * beta * ufl.inner(_eps(v), _eps(w))
+            + pd * ufl.div(w)
+            + q * (J - 1 - p / kappa)
+            + qd * (beta * ufl.div(v) - pd / lmbda)
+        )
+
+    def _residual(self, u, v, a, ps):
+        pb = self.problem
+        w, qs = self._split(ufl.TestFunction(self.W))
+        inertia = pb.rho * ufl.inner(a + pb.alpha * v, w) if a is not None else 0
+        # Gauss with degree + 1 points per direction: exact for the linear forms on affine cells
+        dx = ufl.dx(metadata={"quadrature_degree": 2 * pb.degree})
+        force = self.load * ufl.inner(self.f, w)
+        return (inertia + self._elastic(u, v, ps, w, qs) - force) * dx
+
+    def step_residual(self):
+        """The residual at t_{n+1} with unknown u_{n+1} (trapezoidal rule)."""
+        u, ps = self._split(self.U)
+        v = self.vpred + self.c1 * u
+        a = self.apred + self.c2 * u
+        return self._residual(u, v, a, ps)
+
+    # -- solves ----------------------------------------------------------------------------
+    def _prescribe(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(u, v, a) at t (s) on the constrained nodes, as (nodes, gdim) arrays in V's order."""
+        n, gdim = len(self.xnodes), self.gdim
+        values = np.zeros((3, n, gdim))
+        for b in self.boundaries:
+            for k, val in enumerate(b.motion(t, self.xnodes[b.nodes])):
+                values[k, b.nodes] = np.broadcast_to(
+                    np.asarray(val, dtype=float), (len(b.nodes), gdim)
+                )
+        return values[:, self.cnodes].reshape(3, -1)
+
+    def _linear_solve(self, residual, U, solver=None):
+        """One Newton step on a residual linear in U: U -= J^-1 R(U) with homogeneous
+        constraints on the correction; U's constrained dofs must hold their values. Returns the
+        (reusable) solver: (J form, R form, matrix, KSP)."""
+        if solver is None:
+            R = fem.form(residual)
+            Jf = fem.form(ufl.derivative(residual, U))
+            A = dolfinx.fem.petsc.assemble_matrix(Jf, bcs=[self.bc0])
+            A.assemble()
+            ksp = PETSc.KSP().create(self.comm)
+            ksp.setOperators(A)
+            ksp.setType("preonly")
+            pc = ksp.getPC()
+            pc.setType("lu")
+            pc.setFactorSolverType("mumps")
+            b = dolfinx.fem.petsc.create_vector(self.W)
+            solver = (R, A, ksp, b)
+        R, A, ksp, b = solver
+        with b.localForm() as loc:
+            loc.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(b, R)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        dolfinx.fem.petsc.set_bc(b, [self.bc0])
+        dx = b.duplicate()
+        ksp.solve(b, dx)
+        if ksp.getConvergedReason() <= 0:
+            raise RuntimeError(f"truth: the linear solve failed ({ksp.getConvergedReason()})")
+        U.x.petsc_vec.axpy(-1.0, dx)
+        U.x.scatter_forward()
+        dx.destroy()
+        return solver
+
+    @staticmethod
+    def _destroy(solver):
+        for obj in solver[1:]:
+            obj.destroy()
+
+    def _set_u(self, U, values_V):
+        """Write V's values into U's displacement part (owned and ghost)."""
+        if self.to_W is None:
+            U.x.array[:] = values_V
+        else:
+            U.x.array[self.to_W] = values_V
+
+    def _get_u(self, U) -> np.ndarray:
+        return U.x.array.copy() if self.to_W is None else U.x.array[self.to_W]
+
+    def initial_state(self) -> None:
+        """u, v at t = 0 (zero on the free dofs, prescribed on the constrained) and a(0) from
+        the equation of motion at t = 0."""
+        ug, vg, ag = self._prescribe(0.0)
+        for fn, val in ((self.un, ug), (self.vn, vg)):
+            fn.x.array[:] = 0.0
+            fn.x.array[self.cdofs] = val
+        self.t.value = 0.0
+        A = fem.Function(self.W)  # unknown: the acceleration and the pressures at t = 0
+        a, ps = self._split(A)
+        residual = self._residual(self.un, self.vn, a, ps)
+        self.g.x.array[self.cdofs] = ag
+        self.bc.set(A.x.array)
+        self._destroy(self._linear_solve(residual, A))
+        self.an.x.array[:] = self._get_u(A)
+        self.an.x.array[self.cdofs] = ag
+        self.U.x.array[:] = A.x.array  # the pressures at t = 0: the first Newton guess
+        self._set_u(self.U, self.un.x.array)
+
+    def step(self, t_next: float, h: float) -> None:
+        """Advance (u, v, a) from t_n to t_next = t_n + h (s)."""
+        ug, vg, ag = self._prescribe(t_next)
+        self.c1.value, self.c2.value = 2 / h, 4 / h**2
+        self.t.value = t_next
+        un, vn, an = self.un.x.array, self.vn.x.array, self.an.x.array
+        self.vpred.x.array[:] = -2 / h * un - vn
+        self.apred.x.array[:] = -4 / h**2 * (un + h * vn) - an
+        # constrained dofs: v, a exactly prescribed given u = g
+        self.vpred.x.array[self.cdofs] = vg - 2 / h * ug
+        self.apred.x.array[self.cdofs] = ag - 4 / h**2 * ug
+        self.g.x.array[self.cdofs] = ug
+        if self.kind == "mixed-nh":
+            self._newton()
+        else:
+            self.bc.set(self.U.x.array)
+            self._step_solver = self._linear_solve(self.step_residual(), self.U, self._step_solver)
+        u = self._get_u(self.U)
+        self.vn.x.array[:] = self.vpred.x.array + 2 / h * u
+        self.an.x.array[:] = self.apred.x.array + 4 / h**2 * u
+        self.un.x.array[:] = u
+
+    def _newton(self) -> None:
+        if self._step_solver is None:
+            options = {
+                "snes_type": "newtonls",
+                "snes_linesearch_type": "basic",
+                "snes_rtol": 1e-10,
+                "snes_atol": 1e-13,
+                "snes_stol": 0.0,
+                "snes_max_it": 30,
+                **LU,
+            }
+            self._step_solver = dolfinx.fem.petsc.NonlinearProblem(
+                self.step_residual(),
+                self.U,
+                bcs=[self.bc],
+                petsc_options=options,
+                petsc_options_prefix=f"truth_{id(self)}_",
+            )
+        self._step_solver.solve()
+        reason = self._step_solver.solver.getConvergedReason()
+        if reason <= 0:
+            raise RuntimeError(f"truth: Newton did not converge at t = {self.t.value} s ({reason})")
+
+    def static(self, t: float, max_substeps: int = 64) -> np.ndarray:
+        """The static solution at t (s) (no inertia, no damping): owned dof values of V (m).
+        neo-Hookean: Newton on the load (prescribed motion and body force) scaled by k/m,
+        k = 1..m, m doubled from 1 while Newton fails (SPEC 8's sub-stepping)."""
+        ug, _, _ = self._prescribe(t)
+        self.t.value = t
+        U = fem.Function(self.W)
+        u, ps = self._split(U)
+        rest = fem.Constant(self.problem.mesh, np.zeros(self.gdim))  # v = 0
+        residual = self._residual(u, rest, None, ps)
+        if self.kind != "mixed-nh":
+            self.g.x.array[self.cdofs] = ug
+            self.bc.set(U.x.array)
+            self._destroy(self._linear_solve(residual, U))
+            return self._get_u(U)[: self.n_owned]
+        problem = dolfinx.fem.petsc.NonlinearProblem(
+            residual,
+            U,
+            bcs=[self.bc],
+            petsc_options={"snes_rtol": 1e-10, "snes_atol": 1e-13, "snes_stol": 0.0, **LU},
+            petsc_options_prefix=f"truth_static_{id(self)}_",
+        )
+        m = 1
+        while True:
+            U.x.array[:] = 0.0
+            for k in range(1, m + 1):
+                self.load.value = k / m
+                self.g.x.array[self.cdofs] = ug * k / m
+                problem.solve()
+                if problem.solver.getConvergedReason() <= 0:
+                    break
+            else:
+                break
+            if 2 * m > max_substeps:
+                self.load.value = 1.0
+                raise RuntimeError(f"truth: the static Newton solve failed with {m} sub-steps")
+            m *= 2
+        self.load.value = 1.0
+        return self._get_u(U)[: self.n_owned]
+
+    def tip(self, values: np.ndarray) -> np.ndarray:
+        """The probe's displacement (m) for owned dof values of V. Collective."""
+        return self._probe(values)
+
+    def num_dofs(self) -> int:
+        im = self.W.dofmap.index_map
+        return im.size_global * self.W.dofmap.index_map_bs
+
+    def run(self, h: float, steps: int, keep: int = 1) -> TruthRun:
+        """Integrate `steps` steps of size h (s) from t = 0; keep every `keep`-th step's
+        displacement (0: none) and the probe at every step."""
+        start = time.perf_counter()
+        self.initial_state()
+        history, tips, times = [], [], []
+
+        def record(i):
+            values = self.un.x.array[: self.n_owned]
+            if keep and i % keep == 0:
+                history.append(values.copy())
+                times.append(i * h)
+            if self._probe is not None:
+                tips.append(self.tip(values))
+
+        record(0)
+        for i in range(steps):
+            self.step((i + 1) * h, h)
+            record(i + 1)
+        return TruthRun(
+            V=self.V,
+            times=np.array(times) if keep else np.arange(steps + 1) * h,
+            u=np.array(history) if keep else None,
+            tip=np.array(tips) if tips else None,
+            dofs=self.num_dofs(),
+            wall=time.perf_counter() - start,
+        )
+
+
+class _Probe:
+    """Evaluate a V function at one point; the colliding cell is located once. Collective."""
+
+    def __init__(self, V: fem.FunctionSpace, point: tuple):
+        mesh = V.mesh
+        self.fn = fem.Function(V)
+        self.point = np.zeros((1, 3))
+        self.point[0, : len(point)] = point
+        tree = dolfinx.geometry.bb_tree(mesh, mesh.topology.dim)
+        candidates = dolfinx.geometry.compute_collisions_points(tree, self.point)
+        cells = dolfinx.geometry.compute_colliding_cells(mesh, candidates, self.point).links(0)
+        owned = mesh.topology.index_map(mesh.topology.dim).size_local
+        self.cells = cells[cells < owned][:1]
+        comm = mesh.comm
+        self.owner = comm.allreduce(comm.rank if len(self.cells) else comm.size, op=MPI.MIN)
+        if self.owner == comm.size:
+            raise ValueError(f"point {point} is outside the mesh")
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        self.fn.x.array[: len(values)] = values
+        self.fn.x.scatter_forward()
+        comm = self.fn.function_space.mesh.comm
+        value = None
+        if comm.rank == self.owner:
+            value = np.asarray(self.fn.eval(self.point, self.cells)).reshape(-1)
+        return comm.bcast(value, root=self.owner)

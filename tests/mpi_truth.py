@@ -1,0 +1,37 @@
+"""Truth runs of SPEC 10 (solvers/truth.py) on small meshes, a few steps each: the tip, the
+last displacement in an order fixed by node coordinates, and the E_i differences between
+levels and time steps, printed as JSON by rank 0 (run in serial and under mpiexec by
+test_truth.py)."""
+
+import json
+
+from mpi4py import MPI
+
+
+from tissuebench.solvers.system import gather_by_coordinates
+from tissuebench.solvers.truth import case_truth, interior_difference
+
+out = {}
+for case, sizes, steps in [
+    ("rod", (1, 2), 8),
+    ("block-MP2-w0.2", (4,), 6),
+    ("rod-nh-s3", (1,), 4),
+    ("block-MP1-nh-s2-w0.2", (4,), 4),
+]:
+    runs = []
+    for n in sizes:
+        truth, bench = case_truth(case, n)
+        run = truth.run(bench.dt, steps)
+        runs.append(run)
+        history = gather_by_coordinates(run.V, run.u[-1])
+        if MPI.COMM_WORLD.rank == 0:
+            out[f"{case}-{n}-u"] = history[1].tolist()
+            if run.tip is not None:
+                out[f"{case}-{n}-tip"] = run.tip.tolist()
+    if len(runs) == 2:
+        out[f"{case}-levels"] = interior_difference(runs[0], runs[1]).tolist()
+        truth, bench = case_truth(case, sizes[-1])
+        half = truth.run(bench.dt / 2, 2 * steps)
+        out[f"{case}-time"] = interior_difference(runs[-1], half, time_ratio=2).tolist()
+if MPI.COMM_WORLD.rank == 0:
+    print(json.dumps(out))
