@@ -116,8 +116,14 @@ def check_load_scale(s) -> None:
     """Refuse a load scale that is not a finite positive number (MeshError: bad input)."""
     from tissuebench.meshes.gmshio import MeshError
 
+    from tissuebench.solvers.materials import LARGEST, SMALLEST, WHY_RANGE
+
     if not (isinstance(s, (int, float)) and not isinstance(s, bool) and 0 < s < float("inf")):
         raise MeshError(f"load scale must be a finite number > 0, got {s!r}")
+    if not SMALLEST <= s <= LARGEST:
+        raise MeshError(
+            f"load scale must be within {SMALLEST:g} to {LARGEST:g} ({WHY_RANGE}), got {s:g}"
+        )
 
 
 def fixed(gdim):

@@ -14,6 +14,17 @@ from tissuebench.workflows.errors import UserError
 
 MAX_NAME = 64  # characters of a material name (it labels files, figures and tables)
 
+# The range of E (Pa), rho (kg/m^3) and the load scale s (SPEC 8), and the upper bound of the
+# Rayleigh alpha (1/s) and beta (s). Float64 holds 2.2e-308 to 1.8e308; the assembled
+# matrices and loads are products of up to three of these values with the mesh's lengths, and
+# the solvers' residual norms sum their squares. Within 1e-40 to 1e40, a product of three and
+# its square stay within 1e-240 to 1e240: finite, with room for the mesh and the step. Real
+# materials lie far inside (soft tissue 1e2 to 1e6 Pa, diamond 1.2e12 Pa; osmium 22,590
+# kg/m^3). Larger values overflow (E = 1e308 made inf at the first solve).
+SMALLEST, LARGEST = 1e-40, 1e40
+WHY_RANGE = "products of E, rho and the load scale, and their squares, must stay finite in float64"
+UNITS = {"E": "Pa", "rho": "kg/m^3", "alpha": "1/s", "beta": "s"}
+
 
 class MaterialError(UserError):
     """A material that the SPEC does not allow, or a material file that cannot be read."""
@@ -66,6 +77,20 @@ class Material:
             raise MaterialError(f"material {self.name}: alpha must be >= 0 1/s, got {self.alpha}")
         if self.beta < 0:
             raise MaterialError(f"material {self.name}: beta must be >= 0 s, got {self.beta}")
+        for field in ("E", "rho"):
+            value = getattr(self, field)
+            if not SMALLEST <= value <= LARGEST:
+                raise MaterialError(
+                    f"material {self.name}: {field} must be within {SMALLEST:g} to {LARGEST:g} "
+                    f"{UNITS[field]} ({WHY_RANGE}), got {value:g}"
+                )
+        for field in ("alpha", "beta"):
+            value = getattr(self, field)
+            if value > LARGEST:
+                raise MaterialError(
+                    f"material {self.name}: {field} must be at most {LARGEST:g} {UNITS[field]} "
+                    f"({WHY_RANGE}), got {value:g}"
+                )
 
     @property
     def mu(self) -> float:

@@ -9,7 +9,7 @@ from typing import NamedTuple
 
 from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
 from tissuebench.solvers import ALGORITHMS, MODELS
-from tissuebench.solvers.linear import SOLVERS, set_petsc_options
+from tissuebench.solvers.linear import SOLVERS, check_petsc_options
 from tissuebench.workflows.errors import UserError
 
 
@@ -73,8 +73,11 @@ def check_models_plane(models: list[str], plane: str | None, gdim: int) -> None:
 def check_common(args: argparse.Namespace) -> None:
     if args.solver not in SOLVERS:
         raise UserError(f"unknown solver {args.solver!r}: use one of {', '.join(SOLVERS)}")
-    if args.petsc:
-        set_petsc_options(args.petsc)
+    # argparse takes "--petsc=--" for its end-of-options marker and leaves a list
+    petsc = args.petsc if isinstance(args.petsc, str) else "--"
+    args.petsc = petsc
+    if petsc.strip():
+        check_petsc_options(petsc, args.solver)
 
 
 def add_shape_options(p: argparse.ArgumentParser) -> None:

@@ -32,8 +32,21 @@ COMMANDS = [
 ]
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with the command line's style of bad input: one line on stderr, from rank 0
+    under mpiexec, `tissuebench COMMAND: error: ...`, exit status 2; the usage is on -h. The
+    subcommands' parsers are of this class too (add_subparsers takes the parent's)."""
+
+    def error(self, message):
+        mpi = sys.modules.get("mpi4py.MPI")
+        if mpi is None or mpi.COMM_WORLD.rank == 0:
+            text = " ".join(str(message).split())
+            print(f"{self.prog}: error: {text} (usage: {self.prog} -h)", file=sys.stderr)
+        sys.exit(2)
+
+
 def parser():
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog="tissuebench",
         description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.",
     )

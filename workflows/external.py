@@ -60,6 +60,7 @@ def main(args) -> int:
         plane=bench.plane,
         variants=variants,
         solver=args.solver,
+        petsc=args.petsc,
         force=args.force,
         comm=comm,
     )

@@ -44,7 +44,9 @@ def case_figures(out, case, summary, times, curves, tips):
     files = [error_curves(out / "errors.png", case, summary, times, curves)]
     if tips:
         files.append(tip_history(out / "tip.png", case, summary, times, tips))
-    files += deformed_shapes(out, case, summary)
+    reference = summary["runs"][case.reference]
+    if reference["status"] == "ok" or reference["diverged_step"]:  # a shape to draw
+        files += deformed_shapes(out, case, summary)
     return files
 
 

@@ -632,7 +632,7 @@ def tip_path_figure(case, summary, times, tips):
             name += f", diverged at t = {run['diverged_time']:.3g} s (cross)"
         path_ax.plot(probe[0] + tip[:, 0], probe[1] + tip[:, 1], **style, label=name)
         time_ax.plot(times[: len(tip)], tip[:, 1], **style, label=name)
-        if run["status"] == "diverged":
+        if run["status"] == "diverged" and len(tip):  # none kept if step 0 diverged
             for ax, xy in (
                 (path_ax, probe[:2] + tip[-1, :2]),
                 (time_ax, (times[len(tip) - 1], tip[-1, 1])),

@@ -145,6 +145,7 @@ def run_board(board: Board, out: Path, solver: str, petsc: str, comm, log=print)
                 h=float(summary["h"]),
                 steps=int(summary["steps"]),
                 solver=solver,
+                petsc=petsc,
                 force=True,
                 comm=comm,
                 log=log,

@@ -152,6 +152,7 @@ def run_external(
     plane: str = "strain",
     variants: list[str] | None = None,
     solver: str = "direct",
+    petsc: str = "",
     force: bool = False,
     comm: MPI.Comm = MPI.COMM_WORLD,
     log=print,
@@ -159,7 +160,8 @@ def run_external(
     """Export the benchmark, run our reference and every chosen variant of the simulator, grade
     them, and write the simulator folder `out` (see the module docstring; the output-folder
     rules of workflows/output.py). Collective; returns the folder's summary. Complete
-    results of the same inputs are kept unless force."""
+    results of the same inputs are kept unless force. `petsc` is the --petsc text, already in
+    PETSc's options database (it changes our reference, so it is one of the inputs)."""
     from dataclasses import asdict
 
     sim = get_simulator(simulator)
@@ -189,7 +191,9 @@ def run_external(
         "steps": steps,
         "plane": plane,
     }
-    inputs = external_inputs(simulator, {**posed, "solver": solver}, chosen)
+    # no --petsc stays out, so that results written before it counted keep their fingerprint
+    petsc = {"petsc": " ".join(petsc.split())} if petsc.strip() else {}
+    inputs = external_inputs(simulator, {**posed, "solver": solver, **petsc}, chosen)
     with RunFolder(out, comm) as folder:
         if folder.prepare(inputs, force) == "complete":
             if comm.rank == 0:

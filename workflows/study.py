@@ -227,7 +227,9 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         results[label] = (run, material, algorithm, model, setup_s)
         integrator.destroy()
         if bench.probe is not None:
-            tips[label] = np.array([probe(system.V, u, bench.probe) for u in run.u])
+            tips[label] = np.reshape(  # (steps kept, gdim): none if step 0 diverged
+                [probe(system.V, u, bench.probe) for u in run.u], (len(run.u), system.gdim)
+            )
         if rank0:
             status = (
                 "ok"

@@ -60,7 +60,7 @@ def gather_series(V, fields):
     comm, bs = V.mesh.comm, V.dofmap.bs
     mesh_data, owned = gather_mesh(V)
     gathered = {
-        name: comm.gather((owned, np.asarray(values).reshape(len(values), -1, bs)), root=0)
+        name: comm.gather((owned, np.asarray(values).reshape(len(values), len(owned), bs)), root=0)
         for name, values in fields.items()
     }
     if comm.rank != 0:
