@@ -4,18 +4,37 @@ Every subcommand is one module in workflows/ with `add_parser(subparsers)`, whic
 arguments and sets `func(args)`; it is listed once in COMMANDS below.
 
 Exit status: 0 done; 2 bad input (UserError, workflows/errors.py; one line on stderr); 1 the
-environment failed while writing (disk full, permission lost; one line); 130 interrupted
-(SIGINT) and 143 terminated (SIGTERM), one line each. In every case the partial output is
-removed and nothing else is touched.
+environment failed (disk full, file system read-only, permission lost; one line); 130
+interrupted (SIGINT) and 143 terminated (SIGTERM), one line each, at any moment from start-up
+on (solvers/interrupt.py). In every case the partial output is removed and nothing else is
+touched; what a command had still to write is named in the line.
 """
 
-import argparse
-import importlib
+import signal
 import sys
-import time
-import traceback
+from pathlib import Path
 
-from tissuebench.workflows.errors import UserError
+
+def _record(signum, frame):
+    """The command line's first handler, before the heavy imports: records a signal, which
+    main() raises once MPI is up (solvers/interrupt.py), instead of a traceback (SIGINT) or
+    a silent death (SIGTERM)."""
+    _record.received = _record.received or signum
+
+
+_record.received = 0
+if __name__ == "__main__" or Path(sys.argv[0]).name == "tissuebench":  # not when imported
+    if not hasattr(signal.getsignal(signal.SIGINT), "received"):  # python -m: once
+        signal.signal(signal.SIGINT, _record)
+        signal.signal(signal.SIGTERM, _record)
+
+import argparse  # noqa: E402 (after the handlers above)
+import errno  # noqa: E402
+import importlib  # noqa: E402
+import os  # noqa: E402
+import traceback  # noqa: E402
+
+from tissuebench.workflows.errors import UserError  # noqa: E402
 
 COMMANDS = [
     "tissuebench.workflows.run",
@@ -56,41 +75,78 @@ def parser():
     return p
 
 
+def fault(err: OSError) -> str:
+    """One line for an OSError: the file and what failed."""
+    if err.errno == errno.ENOSPC:
+        reason = "no space left on the device"
+    elif err.errno:
+        reason = os.strerror(err.errno)
+    else:
+        reason = (err.strerror or str(err) or type(err).__name__).splitlines()[0][:200]
+    where = err.filename if err.filename is not None else None
+    return f"{where}: {reason}" if where else reason
+
+
 def main(argv=None):
     from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
     import petsc4py
 
     petsc4py.init([sys.argv[0], "-no_signal_handler"])  # SIGINT and SIGTERM are ours (below)
-    args = parser().parse_args(argv)
 
     from tissuebench.solvers import interrupt
     from tissuebench.workflows.output import WriteFailure
 
     comm = MPI.COMM_WORLD
-    restore = interrupt.install(comm)  # SIGINT and SIGTERM: see solvers/interrupt.py
+    restore = interrupt.install(comm)  # takes over a signal recorded by _record meanwhile
+    command = "tissuebench"
+    ended = False  # the command returned: its output is complete
 
-    def say(text):
-        if comm.rank == 0:
-            print(f"tissuebench {args.command}: {text}", file=sys.stderr)
+    def say(text, alone=False):
+        if comm.rank == 0 or alone:
+            print(f"{command}: {text}", file=sys.stderr)
+
+    def leave(status):
+        """End this rank's job at once when it fails alone (the others would wait for it in
+        a collective): mpiexec then ends the others, with no line of its own."""
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
 
     try:
-        return args.func(args) or 0
+        with interrupt.deferred():  # start-up: the commands' imports are not cut half-way
+            interrupt.guard_jit()
+            args = parser().parse_args(argv)
+            command = f"tissuebench {args.command}"
+        interrupt.checkpoint(comm)  # a signal during start-up: every rank stops here
+        status = args.func(args) or 0
+        ended = True
+        interrupt.checkpoint(comm)  # one that no step acted on: never exit 0 after a signal
+        return status
+    except SystemExit:
+        raise
     except UserError as err:
         say(f"error: {err}")
         return 2
     except WriteFailure as err:
         say(f"error: {err}")
         return 1
-    except (KeyboardInterrupt, interrupt.Terminated) as signalled:
-        status = 130 if isinstance(signalled, KeyboardInterrupt) else 143
-        name = "interrupted (SIGINT)" if status == 130 else "terminated (SIGTERM)"
-        say(f"{name}; partial output removed")
-        if comm.size > 1 and not interrupt.raised_together():
-            # rank 0 alone (no step came in time): the others wait in a collective for it.
-            # MPI_Abort ends them all; the pause lets mpiexec pass the line above on first.
-            sys.stderr.flush()
-            time.sleep(1.0)
-            comm.Abort(status)
+    except OSError as err:  # met outside output.collective: on this rank alone, maybe
+        say(f"error: {fault(err)}", alone=True)
+        if comm.size > 1:
+            leave(1)
+        return 1
+    except (KeyboardInterrupt, interrupt.Terminated, interrupt.Interrupted) as signalled:
+        signum = interrupt.signal_of(signalled)
+        status = interrupt.STATUS[signum]
+        if ended:
+            say(f"{interrupt.SAID[signum]} as it ended; its output is complete")
+        else:
+            unwritten = interrupt.unwritten()
+            said = f"; not written: {', '.join(unwritten)}" if unwritten else ""
+            say(f"{interrupt.SAID[signum]}; partial output removed{said}")
+        together = interrupt.raised_together() or isinstance(signalled, interrupt.Interrupted)
+        if comm.size > 1 and not together:
+            leave(status)  # rank 0 alone (no point where all could stop came in time)
         return status
     except BaseException:
         if comm.size > 1:  # one rank failing alone would leave the others waiting forever

@@ -11,6 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
 from tissuebench.meshes import BENCHMARKS
+from tissuebench.solvers import interrupt
 from tissuebench.metrics.errors import METRICS, panels
 from tissuebench.workflows.files import spans_decades
 
@@ -34,9 +35,11 @@ OUTLINE = "#737373"  # the undeformed outline, drawn behind the deformed shape
 LONG_RUN = 10.0  # s: deformed.png shows (0, 1, 2, 10) s within the run, and its end time
 
 
+@interrupt.drawing
 def case_figures(out, case, summary, times, curves, tips):
     """Write the case's figures into out; return their file names. A case with elastic models
-    other than linear (SPEC section 8) has its own figures (workflows/figures_models.py)."""
+    other than linear (SPEC section 8) has its own figures (workflows/figures_models.py).
+    Drawn in a critical section (solvers/interrupt.py)."""
     from tissuebench.workflows import figures_models
 
     if figures_models.is_model_case(case):

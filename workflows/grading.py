@@ -24,6 +24,7 @@ import numpy as np
 
 from tissuebench.metrics.compare import Grading, grade, summarize
 from tissuebench.metrics.errors import METRICS, panels
+from tissuebench.solvers import interrupt
 from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.files import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import check_writable, collective
@@ -153,6 +154,7 @@ def write_grading(out: Path, g: Grading, summary: dict) -> None:
             tmp.unlink(missing_ok=True)
 
 
+@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
 def plot(path, title, times, curves):
     """One panel per metric against time (E_n, E_s, E_i; a variant such as E_i's nodal form
     dashed in its metric's panel)."""

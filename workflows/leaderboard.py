@@ -10,7 +10,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
 from tissuebench.solvers.external import get_simulator
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
@@ -205,6 +205,9 @@ def main(args) -> int:
     collective(comm, lambda: check_target(out, available, args.force))
     session = time.strftime("%Y-%m-%d %H:%M %Z")
     rows, notes = {}, {}
+    interrupt.will_write(  # named on a signal: the old ones stay as they were
+        [out / "leaderboard.md", out / "leaderboard.csv", out / FOLDER / "*.png"]
+    )
     for board in BOARDS:
         rows[board.name], notes[board.name] = run_board(board, out, args.solver, args.petsc, comm)
     boards = list(BOARDS)
@@ -223,6 +226,7 @@ def main(args) -> int:
         replace_atomically(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
+    interrupt.will_write([])  # all written
     if comm.rank == 0:
         print(f"wrote {out / 'leaderboard.md'}, {out / 'leaderboard.csv'} and {out / FOLDER}/*.png")
     return 0

@@ -19,6 +19,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers import interrupt
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import report
 from tissuebench.workflows.output import OutputError, check_writable, collective
@@ -188,11 +189,16 @@ def main(args):
     check_writable(out, comm)
     collective(comm, lambda: check_report(out / "README.md"))
     summaries, large, limits = {}, {}, {}
-    for case in cases(args.solver, args.petsc):
+    first, second = cases(args.solver, args.petsc), model_cases(args.solver, args.petsc)
+    parts = [out / c.name for c in first] + [out / LARGE / c.name for c in second]
+    interrupt.will_write([*parts, out / "README.md"])  # named on a signal if not written
+    for case in first:
         summaries[case.name] = run_case(case, out / case.name, comm, force=args.force)
-    for case in model_cases(args.solver, args.petsc):
+        interrupt.written(out / case.name)
+    for case in second:
         large[case.name] = run_case(case, out / LARGE / case.name, comm, force=args.force)
         limits[case.name] = explicit_limits(case, comm)
+        interrupt.written(out / LARGE / case.name)
 
     def write():
         check_report(out / "README.md")
@@ -200,6 +206,7 @@ def main(args):
         replace_atomically(out / "README.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
+    interrupt.written(out / "README.md")
     if comm.rank == 0:
         print(f"report: {out / 'README.md'}")
     return 0

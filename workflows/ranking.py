@@ -25,6 +25,7 @@ from pathlib import Path
 
 
 from tissuebench.metrics.errors import METRICS
+from tissuebench.solvers import interrupt
 from tissuebench.solvers.external import SIMULATORS
 from tissuebench.workflows.output import read_summary
 
@@ -223,6 +224,7 @@ def write_csv(path: Path, rows: list[Row]) -> None:
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
 
 
+@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
 def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     """Two panels, time-mean and maximum E_i against wall time per simulated second (log-log),
     one marker per source, the Pareto front as a dashed staircase, the reference's cost as a

@@ -32,7 +32,7 @@ from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, CrossMetrics, Mesh
-from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator
+from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.arguments import add_common, check_common
@@ -464,6 +464,7 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 LINES = ("-", "--", ":")  # the shapes' line styles, in the order of shapes()
 
 
+@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
 def plot(path: Path, study: Study, rows: list[dict]) -> None:
     """E_i max and time-mean against spacing (colour: algorithm; line: mesh shape; diverged
     runs left out), and E_i max against cost; the reference's own error as a grey line."""
@@ -565,6 +566,8 @@ def main(args) -> int:
     collective(comm, lambda: check_target(out, args.quick, args.force))
     studies = QUICK if args.quick else STUDIES
     session = comm.bcast(time.strftime("%Y-%m-%d %H:%M %Z"))
+    # named on a signal (the old ones stay as they were; the finished meshes are kept)
+    interrupt.will_write([out / f"{NAME}.md", out / f"{NAME}.csv", out / f"{NAME}-*.png"])
     results = {
         s.name: run_study(s, out, args.solver, args.petsc, comm, quick=args.quick, session=session)
         for s in studies
@@ -579,6 +582,7 @@ def main(args) -> int:
         replace_atomically(out / f"{NAME}.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
+    interrupt.will_write([])  # all written
     if comm.rank == 0:
         print(f"wrote {out / NAME}.md, {out / NAME}.csv and {out / NAME}-*.png")
     return 0

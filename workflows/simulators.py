@@ -20,6 +20,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.solvers import interrupt
 from tissuebench.solvers.external import ExternalRun, get_simulator
 from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.exporting import REFERENCE_FIELD, Exported, build, run_reference
@@ -69,21 +70,23 @@ def run_variant(
     output against reference into folder, and return its entry (see the module docstring).
     A failed run or an output that compare refuses is an entry with status "failed"."""
     sim = get_simulator(simulator)
-    result = None
-    if comm.rank == 0:
+
+    def run():
         work = folder / "work"
         work.mkdir(parents=True)
         try:
-            result = sim.run(data, variant, work)
+            return sim.run(data, variant, work)
         except Exception as exc:  # a simulator's own crash is a result, not ours
-            result = ExternalRun(
+            return ExternalRun(
                 None,
                 None,
                 data.nodes.size,
                 status="failed",
                 reason=f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}",
             )
-    result = comm.bcast(result, root=0)
+
+    result = collective(comm, run, folder)  # rank 0; a fault of ours is raised on every rank
+    interrupt.checkpoint(comm)  # a signal stopped the simulator: the job ends, not the variant
     label = label_of(simulator, variant)
     entry = {
         "simulator": simulator,

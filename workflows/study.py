@@ -22,6 +22,7 @@ from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.errors import METRICS
 from tissuebench.solvers import REFERENCE, get_integrator
+from tissuebench.solvers import interrupt
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.materials import get_material
@@ -312,4 +313,6 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         )  # last: it marks the folder ours
         return summary
 
-    return collective(comm, write, target)
+    summary = collective(comm, write, target)
+    interrupt.checkpoint(comm)  # a signal on any rank: every rank stops before the commit
+    return summary

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tissuebench.solvers import interrupt
 from tissuebench.solvers.external import ExternalRun
 
 NAME = "calculix"
@@ -109,16 +110,9 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
     dofs = data.nodes.size
     start = time.perf_counter()
-    try:
-        done = subprocess.run(
-            ["ccx", "-i", JOB],
-            cwd=workdir,
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=TIMEOUT,
-        )
-    except subprocess.TimeoutExpired:
+    # stopped at once by a signal, which then ends the job (solvers/interrupt.py)
+    done = interrupt.run_child(["ccx", "-i", JOB], TIMEOUT, cwd=workdir, env=env)
+    if done is None:
         return ExternalRun(None, None, dofs, status="failed", reason=f"ccx ran over {TIMEOUT:g} s")
     wall = time.perf_counter() - start
     (workdir / "ccx.log").write_text(done.stdout + done.stderr)
