@@ -143,6 +143,33 @@ def prefix_of(key: str) -> str | None:
     return max(found, key=len) if found else None
 
 
+@contextmanager
+def silent_stdout():
+    """Standard output (file descriptor 1, and Python's sys.stdout, which petsc4py may route
+    PETSc's printing to: monitors, views) is dropped while the block runs; C's buffers are
+    flushed on either side."""
+    import ctypes
+    import io
+    import os
+    import sys
+    from contextlib import redirect_stdout
+
+    libc = ctypes.CDLL(None)
+    sys.stdout.flush()
+    libc.fflush(None)
+    saved = os.dup(1)
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        with redirect_stdout(io.StringIO()):
+            yield
+    finally:
+        libc.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(null)
+
+
 def _try_prefix(prefix: str, solver: str, keys: list[str], comm) -> None:
     """Set up and run a KSP under `prefix` on a small SPD matrix (tridiagonal, 4 rows per
     rank), with the defaults that the run's solver takes there, and a Newton solver (SNES)
@@ -167,7 +194,7 @@ def _try_prefix(prefix: str, solver: str, keys: list[str], comm) -> None:
     b.set(1.0)
     objects = [A, b, x]
     try:
-        with petsc_defaults(prefix, defaults):
+        with petsc_defaults(prefix, defaults), silent_stdout():  # no monitor of this dry run
             ksp = PETSc.KSP().create(comm)
             objects.append(ksp)
             ksp.setOptionsPrefix(prefix)

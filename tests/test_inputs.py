@@ -182,6 +182,22 @@ def test_petsc_option_checks(solver, petsc, message):
     assert not any(PETSc.Options().hasName(w.lstrip("-")) for w in petsc.split()[:1])
 
 
+def test_petsc_check_is_silent_and_reads_solve_time_options(capfd):
+    """Options read at a solve (a converged reason, a view) pass, and the check's own small
+    solve prints nothing: only the run's solves do."""
+    from petsc4py import PETSc
+
+    from tissuebench.solvers.linear import check_petsc_options
+
+    options = "-implicit_ksp_converged_reason -implicit_mass_ksp_view"
+    try:
+        check_petsc_options(options, "direct")
+    finally:
+        for word in options.split():
+            PETSc.Options().delValue(word[1:])
+    assert capfd.readouterr().out == ""
+
+
 @pytest.mark.serial
 def test_petsc_options_refused_in_one_line_under_mpiexec(tmp_path):
     petsc = "--petsc=-implicit_pc_factor_mat_solver_type pastix"
