@@ -7,10 +7,13 @@ and every step is measured in parallel. A candidate on the reference's mesh, nod
 and cell for cell, is graded node by node (section 6); a candidate on another mesh of the
 same body is graded as SPEC section 9 says (metrics/crossmesh.py), and a note says so.
 
-A series whose displacement has a non-finite value (NaN or inf) at step k has diverged
-there: the metrics are not evaluated from step k on (NaN), and metrics.csv's `status` column
-says so ("diverged" for the candidate, "reference diverged" for the reference, as in a run's
-metrics.csv; "missing" for the steps after a shorter candidate's last one).
+A series has diverged at step k, as SPEC section 3 says of a run, when its displacement at
+step k has a non-finite value (NaN or inf, in any component) or its largest nodal
+displacement magnitude exceeds 100 times its domain's largest extent: the metrics are not
+evaluated from step k on (NaN), metrics.csv's `status` column says so ("diverged" for the
+candidate, "reference diverged" for the reference, as in a run's metrics.csv; "missing" for
+the steps after a shorter candidate's last one), and Grading gives the reason. Within that
+bound no metric of a graded step can overflow (series.py bounds the coordinates).
 """
 
 from dataclasses import dataclass, field, replace
@@ -50,6 +53,7 @@ POINT_TOLERANCE = 1e-6  # node coordinates match within this fraction of the mes
 # time: TIME_RTOL accepts them with a factor 2 to spare, up to 25 000 steps of h (beyond
 # that six digits cannot tell neighbouring steps apart, and h/4 decides).
 TIME_RTOL = 1e-5
+DIVERGENCE = 100.0  # SPEC 3: a nodal displacement beyond this times the largest extent diverges
 
 
 def summarize(curve):
@@ -176,10 +180,37 @@ def initial_states(ref: Series, cand: Series) -> tuple[Series, Series, list[str]
     return done[0], done[1], notes
 
 
-def first_non_finite(series: Series) -> int | None:
-    """The first step at which the series' displacement has a non-finite value (NaN or inf),
-    None if it has none."""
-    return next((i for i, u in enumerate(series.displacements) if not np.isfinite(u).all()), None)
+def largest_magnitude(u: np.ndarray) -> float:
+    """The largest Euclidean norm of a row of the finite nodal values u (n, d), in u's units,
+    computed without overflow for values up to float64's largest (inf beyond)."""
+    scale = float(np.abs(u).max(initial=0.0))
+    if scale == 0:
+        return 0.0
+    with np.errstate(over="ignore"):
+        return scale * float(np.sqrt(np.sum((u / scale) ** 2, axis=1)).max())
+
+
+def divergence(series: Series) -> tuple[int, str] | None:
+    """The first step at which the series has diverged (SPEC section 3: a non-finite
+    displacement, or a largest nodal displacement magnitude beyond DIVERGENCE times the
+    domain's largest extent) with the reason in a few words; None if it never does."""
+    extent = float(np.ptp(series.points, axis=0).max())
+    what = (
+        "displacement"
+        if series.field == "displacement"
+        else f"displacement (field {series.field!r})"
+    )
+    for i, u in enumerate(series.displacements):
+        if not np.isfinite(u).all():
+            return i, f"non-finite {what}"
+        largest = largest_magnitude(u)
+        if largest > DIVERGENCE * extent:
+            shown = f"{largest:.3g}" if np.isfinite(largest) else "beyond 1.8e+308"
+            return i, (
+                f"largest nodal {what} {shown} exceeds {DIVERGENCE:g} x the domain's largest "
+                f"extent ({extent:.3g})"
+            )
+    return None
 
 
 def statuses(
@@ -262,10 +293,9 @@ def _curves(
 # --- output ---------------------------------------------------------------------------------
 
 
-def _divergence(who: str, step: int, time: float, field: str) -> str:
-    """One line: `who` ("candidate" or "reference") diverged at `step` (time in s)."""
-    what = "displacement" if field == "displacement" else f"displacement (field {field!r})"
-    return f"{who} diverged at step {step} (t = {time:.6g} s): non-finite {what}"
+def _divergence(who: str, step: int, time: float, reason: str) -> str:
+    """One line: `who` ("candidate" or "reference") diverged at `step` (time in s), and why."""
+    return f"{who} diverged at step {step} (t = {time:.6g} s): {reason}"
 
 
 @dataclass
@@ -275,8 +305,10 @@ class Grading:
     diverged, missing), the one-line `summaries` (where a series diverged or ends, then one per
     metric: max and time-mean over the graded steps), the candidate's `label`, a `title`,
     the `notes` on how the series were read (one line each: a series completed with the zero
-    initial state, a candidate graded on its own mesh), the field read from each side (`fields`: reference, candidate), and the
-    divergence steps and number of candidate steps."""
+    initial state, a candidate graded on its own mesh), the field read from each side (`fields`:
+    reference, candidate), the divergence steps, the number of candidate steps, and why each
+    side diverged (`reference_reason`, `candidate_reason`: a few words, as a run's summary.json
+    `reason`; None for a side that did not)."""
 
     label: str
     title: str
@@ -289,6 +321,8 @@ class Grading:
     reference_diverged: int | None = None
     candidate_diverged: int | None = None
     candidate_steps: int = 0
+    reference_reason: str | None = None
+    candidate_reason: str | None = None
 
 
 def grade(
@@ -305,15 +339,17 @@ def grade(
     .dat files). The point field of each side is `reference_field` / `candidate_field`, else
     `field`, else the first of series.DEFAULT_FIELDS that the file holds. A series that
     starts at t = h starts from the zero initial state at t = 0 (a note says so). A series'
-    first step with a non-finite displacement is its divergence: nothing is graded from
-    there on. A candidate on another mesh of the reference's body (triangles, quadrilaterals,
-    tetrahedra or hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
+    first step with a non-finite displacement, or one beyond 100 times its largest extent, is
+    its divergence (Grading gives the reason): nothing is graded from there on. A candidate
+    on another mesh of the reference's body (triangles, quadrilaterals, tetrahedra or
+    hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
     `label` names the candidate (default: its file name without suffix). Collective over
     comm; the same Grading on every rank.
 
     Raises InputError on every rank for unreadable files, meshes of different dimensions or
     bodies, time stamps that do not match, degenerate cells, a mesh boundary that touches
-    itself, or a missing field.
+    itself, a missing field, complex values, or a series whose steps change the mesh or
+    its node order.
     """
     ref = cand = error = None
     if comm.rank == 0:
@@ -360,8 +396,8 @@ def grade_series(
                 match is None,
                 ref.times,
                 len(cand.times),
-                first_non_finite(ref),
-                first_non_finite(cand),
+                divergence(ref),
+                divergence(cand),
                 notes,
                 (ref.field, cand.field),
                 (label or cand.path.stem, ref.path.stem),
@@ -377,7 +413,9 @@ def grade_series(
     if error is not None:
         raise InputError(error)
 
-    cross, times, cand_steps, ref_diverged, cand_diverged, notes, fields, names, extent = plan
+    cross, times, cand_steps, ref_divergence, cand_divergence, notes, fields, names, extent = plan
+    ref_diverged, ref_reason = ref_divergence or (None, None)
+    cand_diverged, cand_reason = cand_divergence or (None, None)
     steps = len(times)
     status = statuses(steps, cand_steps, ref_diverged, cand_diverged)
     graded = status.count(
@@ -396,11 +434,11 @@ def grade_series(
     summaries = {}
     if ref_diverged is not None:
         summaries["reference"] = _divergence(
-            "reference", ref_diverged, times[ref_diverged], fields[0]
+            "reference", ref_diverged, times[ref_diverged], ref_reason
         )
     if cand_diverged is not None:
         summaries["candidate"] = _divergence(
-            "candidate", cand_diverged, times[cand_diverged], fields[1]
+            "candidate", cand_diverged, times[cand_diverged], cand_reason
         )
     elif cand_steps < steps:
         summaries["candidate"] = (
@@ -432,4 +470,6 @@ def grade_series(
         ref_diverged,
         cand_diverged,
         cand_steps,
+        ref_reason,
+        cand_reason,
     )

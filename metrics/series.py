@@ -6,8 +6,12 @@ ASCII .frd and .dat (with its deck, the .inp beside it; metrics/calculix.py). Th
 first order, of one cell type: triangles or quadrilaterals (2D; a zero third coordinate, as
 meshio and ParaView store 2D data, is dropped), tetrahedra or hexahedra (3D); the
 displacement is P1 on simplices and Q1 on the others (SPEC section 9). Cells are returned in
-VTK node order, as the files hold them. Anything else raises InputError with one line naming
-the file and the problem.
+VTK node order, as the files hold them. Every step must hold the first step's mesh: the same
+nodes in the same order (a step whose nodes move or are numbered otherwise is refused, not
+matched by coordinates) and the same cells. Values must be real numbers (a complex field is
+refused); a non-finite value in any component, the third of 2D data included, is kept as
+non-finite, so that the step counts as diverged (metrics/compare.py). Anything else raises
+InputError with one line naming the file and the problem.
 
 The field: a name, taken as it is; or none, and then the first of DEFAULT_FIELDS that the
 file holds (`displacement` as we write it, `U` and `DISP` as CalculiX names it, ...).
@@ -39,6 +43,11 @@ class InputError(UserError):
 
 
 DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
+# Coordinates (in any unit) within +-COORDINATE_RANGE, spanning more than 1/COORDINATE_RANGE:
+# the metrics' sums, areas and volumes of such a mesh, displaced by up to 100 times its extent
+# (beyond that a series has diverged, SPEC section 3), cannot overflow or underflow.
+COORDINATE_RANGE = 1e50
+SAME_NODE = 1e-6  # a later step's node is the first step's within this fraction of the extent
 
 
 @dataclass
@@ -102,7 +111,7 @@ def _finish(path, field, points, cells, cell_type, times, values):
             "tetrahedra and hexahedra are supported"
         )
     cell_type, per_cell = CELLS[cell_type]
-    points = np.asarray(points, dtype=np.float64)
+    points = real(path, points, "point coordinates")
     cells = np.asarray(cells, dtype=np.int64)
     n = len(points)
     if points.ndim != 2 or points.shape[1] not in (2, 3) or n == 0:
@@ -117,6 +126,13 @@ def _finish(path, field, points, cells, cell_type, times, values):
         raise InputError(f"{path}: cells refer to points outside 0..{n - 1}")
     if not np.isfinite(points).all():
         raise InputError(f"{path}: point coordinates are not finite")
+    largest, extent = float(np.abs(points).max()), float(np.ptp(points, axis=0).max())
+    if largest > COORDINATE_RANGE or extent <= 1 / COORDINATE_RANGE:
+        raise InputError(
+            f"{path}: point coordinates reach {largest:.3g} and span {extent:.3g}; only "
+            f"coordinates within +-{COORDINATE_RANGE:g} that span more than "
+            f"{1 / COORDINATE_RANGE:g} can be graded (in any unit)"
+        )
     dim = DIM[cell_type]
     if points.shape[1] < dim:
         raise InputError(f"{path}: {NAMES[cell_type]} with 2D points")
@@ -131,21 +147,82 @@ def _finish(path, field, points, cells, cell_type, times, values):
     times = np.asarray(times, dtype=np.float64)
     if len(times) == 0:
         raise InputError(f"{path}: no time steps")
+    if not np.isfinite(times).all():
+        raise InputError(f"{path}: time stamps are not finite")
     if np.any(np.diff(times) <= 0):
         raise InputError(f"{path}: time stamps are not increasing")
     displacements = []
     for t, u in zip(times, values):
-        u = np.asarray(u, dtype=np.float64)
+        u = real(path, u, f"field {field!r} at time {t:g}")
         if u.ndim != 2 or u.shape[0] != n or u.shape[1] < dim or u.shape[1] > 3:
             raise InputError(
                 f"{path}: field {field!r} at time {t:g} has shape {u.shape}, expected ({n}, {dim})"
             )
-        if u.shape[1] > dim and np.any(u[:, dim:] != 0):
-            raise InputError(
-                f"{path}: 2D mesh but field {field!r} at time {t:g} has a non-zero third component"
-            )
-        displacements.append(np.ascontiguousarray(u[:, :dim]))
+        displacements.append(planar(path, u, dim, f"field {field!r} at time {t:g}"))
     return Series(path, points, cells, cell_type, times, displacements, field)
+
+
+def real(path: Path, data, what: str) -> np.ndarray:
+    """`data` as float64, refusing (InputError) complex and non-numeric values: a complex field
+    is not graded on its real part. Values beyond float64's range become +-inf."""
+    data = np.asarray(data)
+    if data.dtype.kind == "c":
+        raise InputError(
+            f"{path}: {what} is complex-valued ({data.dtype}); only real values can be graded"
+        )
+    if data.dtype.kind not in "iuf":
+        raise InputError(f"{path}: {what} is not numbers (data type {data.dtype})")
+    with np.errstate(over="ignore"):
+        return data.astype(np.float64)
+
+
+def planar(path: Path, u: np.ndarray, dim: int, what: str) -> np.ndarray:
+    """The first `dim` columns of nodal values u (n, 2 or 3) of a mesh of dimension `dim`. A
+    third column of 2D data must be zero where it is finite (InputError otherwise); a node
+    whose third component is NaN or +-inf gets NaN in its kept ones, so that the step stays
+    non-finite (a divergence)."""
+    if u.shape[1] == dim:
+        return np.ascontiguousarray(u)
+    extra = u[:, dim:]
+    finite = np.isfinite(extra)
+    if np.any(finite & (extra != 0)):
+        raise InputError(f"{path}: 2D mesh but {what} has a non-zero third component")
+    kept = np.array(u[:, :dim])
+    kept[~finite.all(axis=1)] = np.nan
+    return kept
+
+
+def check_same_mesh(
+    where: str, first: tuple[np.ndarray, np.ndarray], step: tuple[np.ndarray, np.ndarray]
+) -> None:
+    """Refuse (InputError, `where` naming the file and step) a step whose points (n, 2 or 3)
+    or cells differ from the first step's: the nodes must be the same, in the same order,
+    within SAME_NODE of the first step's extent, and the cells the same. Node values are read
+    in the first step's order, so a renumbered or moved mesh would be graded wrongly."""
+    (points, cells), (step_points, step_cells) = first, step
+    points, step_points = np.asarray(points), np.asarray(step_points)
+    if step_points.shape != points.shape:
+        raise InputError(
+            f"{where}: points of shape {step_points.shape}, the first step's {points.shape} "
+            "(every step must keep the first step's mesh)"
+        )
+    points, step_points = real(where, points, "points"), real(where, step_points, "points")
+    tol = SAME_NODE * float(np.ptp(points, axis=0).max(initial=0.0))
+    moved = np.flatnonzero(~(np.abs(step_points - points).max(axis=1) <= tol))
+    if len(moved):
+        i = moved[0]
+        at = ", ".join(f"{x:.9g}" for x in step_points[i])
+        raise InputError(
+            f"{where}: node {i} is at ({at}), in the first step at "
+            f"({', '.join(f'{x:.9g}' for x in points[i])}): {len(moved)} node(s) moved or "
+            "numbered otherwise; every step must keep the first step's nodes, in their order, "
+            "at their undeformed coordinates"
+        )
+    if not np.array_equal(np.asarray(step_cells), np.asarray(cells)):
+        raise InputError(
+            f"{where}: the cells differ from the first step's; every step must keep the first "
+            "step's mesh"
+        )
 
 
 # --- mesh checks ----------------------------------------------------------------------------
@@ -397,6 +474,13 @@ def _read_xdmf(path, names):
                 raise InputError(
                     f"{path}: time value {time.get('Value')!r} is not a number"
                 ) from None
+            step_mesh = (
+                _step_data(hdf, grid.find("Geometry"), geometry, points, "the geometry"),
+                _step_data(hdf, grid.find("Topology"), topology, cells, "the topology"),
+            )
+            if step_mesh[0] is not points or step_mesh[1] is not cells:
+                where = f"{path} (step {k}, t = {times[-1]:g})"
+                check_same_mesh(where, (points, cells), step_mesh)
             attribute = _attribute(grid, field)
             if attribute.get("Center", "Node") != "Node":
                 raise InputError(f"{path}: field {field!r} is not a point (Node) field")
@@ -406,6 +490,20 @@ def _read_xdmf(path, names):
     finally:
         hdf.close()
     return points, cells, cell_type, times, values, field
+
+
+def _step_data(hdf, element, first_element, first_data, what):
+    """The data of a step grid's own Geometry or Topology `element`: the first's
+    (`first_data`) when the step has none (XDMF's xi:include of the first, as DOLFINx and
+    meshio write), names the same HDF5 dataset, or is a Reference to other data."""
+    item = None if element is None else element.find("DataItem")
+    first = first_element.find("DataItem")
+    if item is None or item is first or item.get("Reference") is not None:
+        return first_data
+    same_form = item.get("Format", "XML").upper() == first.get("Format", "XML").upper() == "HDF"
+    if same_form and (item.text or "").strip() == (first.text or "").strip():
+        return first_data
+    return hdf.read(item, what)
 
 
 def _attribute(grid, field):
@@ -456,8 +554,14 @@ def _read_pvd(path, names):
                     "expected one of triangle, quad, tetra or hexahedron"
                 )
             cells, cell_type = blocks[0].data, blocks[0].type
-        elif len(mesh.points) != len(points):
-            raise InputError(f"{vtu}: {len(mesh.points)} points, the first step has {len(points)}")
+        else:
+            blocks = [block for block in mesh.cells if len(block.data)]
+            same_type = len(blocks) == 1 and blocks[0].type == cell_type
+            check_same_mesh(
+                f"{vtu} (step {k} of {path.name})",
+                (points, cells),
+                (mesh.points, blocks[0].data if same_type else None),
+            )
         try:
             times.append(float(dataset.get("timestep", k)))
         except ValueError:

@@ -83,7 +83,9 @@ class Polygon:
 
 
 def area_error(ref, cand):
-    """|A ⊕ B| / |A| for two shapely regions A (ref) and B (cand)."""
+    """|A ⊕ B| / |A| for two shapely regions A (ref) and B (cand); NaN if |A| = 0."""
+    if not ref.area > 0:
+        return np.float64(np.nan)
     return np.float64(shapely.symmetric_difference(ref, cand).area) / ref.area
 
 
@@ -132,7 +134,9 @@ class Solid:
 
 def volume_error(ref, cand):
     """|A ⊕ B| / |A| for two manifold3d solids A (ref) and B (cand), from |A| + |B| - 2 |A ∩ B|,
-    clipped to 0 below ROUND_OFF (see Solid.error)."""
+    clipped to 0 below ROUND_OFF (see Solid.error); NaN if |A| = 0."""
+    if not ref.volume() > 0:
+        return np.float64(np.nan)
     common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
     value = np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
     return np.float64(0.0) if value < ROUND_OFF else value
@@ -146,7 +150,7 @@ def domain(X, facets):
 
 def surface_error(shape, x_ref, x_cand, cand_shape=None):
     """E_s of a Polygon or Solid for deformed boundary nodes x_ref, x_cand; NaN if either is
-    not finite or the reference domain is empty. The candidate's domain is bounded by
+    not finite or the reference domain is empty or of zero area (2D) or volume (3D). The candidate's domain is bounded by
     `cand_shape` through x_cand when given (its own boundary), else by `shape`."""
     if not (np.isfinite(x_ref).all() and np.isfinite(x_cand).all()):
         return np.nan
