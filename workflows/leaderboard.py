@@ -6,6 +6,7 @@ session: OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case (workflow
 from __future__ import annotations
 
 import csv
+import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -95,8 +96,15 @@ def check_target(out: Path, available: set[str], force: bool) -> None:
     old = out / "leaderboard.csv"
     if force or not old.is_file():
         return
-    with open(old, newline="") as f:
-        labels = [row.get("label", "") for row in csv.DictReader(f)]
+    with open(old, newline="", errors="replace") as f:
+        try:  # a simulator's rows only: a user's label or ours never names a simulator
+            labels = [
+                row.get("label") or ""
+                for row in csv.DictReader(f)
+                if row.get("source") not in ("user", "tissuebench")
+            ]
+        except csv.Error:
+            labels = []  # not a leaderboard's table: nothing in it to keep
     lost = sorted({lab.split(":")[0] for lab in labels if ":" in lab} - available)
     if lost:
         raise OutputError(
@@ -105,8 +113,17 @@ def check_target(out: Path, available: set[str], force: bool) -> None:
         )
 
 
-def run_board(board: Board, out: Path, solver: str, petsc: str, comm, log=print):
-    """Our runs, then every simulator's, of one case; returns (rows, notes)."""
+def run_board(
+    board: Board,
+    out: Path,
+    solver: str,
+    petsc: str,
+    comm,
+    log=print,
+    users: list[Row] | None = None,
+):
+    """Our runs, then every simulator's, of one case, with the users' rows (read and checked
+    before anything runs: read_users); returns (rows, notes)."""
     folder = out / FOLDER / board.name
     reference = run_label("implicit", board.model)
     case = model_case(
@@ -156,8 +173,7 @@ def run_board(board: Board, out: Path, solver: str, petsc: str, comm, log=print)
         rows += external_rows(board.name, result)
         for variant, why in (result.get("skipped_variants") or {}).items():
             notes.append(f"{name}:{variant} not posed: {why}")
-    if comm.rank == 0:
-        rows += user_rows(board.name, folder / "user")
+    rows += users or []
     mark_pareto(rows)
     return rows, notes
 
@@ -190,6 +206,23 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
     return rows
 
 
+def read_users(out: Path, boards: list[Board]) -> tuple[dict, dict]:
+    """Every user's compare folder of every case (OUT/leaderboard/CASE/user/NAME), read and
+    checked (ranking.user_rows): ({case: [Row]}, {case: [one line per folder or run left
+    out]}); each line left out is also printed on stderr. Rank 0."""
+    rows, skipped = {}, {}
+    for board in boards:
+        rows[board.name], skipped[board.name] = user_rows(board, out / FOLDER / board.name / "user")
+        for line in skipped[board.name]:
+            warn(line)
+    return rows, skipped
+
+
+def warn(line: str) -> None:
+    """One line on stderr: something read was left out, and why."""
+    print(f"tissuebench leaderboard: {line}", file=sys.stderr)
+
+
 def main(args) -> int:
     import time
 
@@ -204,15 +237,21 @@ def main(args) -> int:
                 available.add(name)
     collective(comm, lambda: check_target(out, available, args.force))
     session = time.strftime("%Y-%m-%d %H:%M %Z")
+    # what is read is read and checked before anything runs (rank 0 reads and writes)
+    users, left_out = read_users(out, BOARDS) if comm.rank == 0 else ({}, {})
+    studied = leaderboard_boards(out, log=warn) if comm.rank == 0 else []
     rows, notes = {}, {}
     interrupt.will_write(  # named on a signal: the old ones stay as they were
         [out / "leaderboard.md", out / "leaderboard.csv", out / FOLDER / "*.png"]
     )
     for board in BOARDS:
-        rows[board.name], notes[board.name] = run_board(board, out, args.solver, args.petsc, comm)
+        rows[board.name], notes[board.name] = run_board(
+            board, out, args.solver, args.petsc, comm, users=users.get(board.name)
+        )
+        notes[board.name] += left_out.get(board.name, [])
     boards = list(BOARDS)
-    for board, board_rows in leaderboard_boards(out) if comm.rank == 0 else []:
-        mark_pareto(board_rows)  # the mesh-sensitivity study's runs (rank 0 writes)
+    for board, board_rows in studied:
+        mark_pareto(board_rows)  # the mesh-sensitivity study's runs
         boards.append(board)
         rows[board.name], notes[board.name] = board_rows, []
 

@@ -12,21 +12,31 @@ one session on one machine; a user's run carries the wall time they gave compare
 OUT/leaderboard/CASE/ours, OUT/leaderboard/CASE/SIMULATOR: the case's folders (ours);
 OUT/leaderboard/CASE/user/NAME: compare folders a user put there (read only);
 OUT/leaderboard.md, OUT/leaderboard.csv, OUT/leaderboard/CASE.png: the leaderboard.
+
+Nothing read is trusted: a user's folder is checked against its case (dimension and nodes of
+the reference it was graded against, h, steps, end time) and each of its rows for its label,
+status, wall time and metrics; what fails is left out with one line saying why. Every text
+that was read is escaped for Markdown and HTML in leaderboard.md (md) and for matplotlib in
+the figures (plain); a user's label is never taken for a simulator's name. A NaN or infinite
+cost or error never ranks.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+import numbers
 import platform
 import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
 
+from tissuebench.meshes import get_entry
 from tissuebench.metrics.errors import METRICS
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.external import SIMULATORS
+from tissuebench.workflows.limits import step_count
 from tissuebench.workflows.output import read_summary
 
 E_I = "interior_error"
@@ -72,8 +82,8 @@ class Row:
 
     @property
     def cost(self) -> float | None:
-        """Wall time per simulated second (s/s)."""
-        if self.wall_time_s is None or not self.end_time:
+        """Wall time per simulated second (s/s); None unless both are finite, T > 0."""
+        if not finite(self.wall_time_s) or not finite(self.end_time) or self.end_time <= 0:
             return None
         return self.wall_time_s / self.end_time
 
@@ -136,17 +146,174 @@ def external_rows(case: str, summary: dict) -> list[Row]:
     return rows
 
 
-def user_rows(case: str, folder: Path) -> list[Row]:
-    """Rows of the compare folders in folder (CASE/user/NAME/summary.json, kind "compare")."""
-    rows = []
-    for sub in sorted(p for p in Path(folder).glob("*") if p.is_dir()):
-        summary = read_summary(sub)
-        if not summary or summary.get("kind") != "compare":
+# --- what is read from outside ----------------------------------------------------------------
+
+MAX_LABEL = 64  # characters of a user's label, as compare takes it
+STATUSES = ("ok", "diverged", "reference diverged", "missing")  # compare's
+TOLERANCE = 1e-5  # relative, on h and T: compare's time stamps match to six printed digits
+
+
+def real(x) -> bool:
+    """True for a real number that is not a bool (it may be NaN or infinite)."""
+    return isinstance(x, numbers.Real) and not isinstance(x, bool)
+
+
+def finite(x) -> bool:
+    """True for a real number (not a bool) that is neither NaN nor infinite."""
+    return real(x) and math.isfinite(x)
+
+
+def one_line(text) -> str:
+    """text with every character that is not printable (a newline, a tab) shown escaped:
+    safe in a one-line message."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
+MARKDOWN = str.maketrans(
+    {c: "\\" + c for c in "\\`*_[]|~$#"} | {"&": "&amp;", "<": "&lt;", ">": "&gt;"}
+)
+
+
+def md(text) -> str:
+    """text as literal Markdown and HTML on one line (a table cell, a list item): every
+    character that is not printable becomes a space, Markdown's inline marks and | are
+    backslash-escaped and <, >, & become entities."""
+    line = "".join(c if c.isprintable() else " " for c in str(text))
+    return line.translate(MARKDOWN)
+
+
+def plain(text) -> str:
+    """text as literal text for matplotlib (no mathtext), on one line."""
+    return "".join(c if c.isprintable() else " " for c in str(text)).replace("$", r"\$")
+
+
+def label_problem(label) -> str | None:
+    """Why a user's run label cannot be taken (None: it can): compare's rule, printable text
+    of 1 to MAX_LABEL characters without leading or trailing spaces."""
+    if not isinstance(label, str) or not 0 < len(label) <= MAX_LABEL:
+        return f"its label must be text of 1 to {MAX_LABEL} characters"
+    if not label.isprintable() or label.strip() != label:
+        return "its label has characters that are not printable or leading/trailing spaces"
+    return None
+
+
+def board_case(board: Board) -> dict:
+    """What a run of the board's case is, before anything runs: the reference's dimension
+    and nodes, h (s), steps and end time (s)."""
+    entry = get_entry(board.benchmark)
+    end_time = board.end_time if board.end_time is not None else entry.end_time
+    steps = step_count(entry.dt, end_time)
+    return {
+        "gdim": entry.gdim,
+        "nodes": entry.nodes(board.mesh_size or entry.mesh_size),
+        "h": entry.dt,
+        "steps": steps,
+        "end_time": steps * entry.dt,
+    }
+
+
+def reference_problem(summary: dict, case: dict) -> str | None:
+    """Why a compare summary was not graded on the case (None: it was): its h, steps and end
+    time, and the dimension and nodes of the reference it names, against the case's."""
+    h, steps, end = (summary.get(k) for k in ("h", "steps", "end_time"))
+    if not (finite(h) and h > 0 and finite(end) and end > 0):
+        return "its summary.json has no positive numbers h and end_time"
+    if not (isinstance(steps, int) and not isinstance(steps, bool) and steps > 0):
+        return "its summary.json has no positive whole number of steps"
+    close = [
+        math.isclose(a, b, rel_tol=TOLERANCE) for a, b in ((h, case["h"]), (end, case["end_time"]))
+    ]
+    if steps != case["steps"] or not all(close):
+        return (
+            f"graded over {steps} steps of h = {h:.6g} s to T = {end:.6g} s; the case is "
+            f"{case['steps']} steps of h = {case['h']:.6g} s to T = {case['end_time']:.6g} s"
+        )
+    reference = summary.get("reference")
+    file = reference.get("file") if isinstance(reference, dict) else None
+    if not isinstance(file, str) or not file:
+        return "its summary.json names no reference file"
+    try:
+        from tissuebench.metrics.series import read_series
+
+        series = read_series(file)
+        dim, nodes = series.dim, len(series.points)
+    except Exception as exc:  # anything a file can do to a reader: it cannot be checked
+        return (
+            f"its reference {one_line(file)} cannot be read to check that it is the case's "
+            f"({type(exc).__name__}: {one_line(' '.join(str(exc).split()))[:200]})"
+        )
+    if dim != case["gdim"] or nodes != case["nodes"]:
+        return (
+            f"graded against {one_line(file)}, {dim}D with {nodes} nodes; the case's "
+            f"reference is {case['gdim']}D with {case['nodes']} nodes"
+        )
+    return None
+
+
+def run_problem(label, run) -> str | None:
+    """Why one run of a compare summary cannot be a row (None: it can): its label, status,
+    wall time (s; null when none was given) and every metric (null, or a number >= 0; an
+    infinite one only for a run that did not finish)."""
+    problem = label_problem(label)
+    if problem:
+        return problem
+    if not isinstance(run, dict):
+        return "not a run (an object) in summary.json"
+    if run.get("status") not in STATUSES:
+        return (
+            f"status {one_line(repr(run.get('status')))[:40]} is not one of {', '.join(STATUSES)}"
+        )
+    if "wall_time_s" not in run:
+        return "no wall_time_s"
+    wall = run["wall_time_s"]
+    if wall is not None and not (finite(wall) and wall >= 0):
+        return f"wall_time_s {one_line(repr(wall))[:40]} is not a finite number of seconds >= 0"
+    for key in error_keys():
+        if key not in run:
+            return f"no {key}"
+        value = run[key]
+        if value is None:
             continue
-        for label, run in summary["runs"].items():
+        if not real(value) or math.isnan(value) or value < 0:
+            return f"{key} {one_line(repr(value))[:40]} is not a number >= 0"
+        if math.isinf(value) and run["status"] == "ok":
+            return f"{key} is infinite in a run whose status is ok"
+    return None
+
+
+def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
+    """Rows of the compare folders in folder (CASE/user/NAME/summary.json, kind "compare"),
+    and one line for each folder or run left out and why (see reference_problem and
+    run_problem). Reads files only; rank 0."""
+    rows, skipped = [], []
+    folder = Path(folder)
+    if not folder.is_dir():
+        return rows, skipped
+    case = board_case(board)
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+        where = one_line(sub)
+        summary = read_summary(sub)
+        if summary is None:
+            skipped.append(f"{where}: left out: no readable summary.json of compare")
+            continue
+        if summary.get("kind") != "compare":
+            skipped.append(f"{where}: left out: its summary.json is not compare's")
+            continue
+        problem = reference_problem(summary, case)
+        runs = summary.get("runs")
+        if problem is None and (not isinstance(runs, dict) or not runs):
+            problem = "its summary.json has no runs"
+        if problem:
+            skipped.append(f"{where}: left out: {problem}")
+            continue
+        for label, run in runs.items():
+            problem = run_problem(label, run)
+            if problem:
+                skipped.append(f"{where}: run {one_line(label)[:80]} left out: {problem}")
+                continue
             rows.append(
                 Row(
-                    case,
+                    board.name,
                     label,
                     "user",
                     f"graded by compare ({sub.name})",
@@ -154,13 +321,13 @@ def user_rows(case: str, folder: Path) -> list[Row]:
                     0,
                     run["status"],
                     None,
-                    {k: run.get(k) for k in error_keys()},
-                    run.get("wall_time_s"),
+                    {k: None if run[k] is None else float(run[k]) for k in error_keys()},
+                    None if run["wall_time_s"] is None else float(run["wall_time_s"]),
                     float(summary["end_time"]),
                     "reported by the user",
                 )
             )
-    return rows
+    return rows, skipped
 
 
 def error_keys() -> list[str]:
@@ -172,6 +339,9 @@ def pareto(points: list[tuple[float, float]]) -> list[bool]:
     wrong, and better in one of the two (the non-dominated set)."""
     flags = []
     for i, (c, e) in enumerate(points):
+        if not (finite(c) and finite(e)):
+            flags.append(False)  # a NaN or infinity never ranks
+            continue
         dominated = any(
             c2 <= c and e2 <= e and (c2 < c or e2 < e)
             for j, (c2, e2) in enumerate(points)
@@ -181,19 +351,23 @@ def pareto(points: list[tuple[float, float]]) -> list[bool]:
     return flags
 
 
+def ranked_error(r: Row, kind: str) -> float | None:
+    """The E_i (time-mean or max: kind) by which a row ranks, or None when it does not rank:
+    the reference, a run that did not finish, and a NaN, infinite or negative cost or error."""
+    error = r.errors.get(f"{E_I}_{kind}")
+    if r.reference or r.status != "ok" or not finite(r.cost) or not finite(error):
+        return None
+    return error if error >= 0 and r.cost >= 0 else None
+
+
 def mark_pareto(rows: list[Row]) -> None:
-    """Set row.pareto["mean"|"max"] on the runs that finished, the reference left out (its
-    error is zero by definition)."""
+    """Set row.pareto["mean"|"max"] on the runs that finished with a finite cost and error,
+    the reference left out (its error is zero by definition)."""
     for kind in ("mean", "max"):
-        ranked = [
-            r
-            for r in rows
-            if r.status == "ok"
-            and not r.reference
-            and r.cost is not None
-            and r.errors.get(f"{E_I}_{kind}") is not None
-        ]
-        flags = pareto([(r.cost, r.errors[f"{E_I}_{kind}"]) for r in ranked])
+        ranked = [r for r in rows if ranked_error(r, kind) is not None]
+        flags = pareto([(r.cost, ranked_error(r, kind)) for r in ranked])
+        for r in rows:
+            r.pareto.pop(kind, None)
         for r, flag in zip(ranked, flags):
             r.pareto[kind] = flag
 
@@ -239,14 +413,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     reference = next((r for r in rows if r.reference), None)
     not_shown = [r for r in rows if not r.reference and (r.status != "ok" or r.cost is None)]
     for ax, kind in zip(axes, ("mean", "max")):
-        shown = [
-            r
-            for r in rows
-            if not r.reference
-            and r.status == "ok"
-            and r.cost is not None
-            and r.errors.get(f"{E_I}_{kind}")
-        ]
+        shown = [r for r in rows if (ranked_error(r, kind) or 0) > 0 and r.cost > 0]
         placed = []
         crowded = sum(r.group is None for r in shown) > LABELLED
         for source in dict.fromkeys(r.group or r.source for r in shown):
@@ -257,7 +424,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 [r.errors[f"{E_I}_{kind}"] for r in group],
                 marker=marker,
                 s=46,
-                label=source,
+                label=plain(source),
                 zorder=3,
             )
             for r in group:
@@ -269,8 +436,8 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                     for p in placed
                 )
                 placed.append(xy)
-                ax.annotate(
-                    r.label.split(":", 1)[-1],
+                ax.annotate(  # a simulator's variant without the simulator's name
+                    plain(r.label if r.source == "user" else r.label.split(":", 1)[-1]),
                     xy,
                     textcoords="offset points",
                     xytext=(4, 3 + 9 * near),
@@ -289,7 +456,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 ls=":",
                 color="0.5",
                 lw=1,
-                label=f"cost of the reference {reference.label} (E = 0)",
+                label=f"cost of the reference {plain(reference.label)} (E = 0)",
             )
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -300,7 +467,8 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     title = textwrap.wrap(f"{board.name}: {board.description}", 150)
     if not_shown:
         title += textwrap.wrap(
-            f"not shown (failed or diverged): {', '.join(r.label for r in not_shown)}", 150
+            f"not shown (failed or diverged): {', '.join(plain(r.label) for r in not_shown)}",
+            150,
         )
     fig.suptitle("\n".join(title), fontsize=10)
     fig.savefig(path, format="png", dpi=110)
@@ -316,14 +484,14 @@ def table(rows: list[Row]) -> list[str]:
 
     def key(r: Row):
         mean = r.errors.get(f"{E_I}_mean")
-        return (not r.reference, r.status != "ok", mean if mean is not None else math.inf)
+        return (not r.reference, r.status != "ok", mean if finite(mean) else math.inf)
 
     for r in sorted(rows, key=key):
-        status = r.status if not r.reason else f"{r.status}: {r.reason}"
+        status = md(r.status if not r.reason else f"{r.status}: {r.reason}")
         front = "/".join("yes" if r.pareto.get(k) else "-" for k in ("mean", "max"))
         lines.append(
-            f"| {r.label}{' (reference)' if r.reference else ''} | {r.source} | {r.mesh}, "
-            f"{r.dofs} | {status} | {fmt(r.errors.get(f'{E_I}_mean'))} | "
+            f"| {md(r.label)}{' (reference)' if r.reference else ''} | {md(r.source)} | "
+            f"{md(r.mesh)}, {r.dofs} | {status} | {fmt(r.errors.get(f'{E_I}_mean'))} | "
             f"{fmt(r.errors.get(f'{E_I}_max'))} | {fmt(r.errors.get(f'{E_N}_max'))} | "
             f"{fmt(r.wall_time_s)} | {fmt(r.cost)} | {fmt(r.cost_per_dof)} | {front} |"
         )
@@ -387,10 +555,11 @@ def markdown(
         if outside:
             out += ["", "What each outside run is:", ""]
             out += [
-                f"- `{r.label}`: {r.description}; mesh: {r.mesh}; timing: {r.timing}"
+                f"- **{md(r.label)}**: {md(r.description)}; mesh: {md(r.mesh)}; timing: "
+                f"{md(r.timing)}"
                 for r in outside
             ]
         if notes.get(board.name):
-            out += ["", *[f"- {n}" for n in notes[board.name]]]
+            out += ["", *[f"- {md(n)}" for n in notes[board.name]]]
         out.append("")
     return "\n".join(out)

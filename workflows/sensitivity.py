@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import csv
 import json
+import math
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +39,7 @@ from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.arguments import add_common, check_common
 from tissuebench.workflows.exporting import replace_atomically
-from tissuebench.workflows.ranking import Board, Row, error_keys, fmt
+from tissuebench.workflows.ranking import Board, Row, error_keys, finite, fmt, real
 from tissuebench.workflows.output import OutputError, check_writable, collective, fingerprint
 from tissuebench.workflows.xdmf import gather_mesh, gather_series, write_series
 
@@ -263,12 +265,14 @@ def run_study(
         warm = False
         for size in study.sizes:
             done = folder / f"rows-{shape.replace(' ', '-')}-{size}.json"
-            saved = comm.bcast(
-                json.loads(done.read_text()) if comm.rank == 0 and done.is_file() else None
+            saved, damaged = comm.bcast(
+                read_saved(done, key, study, shape, size) if comm.rank == 0 else None
             )
-            if saved is not None and saved.get("fingerprint") == key:
-                rows += [{**r, "session": saved.get("session", "?")} for r in saved["rows"]]
-                sessions.append(saved.get("session", "?"))
+            if damaged and comm.rank == 0:
+                log(f"{done}: {damaged}; this mesh is run again")
+            if saved is not None:
+                rows += [{**r, "session": saved["session"]} for r in saved["rows"]]
+                sessions.append(saved["session"])
                 continue
             if ref is None:
                 ref = reference_run(study, study.size, h, steps, solver, folder, comm, log)
@@ -278,9 +282,15 @@ def run_study(
             new = run_mesh(study, shape, options, size, ref, h, steps, solver, folder, comm, log)
             record = {"fingerprint": key, "session": session, "rows": new}
             text = json.dumps(record, indent=1) + "\n"
-            collective(
-                comm, lambda: replace_atomically(done, lambda tmp: tmp.write_text(text)), done
-            )
+            try:
+                collective(
+                    comm, lambda: replace_atomically(done, lambda tmp: tmp.write_text(text)), done
+                )
+            except OutputError as exc:
+                if not damaged:
+                    raise
+                if comm.rank == 0:  # someone else's file now: kept; the rows are in the report
+                    log(f"{exc}; the mesh's new rows are not saved")
             rows += [{**r, "session": session} for r in new]
             sessions.append(session)
     reference = {"size": 2 * study.size, "dofs": ref["dofs"] if ref else None}
@@ -291,6 +301,62 @@ def run_study(
         "end_time": steps * h,
         "sessions": sorted(set(sessions)),
     }
+
+
+ROW_NUMBERS = ("spacing_m", "wall_time_s", "end_time_s", "cost_s_per_s")  # finite, >= 0
+ROW_COUNTS = ("size", "nodes", "cells", "dofs", "steps")  # whole numbers >= 0
+
+
+def row_problem(row, study: Study, shape: str, size: int) -> str | None:
+    """Why a saved row (run_mesh's) is not one of this mesh's runs (None: it is)."""
+    if not isinstance(row, dict):
+        return "holds a row that is not an object"
+    errors = [f"{name}_{kind}" for name in GRADED for kind in ("max", "mean")]
+    keys = ("case", "algorithm", "shape", "status", "diverged_time_s", *ROW_NUMBERS)
+    missing = [k for k in (*keys, *ROW_COUNTS, *errors) if k not in row]
+    if missing:
+        return f"holds a row without {missing[0]}"
+    if (row["case"], row["shape"], row["size"]) != (study.name, shape, size):
+        return "holds a row of another case or mesh"
+    if row["algorithm"] not in ALGORITHMS or not isinstance(row["status"], str):
+        return "holds a row whose algorithm or status is not one of ours"
+    if not all(finite(row[k]) and row[k] >= 0 for k in ROW_NUMBERS) or row["end_time_s"] <= 0:
+        return "holds a row whose times are not finite numbers >= 0"
+    if not all(type(row[k]) is int and row[k] >= 0 for k in ROW_COUNTS):
+        return "holds a row whose sizes are not whole numbers >= 0"
+    if not all(row[k] is None or real(row[k]) for k in (*errors, "diverged_time_s")):
+        return "holds a row whose metrics are not numbers"
+    return None
+
+
+def read_saved(
+    path: Path, key: str, study: Study, shape: str, size: int
+) -> tuple[dict | None, str | None]:
+    """(record, problem) of a mesh graded before (rows-SHAPE-SIZE.json: fingerprint, session,
+    rows): the record if the file exists, carries the fingerprint `key` and holds one
+    well-formed row per algorithm of this mesh, else None so that the mesh is run again; the
+    problem says in a few words why a file that exists cannot be used (None when it can, or
+    when it holds the rows of other inputs)."""
+    if not path.is_file():
+        return None, None
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError, RecursionError) as exc:  # a decoding error is a ValueError
+        return None, f"cannot be read ({type(exc).__name__})"
+    if not isinstance(record, dict):
+        return None, "is not a record of rows"
+    if record.get("fingerprint") != key:
+        return None, None
+    rows = record.get("rows")
+    if not isinstance(rows, list):
+        return None, "holds no rows"
+    problem = next(filter(None, (row_problem(r, study, shape, size) for r in rows)), None)
+    if problem is None and sorted(r["algorithm"] for r in rows) != sorted(ALGORITHMS):
+        problem = "does not hold one row per algorithm"
+    if problem:
+        return None, problem
+    session = record.get("session")
+    return {"rows": rows, "session": session if isinstance(session, str) else "?"}, None
 
 
 # --- the report --------------------------------------------------------------------------------
@@ -588,26 +654,39 @@ def main(args) -> int:
     return 0
 
 
-def leaderboard_boards(out: Path) -> list[tuple]:
+def leaderboard_boards(out: Path, log=lambda line: None) -> list[tuple]:
     """The full study's runs in OUT as leaderboard cases: [(ranking.Board, [ranking.Row])], one
-    per case (none without a full study's report)."""
+    per case (none without a full study's report). Nothing read is trusted: a report or table
+    that cannot be read, and each row of the table that is not a run of the study, is left
+    out with one line to `log`."""
     md, table = out / f"{NAME}.md", out / f"{NAME}.csv"
     if not (md.is_file() and table.is_file()):
         return []
-    if md.read_text(errors="replace").splitlines()[0] != MARKER:
+    try:
+        first = md.read_text(errors="replace").split("\n", 1)[0]
+        if first == MARKER:
+            with open(table, newline="", errors="replace") as f:
+                every = list(csv.DictReader(f))
+    except (OSError, csv.Error) as exc:
+        log(f"{md.parent / NAME}.md and .csv: cannot be read ({type(exc).__name__}); left out")
+        return []
+    if first != MARKER:
+        if not first.startswith(MARKER):
+            log(f"{md}: not a report of tissuebench sensitivity; its runs are left out")
         return []  # a quick check: never on the leaderboard
-    with open(table, newline="") as f:
-        every = list(csv.DictReader(f))
-
-    def number(text):
-        return None if text in ("", "nan", None) else float(text)
-
     boards = []
     for study in STUDIES:
-        mine = [r for r in every if r["case"] == study.name]
+        mine = []
+        for number, r in enumerate(every, start=1):
+            if r.get("case") != study.name:
+                continue
+            try:
+                mine.append(study_row(study, r))
+            except (TypeError, ValueError) as exc:
+                log(f"{table}, row {number}: not a run of the study ({exc}); left out")
         if not mine:
             continue
-        sessions = sorted({r.get("session", "?") for r in mine})
+        sessions = sorted({r["session"] for r in mine})
         entry = get_entry(study.benchmark)
         options = ", ".join(f"{k} = {v}" for k, v in study.options.items())
         board = Board(
@@ -626,7 +705,6 @@ def leaderboard_boards(out: Path) -> list[tuple]:
         )
         rows = []
         for r in mine:
-            errors = {k: number(r.get(k)) for k in error_keys()}
             rows.append(
                 Row(
                     board.name,
@@ -634,16 +712,69 @@ def leaderboard_boards(out: Path) -> list[tuple]:
                     "tissuebench",
                     f"{r['algorithm']}, linear (SPEC 3), on its own mesh (SPEC 9)",
                     f"{r['shape']}: {r['nodes']} nodes",
-                    int(r["dofs"]),
+                    r["dofs"],
                     r["status"],
                     None
                     if r["status"] == "ok"
-                    else f"diverged at t = {float(r['diverged_time_s']):.3g} s",
-                    errors,
-                    float(r["wall_time_s"]),
-                    float(r["end_time_s"]),
+                    else f"diverged at t = {fmt(r['diverged_time_s'], '.3g')} s",
+                    r["errors"],
+                    r["wall_time_s"],
+                    r["end_time_s"],
                     f"tissuebench sensitivity, {', '.join(sessions)}",
                 )
             )
         boards.append((board, rows))
     return boards
+
+
+SESSION = re.compile(r"[0-9A-Za-z :+\-./]{1,40}")  # a session's time, as main writes it
+
+
+def study_row(study: Study, r: dict) -> dict:
+    """One row of mesh-sensitivity.csv (text) as numbers, checked to be a run of the study:
+    its algorithm, shape and size, counts >= 0, finite times >= 0 (s), errors empty or "nan"
+    (None: never ranked) or numbers >= 0. ValueError or TypeError says what is wrong."""
+
+    def count(key):
+        value = int(r.get(key))
+        if value < 0:
+            raise ValueError(f"{key} is negative")
+        return value
+
+    def seconds(key, positive=False):
+        value = float(r.get(key))
+        if not math.isfinite(value) or value < 0 or (positive and value == 0):
+            raise ValueError(f"{key} is not a finite number of seconds > 0")
+        return value
+
+    def error(key):
+        text = (r.get(key) or "").strip()
+        if text.lower() in ("", "nan"):
+            return None
+        value = float(text)
+        if not value >= 0:
+            raise ValueError(f"{key} is not a number >= 0")
+        return value
+
+    if r.get("algorithm") not in ALGORITHMS:
+        raise ValueError(f"algorithm {str(r.get('algorithm'))[:40]!r} is not one of ours")
+    if r.get("shape") not in shapes(get_entry(study.benchmark).gdim):
+        raise ValueError(f"shape {str(r.get('shape'))[:40]!r} is not one of the study's")
+    if count("size") not in study.sizes:
+        raise ValueError(f"size {r.get('size')} is not one of the study's")
+    status = r.get("status")
+    if status not in ("ok", "diverged"):
+        raise ValueError(f"status {str(status)[:40]!r} is neither ok nor diverged")
+    return {
+        "algorithm": r["algorithm"],
+        "shape": r["shape"],
+        "size": count("size"),
+        "nodes": count("nodes"),
+        "dofs": count("dofs"),
+        "status": status,
+        "diverged_time_s": None if status == "ok" else seconds("diverged_time_s"),
+        "errors": {k: error(k) for k in error_keys()},
+        "wall_time_s": seconds("wall_time_s"),
+        "end_time_s": seconds("end_time_s", positive=True),
+        "session": r["session"] if SESSION.fullmatch(r.get("session") or "") else "?",
+    }
