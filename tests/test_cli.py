@@ -211,17 +211,18 @@ def test_refuses_bad_material_file_and_unwritable_output(tmp_path):
 
 
 def test_interrupted_output_is_replaced_whole(tmp_path):
-    """A leftover partial directory (an interrupted run) and an incomplete folder of ours are redone."""
+    """A leftover partial directory of ours (an interrupted run, with our marker) and an
+    incomplete folder of ours (a file of ours deleted) are redone."""
     out = tmp_path / "rod"
-    (tmp_path / ".partial-rod").mkdir()
-    (tmp_path / ".partial-rod" / "junk.h5").write_text("half")
-    out.mkdir()
-    (out / "summary.json").write_text(
-        '{"fingerprint": "x", "files": ["implicit.h5"]}'
-    )  # names an absent file
-    r = tissuebench(
-        "run", "rod", "--out", out, "--mesh-size", 1, "--end-time", 0.2, "--algorithms", "implicit"
-    )
+    args = ("run", "rod", "--out", out, "--mesh-size", 1, "--end-time", 0.2)
+    r = tissuebench(*args, "--algorithms", "implicit")
+    assert r.returncode == 0, r.stderr[-2000:]
+    (out / "implicit.h5").unlink()
+    partial = tmp_path / ".tissuebench-partial-rod"
+    partial.mkdir()
+    (partial / "junk.h5").write_text("half")
+    (partial / ".tissuebench-temporary").write_text('{"tissuebench": "temporary"}')
+    r = tissuebench(*args, "--algorithms", "implicit")
     assert r.returncode == 0, r.stderr[-2000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rod"]
     summary = json.loads((out / "summary.json").read_text())

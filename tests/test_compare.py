@@ -120,7 +120,12 @@ def assert_same_curves(out, expected, algorithm):
     assert [r[-1] for r in rows] == ["ok"] * len(TIMES)
     assert np.isnan(float(rows[0][3]))  # E_n at step 0: the reference is zero there
     assert (out / "metrics.png").stat().st_size > 0
-    assert sorted(p.name for p in out.iterdir()) == ["metrics.csv", "metrics.png", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".tissuebench.json",  # the manifest: the folder is ours (workflows/output.py)
+        "metrics.csv",
+        "metrics.png",
+        "summary.json",
+    ]
 
 
 @pytest.mark.parametrize("dim", [2, 3])

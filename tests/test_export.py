@@ -191,9 +191,14 @@ def test_export_refusals(tmp_path):
     with pytest.raises(UserError, match="must end in .inp"):
         export("rod", "inp", tmp_path / "rod.json", **run)
     (tmp_path / "rod.vtu").write_text("")
-    with pytest.raises(UserError, match="exists: --force replaces it"):
-        export("rod", "vtu", tmp_path / "rod.vtu", **run)
+    for force in (False, True):  # a user's file: never replaced
+        with pytest.raises(UserError, match="exists and was not written by tissuebench"):
+            export("rod", "vtu", tmp_path / "rod.vtu", force=force, **run)
     assert not any(p.name.startswith(".") for p in tmp_path.iterdir())
+    export("rod", "vtu", tmp_path / "ours.vtu", **run)
+    with pytest.raises(UserError, match="exists: --force replaces it"):
+        export("rod", "vtu", tmp_path / "ours.vtu", **run)
+    export("rod", "vtu", tmp_path / "ours.vtu", force=True, **run)
 
 
 @pytest.mark.serial

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -149,17 +150,16 @@ def test_stiff_material_diverges_explicit_schemes_only(tmp_path):
 
 def test_second_writer_is_refused_and_stale_lock_taken_over(tmp_path):
     out = tmp_path / "run"
-    lock = tmp_path / ".lock-run"
-    lock.write_text(json.dumps({"pid": os.getpid(), "host": os.uname().nodename, "since": "now"}))
+    lock = tmp_path / ".tissuebench-lock-run"
+    mine = {"tissuebench": "lock", "host": os.uname().nodename}
+    lock.write_text(json.dumps({**mine, "pid": os.getpid(), "since": "now"}))
     r = tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out)
     assert "another tissuebench run is writing it" in one_line_error(r)
     assert not out.exists() and lock.exists()
     dead = subprocess.run(
         [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
     )
-    lock.write_text(
-        json.dumps({"pid": int(dead.stdout), "host": os.uname().nodename, "since": "then"})
-    )
+    lock.write_text(json.dumps({**mine, "pid": int(dead.stdout), "since": "then"}))
     r = tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out)
     assert r.returncode == 0, r.stderr[-2000:]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
@@ -197,7 +197,7 @@ def test_concurrent_run_refused_then_signal_cleans_up(tmp_path, ranks, sig, stat
     out = tmp_path / "run"
     first = start([*LONG_RUN, "--out", out], ranks)
     try:
-        wait_for(tmp_path / ".partial-run", first)
+        wait_for(tmp_path / ".tissuebench-partial-run", first)
         second = tissuebench(*LONG_RUN, "--out", out)
         assert "another tissuebench run is writing it" in one_line_error(second)
         first.send_signal(sig)
@@ -252,7 +252,7 @@ def test_paper_refuses_a_case_folder_of_other_inputs(tmp_path):
 def test_paper_keeps_a_readme_it_did_not_write(tmp_path):
     (tmp_path / "README.md").write_text("# my notes\n")
     line = one_line_error(tissuebench("paper", "--out", tmp_path))
-    assert "README.md: exists and was not written by tissuebench paper" in line
+    assert "README.md: exists and was not written by tissuebench" in line
     assert tree(tmp_path) == {"README.md": b"# my notes\n"}
 
 
@@ -363,18 +363,27 @@ def test_refused_in_one_line(tmp_path, args, message):
     assert not (tmp_path / "out").exists()
 
 
-def test_mesh_never_replaces_a_folder_or_an_existing_file(tmp_path):
+def test_mesh_never_replaces_a_folder_or_a_file_not_ours(tmp_path):
     (tmp_path / "m.msh").mkdir()
     assert "is a folder" in one_line_error(
         tissuebench("mesh", "block", "--out", tmp_path / "m.msh")
     )
     (tmp_path / "b.msh").write_text("mine")
-    assert "--force replaces it" in one_line_error(
-        tissuebench("mesh", "block", "--out", tmp_path / "b.msh")
-    )
+    for force in ((), ("--force",)):
+        r = tissuebench("mesh", "block", "--mesh-size", 4, "--out", tmp_path / "b.msh", *force)
+        assert "was not written by tissuebench" in one_line_error(r)
     assert (tmp_path / "b.msh").read_text() == "mine"
-    r = tissuebench("mesh", "block", "--mesh-size", 4, "--out", tmp_path / "b.msh", "--force")
-    assert r.returncode == 0 and (tmp_path / "b.msh").read_text().startswith("$MeshFormat")
+    ours = tmp_path / "c.msh"
+    assert tissuebench("mesh", "block", "--mesh-size", 4, "--out", ours).returncode == 0
+    assert "--force replaces it" in one_line_error(
+        tissuebench("mesh", "block", "--mesh-size", 2, "--out", ours)
+    )
+    r = tissuebench("mesh", "block", "--mesh-size", 2, "--out", ours, "--force")
+    assert r.returncode == 0 and ours.read_text().startswith("$MeshFormat")
+    ours.write_text(ours.read_text() + "% my note\n")  # changed since we wrote it: kept
+    r = tissuebench("mesh", "block", "--mesh-size", 4, "--out", ours, "--force")
+    assert "was changed since tissuebench wrote it" in one_line_error(r)
+    assert ours.read_text().endswith("% my note\n")
 
 
 @pytest.mark.parametrize(
@@ -454,3 +463,174 @@ def test_mumps_failure_is_a_divergence_with_its_reason():
         SolveError, match=r"MUMPS factorisation failed for singular_: INFOG\(1\) = -10"
     ):
         solve(b, b.duplicate())
+
+
+# --- issue 23, item 1: one output-folder rule for every command that writes -------------------
+
+
+def small_run(out, *extra):
+    r = tissuebench(
+        "run", "block", *SMALL, "--algorithms", "implicit,explicit", "--out", out, *extra
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory):
+    """A small run folder of ours, and its two series to compare."""
+    run = small_run(tmp_path_factory.mktemp("graded") / "run")
+    return run, run / "implicit.xdmf", run / "explicit.xdmf"
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_compare_never_replaces_a_users_files(tmp_path, graded, ranks):
+    _, ref, cand = graded
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "metrics.csv").write_text("my,data\n")
+    (user / "summary.json").write_text('{"mine": 1}')
+    before = tree(tmp_path)
+    r = tissuebench("compare", ref, cand, "--out", user, ranks=ranks)
+    assert "did not write (metrics.csv and 1 more)" in one_line_error(r)
+    assert tree(tmp_path) == before
+
+
+@pytest.mark.parametrize("out", [".", ".."])
+def test_compare_refuses_the_current_folder_and_its_parents(tmp_path, graded, out):
+    _, ref, cand = graded
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "metrics.csv").write_text("mine")
+    (tmp_path / "metrics.png").write_text("mine")
+    before = tree(tmp_path)
+    cmd, env = job(["-m", "tissuebench.workflows.cli", "compare", ref, cand, "--out", out])
+    r = subprocess.run(cmd, cwd=work, capture_output=True, text=True, env=env)
+    assert "holds the current folder" in one_line_error(r)
+    assert tree(tmp_path) == before
+
+
+def test_compare_into_a_run_folder_refuses_and_keeps_it_whole(tmp_path, graded):
+    run, ref, cand = graded
+    before = tree(run)
+    r = tissuebench("compare", ref, cand, "--out", run)
+    assert "holds results of other inputs" in one_line_error(r)
+    assert tree(run) == before
+    again = tissuebench("run", "block", *SMALL, "--algorithms", "implicit,explicit", "--out", run)
+    assert again.returncode == 0 and "skipped" in again.stdout, again.stderr[-2000:]
+
+
+def test_compare_twice_skips_then_regrades_on_force_or_new_input(tmp_path, graded):
+    _, ref, cand = graded
+    out = tmp_path / "graded"
+    assert tissuebench("compare", ref, cand, "--out", out).returncode == 0
+    first = (out / "summary.json").read_bytes()
+    r = tissuebench("compare", ref, cand, "--out", out)
+    assert r.returncode == 0 and "complete results for the same inputs exist" in r.stdout
+    r = tissuebench("compare", ref, cand, "--out", out, "--label", "other")
+    assert "holds results of other inputs" in one_line_error(r)
+    assert (out / "summary.json").read_bytes() == first
+    r = tissuebench("compare", ref, cand, "--out", out, "--label", "other", "--force")
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert json.loads((out / "summary.json").read_text())["candidate"]["label"] == "other"
+
+
+@pytest.mark.parametrize("name", [".partial-out", ".old-out", ".lock-out"])
+def test_a_users_folder_beside_the_output_is_never_touched(tmp_path, name):
+    mine = tmp_path / name
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("years of work")
+    small_run(tmp_path / "out")
+    small_run(tmp_path / "out", "--force")
+    assert (mine / "thesis.tex").read_text() == "years of work"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "out"])
+
+
+@pytest.mark.parametrize("name", ["partial", "old"])
+def test_our_temporary_names_without_our_marker_are_refused(tmp_path, name):
+    """A folder under one of our temporary names but without our marker is a user's: refused
+    in one line, never removed."""
+    out = small_run(tmp_path / "out")
+    mine = tmp_path / f".tissuebench-{name}-out"
+    mine.mkdir()
+    (mine / "data.txt").write_text("mine")
+    r = tissuebench("run", "block", *SMALL, "--algorithms", "implicit", "--out", out, "--force")
+    assert "not a temporary folder of tissuebench" in one_line_error(r)
+    assert (mine / "data.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("change", ["added", "changed"])
+def test_a_run_folder_changed_by_someone_is_refused_force_or_not(tmp_path, ranks, change):
+    out = small_run(tmp_path / "out")
+    if change == "added":
+        (out / "my-notes.txt").write_text("mine")
+    else:
+        (out / "metrics.csv").write_text((out / "metrics.csv").read_text() + "# checked\n")
+    before = tree(tmp_path)
+    for extra in ((), ("--force",), ("--end-time", 0.2, "--force")):
+        args = ("run", "block", "--mesh-size", 4, "--algorithms", "implicit,explicit")
+        r = tissuebench(*args, "--end-time", 0.1, *extra, "--out", out, ranks=ranks)
+        line = one_line_error(r)
+        assert ("my-notes.txt added" if change == "added" else "metrics.csv changed") in line
+    assert tree(tmp_path) == before
+
+
+def test_loose_reports_are_replaced_only_if_ours_and_unchanged(tmp_path):
+    """stability writes stability.json/.md into a shared folder: a user's file of that name is
+    refused, force or not; ours is replaced; ours edited by the user is refused."""
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "stability.md").write_text("my notes")
+    args = ("stability", "block", "--mesh-size", 4, "--no-sweep", "--max-steps", 5, "--out", out)
+    assert "stability.md: exists and was not written by tissuebench" in one_line_error(
+        tissuebench(*args)
+    )
+    assert (out / "stability.md").read_text() == "my notes"
+    (out / "stability.md").unlink()
+    assert tissuebench(*args).returncode == 0
+    assert tissuebench(*args).returncode == 0  # ours, unchanged: replaced
+    manifest = json.loads((out / ".tissuebench.json").read_text())
+    assert {"stability.md", "stability.json"} <= set(manifest["files"])
+    (out / "stability.md").write_text((out / "stability.md").read_text() + "my remark\n")
+    assert "stability.md: was changed since tissuebench wrote it" in one_line_error(
+        tissuebench(*args)
+    )
+    assert (out / "stability.md").read_text().endswith("my remark\n")
+
+
+def test_export_refuses_a_users_file_force_or_not(tmp_path):
+    (tmp_path / "rod.reference.xdmf").write_text("mine")
+    for force in ((), ("--force",)):
+        r = tissuebench(
+            "export",
+            "rod",
+            "--mesh-size",
+            1,
+            "--end-time",
+            0.1,
+            "--out",
+            tmp_path / "rod.json",
+            *force,
+        )
+        assert "rod.reference.xdmf: exists and was not written by tissuebench" in one_line_error(r)
+    assert tree(tmp_path) == {"rod.reference.xdmf": b"mine"}
+
+
+def test_committed_results_are_ours_and_unchanged():
+    """Every folder of results/ that tissuebench wrote whole carries its manifest, and every
+    committed loose output is listed in its folder's manifest with its present hash: `make
+    paper`, `leaderboard` and the other commands may replace them, and nothing else."""
+    from tissuebench.workflows.output import changes, file_hash, read_manifest
+
+    results = Path(__file__).parents[1] / "results"
+    sealed = [p.parent for p in results.rglob("summary.json")]
+    assert len(sealed) >= 10
+    for folder in sealed:
+        added, modified, _ = changes(folder)
+        assert not added and not modified, (folder, added, modified)
+    for folder in (results, results / "leaderboard"):
+        listed = read_manifest(folder, "files")
+        for path in folder.iterdir():
+            if path.is_file() and not path.name.startswith("."):
+                assert listed.get(path.name) == file_hash(path), path

@@ -31,6 +31,9 @@ from pathlib import Path
 from tissuebench.workflows.bench_measure import measure
 from tissuebench.workflows.bench_report import plot, summary_tables, text_table, write_report
 from tissuebench.workflows.errors import UserError
+from tissuebench.workflows.output import check_writable, write_owned
+
+FILES = ("performance.json", "performance.png", "performance.md")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -87,6 +90,7 @@ def main(args: argparse.Namespace) -> int:
             f"{out / 'performance.json'} holds a full run, which a quick run does not replace: "
             "give another --out"
         )
+    check_writable(out, owned=FILES)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     print(
@@ -94,19 +98,16 @@ def main(args: argparse.Namespace) -> int:
     )
     records, probes, paper, newton = measure(mode, out, lambda line: print(line, flush=True))
     wall = time.perf_counter() - start
-    (out / "performance.json").write_text(
-        json.dumps(
-            {
-                "mode": mode,
-                "wall_s": wall,
-                "records": records,
-                "capacity_probes": probes,
-                "paper_s": paper,
-                "newton": newton,
-            }
-        )
-    )
-    plot(records, out / "performance.png")
+    result = {
+        "mode": mode,
+        "wall_s": wall,
+        "records": records,
+        "capacity_probes": probes,
+        "paper_s": paper,
+        "newton": newton,
+    }
+    write_owned(out / "performance.json", lambda tmp: tmp.write_text(json.dumps(result)))
+    write_owned(out / "performance.png", lambda tmp: plot(records, tmp))
     write_report(records, probes, paper, mode, wall, out, newton)
     for title, table in summary_tables(records, probes, paper, newton):
         print(f"\n{title}\n{text_table(*table)}")

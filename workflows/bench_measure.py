@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tissuebench.workflows.output import PREFIX, make_temporary, remove_temporary, write_owned
+
 STEPS = 30  # steps of a timed run; the displacements after them are compared
 SHORT = 12  # steps of a run too costly for STEPS (no displacement check)
 WARMUP = {STEPS: 5, SHORT: 2}  # first steps left out of the per-step median (25 or 10 remain)
@@ -520,9 +522,8 @@ def measure(
     """Run every worker: the records (one per (benchmark, size)), the capacity probes, the
     paper's wall times (full mode only) and the Newton iterations of the nonlinear models
     (newton_iterations). Writes a partial DIR/performance.json after each size and works in
-    DIR/.bench-tmp, removed at the end."""
-    tmp = out / ".bench-tmp"
-    tmp.mkdir(parents=True, exist_ok=True)
+    DIR/.tissuebench-bench-tmp, removed at the end."""
+    tmp = make_temporary(out / f"{PREFIX}bench-tmp")
     budget = Budget(mode)
     from tissuebench.workflows.peer_skfem import pardiso_available
 
@@ -595,9 +596,8 @@ def measure(
             path.unlink()
         rec["wall_s"] = time.perf_counter() - start
         records.append(rec)
-        (out / "performance.json").write_text(
-            json.dumps({"mode": mode, "partial": True, "records": records})
-        )
+        partial = json.dumps({"mode": mode, "partial": True, "records": records})
+        write_owned(out / "performance.json", lambda tmp: tmp.write_text(partial))
         errors = [
             f"{side}: {rec[side]['error']}"
             for side in ("ours1", "ours2", "peer")
@@ -611,7 +611,7 @@ def measure(
     probes = refine_capacity(records, tmp, timeout, log)
     newton = newton_iterations(tmp, timeout, log)
     paper = time_paper(tmp, log) if mode == "full" else {}
-    shutil.rmtree(tmp, ignore_errors=True)
+    remove_temporary(tmp)
     return records, probes, paper, newton
 
 

@@ -11,6 +11,7 @@ import platform
 from collections.abc import Iterable
 from pathlib import Path
 
+from tissuebench.workflows.output import write_owned
 from tissuebench.workflows.bench_measure import (
     BUDGET,
     CAPACITY_CASES,
@@ -847,4 +848,4 @@ def write_report(
     if errors:
         parts += ["## Failures", ""] + errors + [""]
     parts += ["![time per step](performance.png)", ""]
-    (out / "performance.md").write_text("\n".join(parts))
+    write_owned(out / "performance.md", lambda tmp: tmp.write_text("\n".join(parts)))

@@ -19,11 +19,14 @@ def add_parser(sub):
         "ParaView "
         ".pvd of .vtu, or CalculiX's output as it comes (the ASCII .frd, or the .dat of "
         "*NODE PRINT with its deck, the .inp of the same name, beside it). Writes "
-        "DIR/metrics.csv, DIR/metrics.png and DIR/summary.json. A series that starts at t = h "
+        "DIR/metrics.csv, DIR/metrics.png and DIR/summary.json (DIR: a new or empty folder, or a "
+        "compare folder of ours; the same inputs again are skipped). A series that starts at t = h "
         "(CalculiX writes none at t = 0) starts from the zero initial state at t = 0. Time "
         "stamps match within 1e-5 of max(|t|, h) (six printed digits). A series with a "
-        "non-finite displacement from some step on has diverged there: the metrics are NaN "
-        "from that step on and the status column says so.",
+        "non-finite displacement, or one beyond 100 times the domain's largest extent, has "
+        "diverged from that step: the metrics are NaN from that step on and the status column "
+        "and summary.json say why. Complex fields, and series whose steps move or renumber "
+        "their nodes, are refused.",
     )
     p.add_argument("reference", type=Path, help="reference series (.xdmf, .pvd, .frd or .dat)")
     p.add_argument("candidate", type=Path, help="candidate series (.xdmf, .pvd, .frd or .dat)")
@@ -45,6 +48,11 @@ def add_parser(sub):
         metavar="SECONDS",
         help="the candidate's wall time in s, recorded in summary.json",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a compare folder of ours that holds results of other inputs",
+    )
     p.set_defaults(func=main)
 
 
@@ -60,9 +68,11 @@ def main(args: argparse.Namespace) -> int:
         candidate_field=args.candidate_field,
         label=args.label,
         wall_time=args.wall_time,
+        force=args.force,
     )
     if MPI.COMM_WORLD.rank == 0:
         for line in summaries.values():
             print(line)
-        print(f"wrote {args.out / 'metrics.csv'}, {args.out / 'metrics.png'} and summary.json")
+        if "skipped" not in summaries:
+            print(f"wrote {args.out / 'metrics.csv'}, {args.out / 'metrics.png'} and summary.json")
     return 0

@@ -39,7 +39,7 @@ from tissuebench.solvers.convergence import (
 from tissuebench.solvers.stability import explicit_schemes, stability_limits
 from tissuebench.solvers.system import System
 from tissuebench.workflows.errors import UserError
-from tissuebench.workflows.output import check_writable, collective
+from tissuebench.workflows.output import check_writable, collective, write_owned
 
 # every benchmark at its defaults (time), and on its study meshes with its refinement options (space)
 TIME_CASES = [(name, e.material, e.mesh_size) for name, e in BENCHMARKS.items()]
@@ -197,6 +197,9 @@ def add_parser(subparsers):
     p.set_defaults(func=main)
 
 
+FILES = ("convergence.md", "convergence_time.png", "convergence_space.png")
+
+
 def main(args):
     comm = MPI.COMM_WORLD
     h = 1 / 30
@@ -206,7 +209,7 @@ def main(args):
         raise UserError(
             f"--end-time must be a positive multiple of h = 1/30 s, got {args.end_time}"
         )
-    check_writable(args.out, comm)
+    check_writable(args.out, comm, owned=[*FILES])
     start = time.perf_counter()
     time_results, ratios = {}, {}
     for bench, material, size in TIME_CASES:
@@ -224,31 +227,35 @@ def main(args):
     out = Path(args.out)
 
     def write():
-        out.mkdir(parents=True, exist_ok=True)
-        plot(
+        write_owned(
             out / "convergence_time.png",
-            f"Time: each metric's maximum over t ≤ {args.end_time:g} s, "
-            f"against implicit with h/{REFINEMENT}",
-            [
-                (f"{b} {m}", [h / 2**k for k in range(LEVELS)], r)
-                for (b, m, _), r in time_results.items()
-            ],
-            "time step h (s)",
-            guides=[2],
+            lambda tmp: plot(
+                tmp,
+                f"Time: each metric's maximum over t ≤ {args.end_time:g} s, "
+                f"against implicit with h/{REFINEMENT}",
+                [
+                    (f"{b} {m}", [h / 2**k for k in range(LEVELS)], r)
+                    for (b, m, _), r in time_results.items()
+                ],
+                "time step h (s)",
+                guides=[2],
+            ),
         )
-        plot(
+        write_owned(
             out / "convergence_space.png",
-            f"Space: at t = {SPACE_TIME:g} s, against the finest mesh",
-            [
-                (f"{b} {m}", [BENCHMARKS[b].cell_size(s) for s in sizes], r)
-                for (b, m, sizes), r in space_results.items()
-            ],
-            "cell size (m)",
-            guides=[1, 2],
+            lambda tmp: plot(
+                tmp,
+                f"Space: at t = {SPACE_TIME:g} s, against the finest mesh",
+                [
+                    (f"{b} {m}", [BENCHMARKS[b].cell_size(s) for s in sizes], r)
+                    for (b, m, sizes), r in space_results.items()
+                ],
+                "cell size (m)",
+                guides=[1, 2],
+            ),
         )
-        (out / "convergence.md").write_text(
-            markdown(time_results, ratios, space_results, h, args.end_time, wall)
-        )
+        text = markdown(time_results, ratios, space_results, h, args.end_time, wall)
+        write_owned(out / "convergence.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)  # rank 0 writes; its failure is raised on every rank
     if comm.rank == 0:

@@ -675,16 +675,6 @@ def reference_path(out: Path) -> Path:
     return out.with_name(f"{out.stem}.reference.xdmf")
 
 
-def replace_atomically(path: Path, write) -> None:
-    """write(tmp) into a temporary file beside path, then rename it into place."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def export(
     benchmark: str,
     fmt: str,
@@ -710,7 +700,7 @@ def export(
     work; every file is written under a temporary name and renamed into place. Collective;
     returns the files written."""
     from tissuebench.meshes import get_entry
-    from tissuebench.workflows.output import check_file_target, collective
+    from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
 
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r}: use one of {', '.join(FORMATS)}")
@@ -733,14 +723,14 @@ def export(
     )
     written = [out]
     if with_reference:
-        staging = out.with_name(f".export-{out.name}-{os.getpid()}")
+        staging = out.with_name(f"{PREFIX}export-{out.name}-{os.getpid()}")
         collective(comm, lambda: staging.mkdir(parents=True, exist_ok=True), staging)
         try:
             info = run_reference(data, bench, material, staging / ref_path.name, solver, comm, log)
 
             def place():
                 for path in also[::-1]:  # the .h5 first: the .xdmf names it
-                    os.replace(staging / path.name, path)
+                    write_owned(path, lambda tmp, name=path.name: os.replace(staging / name, tmp))
 
             collective(comm, place, ref_path)
         finally:
@@ -755,11 +745,11 @@ def export(
 
     def write():
         if fmt == "json":
-            replace_atomically(out, lambda p: write_json(data, p))
+            write_owned(out, lambda p: write_json(data, p))
         elif fmt == "inp":
-            replace_atomically(out, lambda p: write_inp(data, p, element))
+            write_owned(out, lambda p: write_inp(data, p, element))
         else:
-            replace_atomically(out, lambda p: write_mesh(data, p, fmt))
+            write_owned(out, lambda p: write_mesh(data, p, fmt))
 
     collective(comm, write, out)
     return written

@@ -27,7 +27,7 @@ from tissuebench.metrics.errors import METRICS, panels
 from tissuebench.solvers import interrupt
 from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.files import spans_decades, write_metrics_csv
-from tissuebench.workflows.output import check_writable, collective
+from tissuebench.workflows.output import RunFolder, collective, file_hash, fingerprint
 
 MAX_LABEL = 64  # characters of a candidate's label (it names rows, figures and tables)
 SUMMARY = "summary.json"
@@ -74,27 +74,93 @@ def compare(
     candidate_field: str | None = None,
     label: str | None = None,
     wall_time: float | str | None = None,
+    force: bool = False,
+    folder_of_ours: bool = False,
 ) -> dict[str, str]:
     """Grade the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
     .dat), write out_dir/metrics.csv, metrics.png and summary.json, and return the one-line
     summaries (see metrics.compare.Grading), the notes on how the series were read first
     (keys "note 1", ...). Collective; nothing is written unless everything was read, checked
-    and computed."""
+    and computed.
+
+    out_dir follows the output-folder rules (workflows/output.py): new, empty, or a compare
+    folder of ours; complete results of the same inputs (the files' hashes, the fields, the
+    label and the wall time) are kept unless `force`, and other inputs are refused without it.
+    `folder_of_ours` writes straight into a folder that the caller is writing already (an
+    external simulator's variant inside its own partial folder)."""
     check_label(label)
     wall = check_wall_time(wall_time)
-    check_writable(out_dir, comm)
-    g = grade(
-        reference,
-        candidate,
-        field,
-        comm,
-        reference_field=reference_field,
-        candidate_field=candidate_field,
-        label=label,
-    )
-    summary = summary_of(g, reference, candidate, wall)
-    collective(comm, lambda: write_grading(Path(out_dir), g, summary), Path(out_dir))
+    if folder_of_ours:
+        g = grade(
+            reference,
+            candidate,
+            field,
+            comm,
+            reference_field=reference_field,
+            candidate_field=candidate_field,
+            label=label,
+        )
+        summary = summary_of(g, reference, candidate, wall)
+        collective(comm, lambda: write_grading(Path(out_dir), g, summary), Path(out_dir))
+        return {**{f"note {k + 1}": note for k, note in enumerate(g.notes)}, **g.summaries}
+    with RunFolder(out_dir, comm) as folder:
+        inputs = collective(
+            comm,
+            lambda: compare_inputs(
+                reference, candidate, field, reference_field, candidate_field, label, wall
+            ),
+        )
+        if folder.prepare(inputs, force) == "complete":
+            return {
+                "skipped": f"{out_dir}: complete results for the same inputs exist, skipped "
+                "(--force grades again)"
+            }
+        g = grade(
+            reference,
+            candidate,
+            field,
+            comm,
+            reference_field=reference_field,
+            candidate_field=candidate_field,
+            label=label,
+        )
+        summary = summary_of(g, reference, candidate, wall)
+        summary["inputs"], summary["fingerprint"] = inputs, fingerprint(inputs)
+        with folder.writing() as tmp:
+            collective(comm, lambda: write_grading(tmp, g, summary), folder.path)
     return {**{f"note {k + 1}": note for k, note in enumerate(g.notes)}, **g.summaries}
+
+
+def series_files(path: Path) -> dict[str, str]:
+    """{name: SHA-256} of a series file and the files that belong to it beside it (its .h5,
+    the .vtu of a .pvd, the .inp of a .dat: every file named STEM.* or STEM_*)."""
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    stem = path.name.split(".")[0]
+    siblings = [
+        p
+        for p in sorted(path.parent.iterdir())
+        if p.is_file() and (p.name.startswith(f"{stem}.") or p.name.startswith(f"{stem}_"))
+    ]
+    return {p.name: file_hash(p) for p in {path, *siblings}}
+
+
+def compare_inputs(reference, candidate, field, reference_field, candidate_field, label, wall):
+    """Every input that changes a compare folder's numbers (rank 0: it reads the files)."""
+    from importlib.metadata import version
+
+    return {
+        "command": "compare",
+        "reference": {"file": str(Path(reference).resolve()), "files": series_files(reference)},
+        "candidate": {"file": str(Path(candidate).resolve()), "files": series_files(candidate)},
+        "field": field,
+        "reference_field": reference_field,
+        "candidate_field": candidate_field,
+        "label": label,
+        "wall_time_s": wall,
+        "tissuebench": version("tissuebench"),
+    }
 
 
 def none_if_nan(x):
@@ -114,6 +180,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         "diverged_time": None
         if g.candidate_diverged is None
         else float(times[g.candidate_diverged]),
+        "reason": g.candidate_reason,
         "steps": g.candidate_steps - 1,
         "graded_steps": max(graded - 1, 0),
         "wall_time_s": wall_time,
@@ -131,6 +198,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         "steps": steps,
         "end_time": float(times[-1]),
         "reference_diverged_step": g.reference_diverged,
+        "reference_diverged_reason": g.reference_reason,
         "runs": {g.label: entry},
         "versions": {"tissuebench": version("tissuebench")},
         "files": ["metrics.csv", "metrics.png", SUMMARY],

@@ -16,8 +16,7 @@ from tissuebench.solvers.external import get_simulator
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.arguments import add_common, check_common
-from tissuebench.workflows.exporting import replace_atomically
-from tissuebench.workflows.output import OutputError, check_writable, collective
+from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 from tissuebench.workflows.ranking import (
     Board,
     Row,
@@ -229,7 +228,7 @@ def main(args) -> int:
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out
-    check_writable(out, comm)
+    check_writable(out, comm, owned=["leaderboard.md", "leaderboard.csv"])
     available = set()
     for board in BOARDS:
         for name in board.simulators:
@@ -258,11 +257,14 @@ def main(args) -> int:
     def write():
         (out / FOLDER).mkdir(parents=True, exist_ok=True)
         for board in boards:
-            plot_case(out / FOLDER / f"{board.name}.png", board, rows[board.name])
+            write_owned(
+                out / FOLDER / f"{board.name}.png",
+                lambda tmp, board=board: plot_case(tmp, board, rows[board.name]),
+            )
         every = [r for board in boards for r in rows[board.name]]
-        replace_atomically(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
+        write_owned(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
         text = markdown(boards, rows, notes, session)
-        replace_atomically(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
+        write_owned(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
     interrupt.will_write([])  # all written

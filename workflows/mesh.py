@@ -11,7 +11,7 @@ from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.workflows.arguments import add_shape_options
 from tissuebench.meshes.benchmark import shape_options
 from tissuebench.workflows.limits import check as check_limits, estimate
-from tissuebench.workflows.output import check_file_target, collective
+from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
 
 
 def add_parser(sub):
@@ -42,10 +42,10 @@ def main(args):
         args.out.absolute().parent,
         comm,
     )
-    tmp = args.out.with_name(f".{args.out.name}.{os.getpid()}.tmp.msh")
+    tmp = args.out.with_name(f"{PREFIX}{args.out.name}.{os.getpid()}.tmp.msh")
     try:
         bench = get_benchmark(args.benchmark, mesh_size=mesh_size, msh_path=tmp, **shape)
-        collective(comm, lambda: os.replace(tmp, args.out), args.out)
+        collective(comm, lambda: write_owned(args.out, lambda p: os.replace(tmp, p)), args.out)
     finally:
         if comm.rank == 0:
             tmp.unlink(missing_ok=True)

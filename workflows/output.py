@@ -1,16 +1,27 @@
-"""Output folders that tissuebench owns, and only those.
+"""Output folders and files that tissuebench owns, and only those.
 
 Rules (README, "Output folders"):
-- A run or case folder is ours when its summary.json carries a `fingerprint`: the hash of
-  every input that changes its numbers (`inputs`, kept beside it).
-- `--out` may name a new folder, an empty one, or one of ours. A folder that holds anything
-  else is refused; `--force` replaces only a folder of ours.
-- Ours and complete with the same fingerprint: skipped. Ours with another fingerprint: refused
-  with what differs, unless `--force`.
-- One writer per folder: a lock file `.lock-NAME` beside it, created atomically, removed on
-  every exit path (a lock left by a process that no longer runs on this host is taken over).
-- Everything is written into `.partial-NAME` beside the target and renamed into place only
-  when complete; on any failure or signal the partial folder is removed.
+- Every folder tissuebench writes whole (a run, a case, a compare, an external simulator)
+  holds a manifest, `.tissuebench.json`: every file below it with its SHA-256. The folder is
+  ours while the manifest is there and nothing was added to it or changed in it since; a file
+  of ours that is gone only makes the folder incomplete (nothing of anyone's is lost by
+  rewriting it). Its summary.json carries a `fingerprint`: the hash of every input that
+  changes its numbers (`inputs`, kept beside it).
+- `--out` may name a new folder, an empty one, or one of ours, unchanged. A folder that holds
+  anything else is refused in one line, `--force` or not; so are the current folder and its
+  parents. Ours and complete with the same fingerprint: skipped. Ours with another
+  fingerprint: refused with what differs, unless `--force`.
+- Loose files in a shared folder (results/README.md, leaderboard.md, stability.md, an export's
+  files, ...) are listed in that folder's manifest when written; an existing file is replaced
+  only if the manifest lists it with its present hash.
+- One writer per folder: a lock file `.tissuebench-lock-NAME` beside it, created atomically,
+  removed on every exit path (a lock left by a process that no longer runs on this host is
+  taken over).
+- Everything is written into `.tissuebench-partial-NAME` beside the target and renamed into
+  place only when complete; the replaced folder passes through `.tissuebench-old-NAME`.
+  Both carry a marker file (`.tissuebench-temporary`, naming the target) while they are
+  temporary. Only a folder with our marker, or with our manifest and unchanged, is ever
+  removed: anything else under those names is refused in one line.
 
 Rank 0 does every file operation; errors are broadcast so that every rank raises the same.
 """
@@ -24,14 +35,18 @@ import os
 import shutil
 import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 from mpi4py import MPI
+
 from tissuebench.workflows.errors import UserError
 
 SUMMARY = "summary.json"
+MANIFEST = ".tissuebench.json"  # what we wrote, with hashes
+MARK = ".tissuebench-temporary"  # inside our temporary and backup folders
+PREFIX = ".tissuebench-"  # of our temporary, backup and lock names beside a target
 
 
 class OutputError(UserError):
@@ -57,19 +72,175 @@ def read_summary(folder: Path) -> dict | None:
     return summary if isinstance(summary, dict) else None
 
 
+# --- manifests --------------------------------------------------------------------------------
+
+
+def file_hash(path: Path) -> str:
+    """The SHA-256 of a file's bytes, as hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def read_manifest(folder: Path, kind: str) -> dict[str, str] | None:
+    """{relative path: SHA-256} of the folder's manifest of this kind ("folder": every file
+    below it; "files": loose files in a shared folder), or None if there is none."""
+    try:
+        data = json.loads((Path(folder) / MANIFEST).read_text())
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(data, dict) or data.get("tissuebench") != kind:
+        return None
+    files = data.get("files")
+    if not isinstance(files, dict) or not all(isinstance(v, str) for v in files.values()):
+        return None
+    return files
+
+
+def _write_manifest(folder: Path, kind: str, files: dict[str, str]) -> None:
+    text = json.dumps({"tissuebench": kind, "files": dict(sorted(files.items()))}, indent=1)
+    tmp = folder / f"{MANIFEST}.{os.getpid()}.tmp"
+    try:
+        tmp.write_text(text + "\n")
+        os.replace(tmp, folder / MANIFEST)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _below(folder: Path) -> Iterator[tuple[str, Path]]:
+    """(relative path, path) of every file and link below folder, the manifest and our
+    temporary marker left out."""
+    for root, dirs, files in os.walk(folder):
+        for name in sorted(files) + sorted(d for d in dirs if Path(root, d).is_symlink()):
+            path = Path(root, name)
+            rel = path.relative_to(folder).as_posix()
+            if rel not in (MANIFEST, MARK):
+                yield rel, path
+
+
+def seal(folder: Path) -> None:
+    """Write the manifest of a folder that we wrote whole: every file below it, hashed."""
+    _write_manifest(folder, "folder", {rel: file_hash(path) for rel, path in _below(folder)})
+
+
+def changes(folder: Path) -> tuple[list[str], list[str], list[str]] | None:
+    """(added, modified, missing) relative paths since we sealed the folder, or None if the
+    folder has no manifest of ours. A link, or anything that is not a plain file, counts as
+    added."""
+    listed = read_manifest(folder, "folder")
+    if listed is None:
+        return None
+    added, modified, seen = [], [], set()
+    for rel, path in _below(folder):
+        seen.add(rel)
+        if rel not in listed or path.is_symlink() or not path.is_file():
+            added.append(rel)
+        elif file_hash(path) != listed[rel]:
+            modified.append(rel)
+    return added, modified, sorted(set(listed) - seen)
+
+
+def _listing(names: list[str]) -> str:
+    return names[0] + (f" and {len(names) - 1} more" if len(names) > 1 else "")
+
+
 def is_ours(folder: Path) -> bool:
-    """True if the folder's summary.json carries a tissuebench fingerprint."""
-    summary = read_summary(folder)
-    return summary is not None and isinstance(summary.get("fingerprint"), str)
+    """True if the folder carries our manifest and nothing in it was added or changed."""
+    found = changes(folder)
+    return found is not None and not found[0] and not found[1]
 
 
 def is_complete(folder: Path) -> bool:
-    """A folder of ours is complete when every file its summary lists exists."""
+    """A folder of ours is complete when no file of its manifest is gone and every file its
+    summary lists exists."""
+    found = changes(folder)
     summary = read_summary(folder)
+    if found is None or any(found) or summary is None:
+        return False
     try:
-        return is_ours(folder) and all((Path(folder) / f).is_file() for f in summary["files"])
+        return all((Path(folder) / f).is_file() for f in summary["files"])
     except (KeyError, TypeError):
         return False
+
+
+def check_foreign(path: Path) -> None:
+    """Refuse (OutputError) a folder that holds anything but what we wrote there, unchanged."""
+    if not path.is_dir():
+        return
+    names = sorted(p.name for p in path.iterdir())
+    if not names:
+        return
+    found = changes(path)
+    if found is None:
+        if read_manifest(path, "files") is not None:
+            what = "other outputs of tissuebench (a shared folder)"
+        else:
+            what = "files that tissuebench did not write"
+        old = (read_summary(path) or {}).get("fingerprint")
+        hint = " (a summary with no manifest: an older tissuebench's?)" if old else ""
+        raise OutputError(
+            f"{path}: holds {what} ({_listing(names)}){hint}; name a new or empty folder"
+        )
+    added, modified, _ = found
+    if added or modified:
+        what = [f"{_listing(added)} added"] if added else []
+        what += [f"{_listing(modified)} changed"] if modified else []
+        raise OutputError(
+            f"{path}: {' and '.join(what)} since tissuebench wrote it; move that out or name "
+            "another folder (nothing is replaced, --force or not)"
+        )
+
+
+# --- names beside a target ----------------------------------------------------------------------
+
+
+def partial_path(target: Path) -> Path:
+    """The temporary folder that becomes target."""
+    return target.parent / f"{PREFIX}partial-{target.name}"
+
+
+def old_path(target: Path) -> Path:
+    """Where target's previous content waits while the new one moves in."""
+    return target.parent / f"{PREFIX}old-{target.name}"
+
+
+def lock_path(target: Path) -> Path:
+    """The lock file of target."""
+    return target.parent / f"{PREFIX}lock-{target.name}"
+
+
+def _mark(folder: Path, target: Path) -> None:
+    (folder / MARK).write_text(json.dumps({"tissuebench": "temporary", "target": str(target)}))
+
+
+def _marked(folder: Path) -> bool:
+    try:
+        data = json.loads((folder / MARK).read_text())
+    except (OSError, ValueError, RecursionError):
+        return False
+    return isinstance(data, dict) and data.get("tissuebench") == "temporary"
+
+
+def remove_temporary(folder: Path) -> None:
+    """Remove one of our temporary or backup folders; refuse anything else of that name."""
+    if not folder.exists() and not folder.is_symlink():
+        return
+    if folder.is_symlink() or not folder.is_dir() or not (_marked(folder) or is_ours(folder)):
+        raise OutputError(
+            f"{folder}: exists and is not a temporary folder of tissuebench (no marker); "
+            "move it away"
+        )
+    shutil.rmtree(folder)
+
+
+def make_temporary(folder: Path) -> Path:
+    """A fresh, marked temporary folder (an earlier one of ours of that name is removed)."""
+    remove_temporary(folder)
+    folder.mkdir(parents=True)
+    _mark(folder, folder)
+    return folder
 
 
 def _flatten(value, prefix=""):
@@ -109,6 +280,10 @@ def resolve(out: Path | str) -> Path:
         raise OutputError(f"{out}: holds the current folder; name a folder beside or below it")
     if path.exists() and not path.is_dir():
         raise OutputError(f"{out}: exists and is not a folder")
+    if path.name.startswith(PREFIX):
+        raise OutputError(
+            f"{out}: names starting with {PREFIX} are tissuebench's own; pick another"
+        )
     return path
 
 
@@ -123,36 +298,49 @@ def _pid_alive(pid: int) -> bool:
 
 
 class Lock:
-    """An exclusive lock file, created atomically (O_EXCL); a stale one is taken over."""
+    """An exclusive lock file, created atomically (O_EXCL); a stale one is taken over. With
+    `wait` > 0 s, a lock held by a live process is waited for that long before refusing."""
 
-    def __init__(self, path: Path, what: Path):
-        self.path, self.what, self.held = path, what, False
+    def __init__(self, path: Path, what: Path, wait: float = 0.0):
+        self.path, self.what, self.held, self.wait = path, what, False, wait
 
     def acquire(self) -> None:
         host = socket.gethostname()
         record = json.dumps(
-            {"pid": os.getpid(), "host": host, "since": time.strftime("%Y-%m-%d %H:%M:%S")}
+            {
+                "tissuebench": "lock",
+                "pid": os.getpid(),
+                "host": host,
+                "since": time.strftime("%Y-%m-%d %H:%M:%S"),
+            }
         )
-        for _ in range(2):
+        deadline = time.monotonic() + self.wait
+        while True:
             try:
                 fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
             except FileExistsError:
                 try:
                     holder = json.loads(self.path.read_text())
                 except (OSError, ValueError):
-                    holder = {}
-                pid = holder.get("pid") if isinstance(holder, dict) else None
+                    holder = None
+                if not isinstance(holder, dict) or holder.get("tissuebench") != "lock":
+                    if holder is None and time.monotonic() < deadline:
+                        time.sleep(0.05)  # being written by its taker
+                        continue
+                    raise OutputError(
+                        f"{self.path}: exists and is not a tissuebench lock; move it away"
+                    ) from None
+                pid = holder.get("pid")
                 if isinstance(pid, int) and holder.get("host") == host and not _pid_alive(pid):
                     self.path.unlink(missing_ok=True)  # its writer is gone: stale
                     continue
-                since = (
-                    f" since {holder['since']}"
-                    if isinstance(holder, dict) and "since" in holder
-                    else ""
-                )
+                if time.monotonic() < deadline:
+                    time.sleep(0.05)
+                    continue
+                since = f" since {holder['since']}" if "since" in holder else ""
                 raise OutputError(
                     f"{self.what}: another tissuebench run is writing it (pid {pid} on "
-                    f"{holder.get('host', '?') if isinstance(holder, dict) else '?'}{since}); "
+                    f"{holder.get('host', '?')}{since}); "
                     f"wait for it, or remove {self.path} if that run is gone"
                 ) from None
             except OSError as err:
@@ -165,7 +353,6 @@ class Lock:
                 os.close(fd)
             self.held = True
             return
-        raise OutputError(f"{self.what}: cannot take the lock {self.path}")
 
     def release(self) -> None:
         if self.held:
@@ -191,7 +378,7 @@ def collective(comm: MPI.Comm, action, where: Path | None = None):
 
 
 class RunFolder:
-    """A run or case folder to (re)write, held by its lock while the context is open.
+    """A folder to (re)write whole, held by its lock while the context is open.
 
     with RunFolder(out) as folder:
         if folder.prepare(inputs, force) == "complete": ...skip...
@@ -201,8 +388,9 @@ class RunFolder:
     def __init__(self, out: Path | str, comm: MPI.Comm = MPI.COMM_WORLD):
         self.comm = comm
         self.path = collective(comm, lambda: resolve(out))
-        self.partial = self.path.parent / f".partial-{self.path.name}"
-        self.lock = Lock(self.path.parent / f".lock-{self.path.name}", self.path)
+        self.partial = partial_path(self.path)
+        self.old = old_path(self.path)
+        self.lock = Lock(lock_path(self.path), self.path)
 
     def __enter__(self) -> RunFolder:
         def take():
@@ -213,7 +401,11 @@ class RunFolder:
                     f"{self.path}: cannot create {self.path.parent} ({err.strerror or err})"
                 ) from None
             self.lock.acquire()
-            self.check_foreign()
+            if self.old.exists() and not self.path.exists() and is_ours(self.old):
+                self.old.rename(self.path)  # a move into place that was cut short: undone
+                (self.path / MARK).unlink(missing_ok=True)
+            remove_temporary(self.old)
+            check_foreign(self.path)
 
         try:
             collective(self.comm, take)
@@ -227,36 +419,21 @@ class RunFolder:
         if self.comm.rank == 0:
             self.lock.release()
 
-    def check_foreign(self) -> None:
-        """Refuse a folder that holds files and is not ours (rank 0)."""
-        if self.path.is_dir() and not is_ours(self.path):
-            names = sorted(p.name for p in self.path.iterdir())
-            if names:
-                old = (
-                    " (its summary.json has no fingerprint: written by an older tissuebench?)"
-                    if (self.path / SUMMARY).exists()
-                    else ""
-                )
-                raise OutputError(
-                    f"{self.path}: holds files that tissuebench did not write ({names[0]}"
-                    f"{' and more' if len(names) > 1 else ''}){old}; name a new or empty folder"
-                )
-
     def prepare(self, inputs: dict, force: bool) -> str:
         """'complete' if the folder holds complete results of the same inputs and not force;
         'write' otherwise. Refuses results of other inputs without force."""
 
         def decide():
-            if not self.path.exists() or not is_ours(self.path):
+            if not self.path.exists() or not any(self.path.iterdir()):
                 return "write"  # new or empty
-            summary = read_summary(self.path)
+            summary = read_summary(self.path) or {}
             if force or not is_complete(self.path):  # ours, and replaced on request or broken
                 return "write"
             if summary.get("fingerprint") == fingerprint(inputs):
                 return "complete"
             raise OutputError(
-                f"{self.path}: holds results of other inputs ({differences(summary.get('inputs'), inputs)}); "
-                "--force replaces them"
+                f"{self.path}: holds results of other inputs "
+                f"({differences(summary.get('inputs'), inputs)}); --force replaces them"
             )
 
         return collective(self.comm, decide)
@@ -268,10 +445,9 @@ class RunFolder:
 
         def fresh():
             try:
-                shutil.rmtree(
-                    self.partial, ignore_errors=True
-                )  # an earlier run's leftover: ours (we hold the lock)
+                remove_temporary(self.partial)  # an earlier run's leftover (we hold the lock)
                 self.partial.mkdir()
+                _mark(self.partial, self.path)
             except OSError as err:
                 raise OutputError(
                     f"{self.path}: cannot write in {self.path.parent} ({err.strerror or err})"
@@ -280,26 +456,30 @@ class RunFolder:
         collective(self.comm, fresh)
         try:
             yield self.partial
-            collective(self.comm, self._commit)
+            collective(self.comm, self._commit, self.path)
         finally:
-            if self.comm.rank == 0:
+            if self.comm.rank == 0 and _marked(self.partial):
                 shutil.rmtree(self.partial, ignore_errors=True)
 
     def _commit(self) -> None:
-        self.check_foreign()  # something of a user's may have appeared meanwhile
-        old = self.path.parent / f".old-{self.path.name}"
+        check_foreign(self.path)  # something of a user's may have appeared meanwhile
+        seal(self.partial)
         try:
-            shutil.rmtree(old, ignore_errors=True)
+            remove_temporary(self.old)
             if self.path.is_dir():
-                self.path.rename(old)
+                _mark(self.path, self.path)  # ours (checked above): marked before it moves
+                self.path.rename(self.old)
+            (self.partial / MARK).unlink()
             self.partial.rename(self.path)
         except OSError as err:
-            if old.exists() and not self.path.exists():
-                old.rename(self.path)
+            if self.old.exists() and not self.path.exists():
+                self.old.rename(self.path)
+                (self.path / MARK).unlink(missing_ok=True)
             raise WriteFailure(
                 f"{self.path}: cannot move the results into place ({err.strerror or err})"
             ) from None
-        shutil.rmtree(old, ignore_errors=True)
+        if self.old.exists():
+            shutil.rmtree(self.old, ignore_errors=True)
 
 
 def write_failure(path: Path, err: OSError) -> WriteFailure:
@@ -311,25 +491,70 @@ def write_failure(path: Path, err: OSError) -> WriteFailure:
     return WriteFailure(f"{path}: cannot write the results ({reason})")
 
 
+# --- loose files in a shared folder -------------------------------------------------------------
+
+
+def check_owned(path: Path, force: bool = True) -> None:
+    """Refuse (OutputError) to replace `path` unless it is absent, or listed in its folder's
+    manifest with its present hash (ours, unchanged) and `force`."""
+    path = Path(path)
+    if not path.exists() and not path.is_symlink():
+        return
+    if path.is_symlink() or not path.is_file():
+        raise OutputError(f"{path}: exists and is not a file tissuebench wrote; move it away")
+    listed = read_manifest(path.parent, "files") or {}
+    if path.name not in listed:
+        raise OutputError(
+            f"{path}: exists and was not written by tissuebench; move it or choose another --out"
+        )
+    if listed[path.name] != file_hash(path):
+        raise OutputError(
+            f"{path}: was changed since tissuebench wrote it; move it or choose another --out"
+        )
+    if not force:
+        raise OutputError(f"{path}: exists: --force replaces it")
+
+
+def write_owned(path: Path, write: Callable[[Path], None]) -> None:
+    """write(tmp) into a temporary file beside path, rename it into place and list it with
+    its hash in the folder's manifest (rank 0). Refuses a file that is not ours."""
+    path = Path(path)
+    folder = path.parent
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / f"{PREFIX}{path.name}.{os.getpid()}.tmp{path.suffix}"
+    lock = Lock(folder / f"{PREFIX}lock-{MANIFEST}", folder, wait=30.0)
+    try:
+        write(tmp)
+        digest = file_hash(tmp)
+        lock.acquire()
+        check_owned(path)
+        listed = read_manifest(folder, "files") or {}
+        os.replace(tmp, path)
+        _write_manifest(folder, "files", {**listed, path.name: digest})
+    finally:
+        lock.release()
+        tmp.unlink(missing_ok=True)
+
+
 def check_file_target(out: Path, suffix: str, force: bool, also: tuple | list = ()) -> None:
     """Refuse, before any work, a file output that does not end in .suffix, or that (or one of
-    the files written beside it, `also`) is a folder or exists (unless force), or whose folder
-    cannot be written."""
+    the files written beside it, `also`) is a folder or exists and is not ours unchanged (or
+    without force), or whose folder cannot be written."""
     if out.suffix.lower() != f".{suffix}":
         raise OutputError(f"output {out} must end in .{suffix}")
     for path in [out, *also]:
         if path.is_dir():
             raise OutputError(f"output {path} is a folder: name a .{suffix} file")
-        if path.exists() and not force:
-            raise OutputError(f"output {path} exists: --force replaces it")
+        check_owned(path, force)
     existing = next(p for p in out.absolute().parents if p.exists())
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise OutputError(f"output {out}: cannot write there ({existing} is not a writable folder)")
 
 
-def check_writable(out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
-    """Raise OutputError on every rank unless rank 0 can create and write out_dir (a folder
-    of loose outputs such as stability.md; nothing is created)."""
+def check_writable(out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD, owned=()) -> None:
+    """Raise OutputError on every rank unless rank 0 can create and write out_dir (a shared
+    folder of loose outputs such as stability.md; nothing is created) and every file of
+    `owned` (names in it) that exists is ours, unchanged."""
 
     def check():
         out = Path(out_dir)
@@ -340,5 +565,7 @@ def check_writable(out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD) -> None
         existing = next(p for p in [out.absolute(), *out.absolute().parents] if p.exists())
         if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
             raise OutputError(f"{out}: cannot write there ({existing} is not writable)")
+        for name in owned:
+            check_owned(out / name)
 
     collective(comm, check)

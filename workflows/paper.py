@@ -22,9 +22,13 @@ from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import report
-from tissuebench.workflows.output import OutputError, check_writable, collective
+from tissuebench.workflows.output import (
+    check_owned,
+    check_writable,
+    collective,
+    write_owned,
+)
 from tissuebench.workflows.arguments import add_common, check_common
-from tissuebench.workflows.exporting import replace_atomically
 from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
@@ -172,22 +176,12 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def check_report(path: Path) -> None:
-    """Refuse to replace a README.md that the paper's report did not write."""
-    if path.exists() and (
-        not path.is_file() or not path.read_text(errors="replace").startswith(report.MARKER)
-    ):
-        raise OutputError(
-            f"{path}: exists and was not written by tissuebench paper; move it or choose another --out"
-        )
-
-
 def main(args):
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out
     check_writable(out, comm)
-    collective(comm, lambda: check_report(out / "README.md"))
+    collective(comm, lambda: check_owned(out / "README.md"))
     summaries, large, limits = {}, {}, {}
     first, second = cases(args.solver, args.petsc), model_cases(args.solver, args.petsc)
     parts = [out / c.name for c in first] + [out / LARGE / c.name for c in second]
@@ -201,9 +195,8 @@ def main(args):
         interrupt.written(out / LARGE / case.name)
 
     def write():
-        check_report(out / "README.md")
         text = report.paper_report(out, summaries, large, limits)
-        replace_atomically(out / "README.md", lambda tmp: tmp.write_text(text))
+        write_owned(out / "README.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
     interrupt.written(out / "README.md")

@@ -38,9 +38,14 @@ from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.arguments import add_common, check_common
-from tissuebench.workflows.exporting import replace_atomically
 from tissuebench.workflows.ranking import Board, Row, error_keys, finite, fmt, real
-from tissuebench.workflows.output import OutputError, check_writable, collective, fingerprint
+from tissuebench.workflows.output import (
+    OutputError,
+    check_writable,
+    collective,
+    fingerprint,
+    write_owned,
+)
 from tissuebench.workflows.xdmf import gather_mesh, gather_series, write_series
 
 NAME = "mesh-sensitivity"
@@ -283,9 +288,7 @@ def run_study(
             record = {"fingerprint": key, "session": session, "rows": new}
             text = json.dumps(record, indent=1) + "\n"
             try:
-                collective(
-                    comm, lambda: replace_atomically(done, lambda tmp: tmp.write_text(text)), done
-                )
+                collective(comm, lambda: write_owned(done, lambda tmp: tmp.write_text(text)), done)
             except OutputError as exc:
                 if not damaged:
                     raise
@@ -628,7 +631,7 @@ def main(args) -> int:
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out
-    check_writable(out, comm)
+    check_writable(out, comm, owned=[f"{NAME}.md", f"{NAME}.csv"])
     collective(comm, lambda: check_target(out, args.quick, args.force))
     studies = QUICK if args.quick else STUDIES
     session = comm.bcast(time.strftime("%Y-%m-%d %H:%M %Z"))
@@ -641,11 +644,14 @@ def main(args) -> int:
 
     def write():
         for study in studies:
-            plot(out / f"{NAME}-{study.name}.png", study, results[study.name]["rows"])
+            write_owned(
+                out / f"{NAME}-{study.name}.png",
+                lambda tmp, study=study: plot(tmp, study, results[study.name]["rows"]),
+            )
         every = [r for s in studies for r in results[s.name]["rows"]]
-        replace_atomically(out / f"{NAME}.csv", lambda tmp: write_csv(tmp, every))
+        write_owned(out / f"{NAME}.csv", lambda tmp: write_csv(tmp, every))
         text = markdown(studies, results, args.quick, comm.size)
-        replace_atomically(out / f"{NAME}.md", lambda tmp: tmp.write_text(text))
+        write_owned(out / f"{NAME}.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
     interrupt.will_write([])  # all written

@@ -113,6 +113,7 @@ def run_variant(
                 candidate_field=result.field,
                 label=label,
                 wall_time=result.wall_time_s,
+                folder_of_ours=True,
             )
             graded = json.loads((folder / SUMMARY).read_text()) if comm.rank == 0 else None
             graded = comm.bcast(graded, root=0)

@@ -12,7 +12,6 @@ Units: h in s, omega in rad/s, cell size in m.
 """
 
 import json
-import os
 import time
 from pathlib import Path
 
@@ -32,7 +31,7 @@ from tissuebench.solvers.stability import (
     system_end,
     system_for,
 )
-from tissuebench.workflows.output import check_writable, collective
+from tissuebench.workflows.output import check_writable, collective, write_owned
 
 EXPLICIT = explicit_schemes()
 
@@ -233,14 +232,14 @@ def markdown(case, checks, cases, wall):
 
 def write(out_dir, case, checks, cases, wall):
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     record = dict(case, run_check=checks)
-    tmp = out / f".stability.json.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps(record, indent=2) + "\n")
-    os.replace(tmp, out / "stability.json")
+    write_owned(
+        out / "stability.json", lambda tmp: tmp.write_text(json.dumps(record, indent=2) + "\n")
+    )
     if cases:
-        plot(out / "stability.png", cases)
-    (out / "stability.md").write_text(markdown(case, checks, cases, wall))
+        write_owned(out / "stability.png", lambda tmp: plot(tmp, cases))
+    text = markdown(case, checks, cases, wall)
+    write_owned(out / "stability.md", lambda tmp: tmp.write_text(text))
 
 
 def main(args):
@@ -251,7 +250,7 @@ def main(args):
         raise UserError(f"--margin must be between 0 and 1, got {args.margin}")
     if args.max_steps < 1:
         raise UserError(f"--max-steps must be >= 1, got {args.max_steps}")
-    check_writable(args.out, comm)
+    check_writable(args.out, comm, owned=["stability.json", "stability.png", "stability.md"])
     start = time.perf_counter()
     system = system_for(args.benchmark, args.material, args.mesh_size, comm)
     limits = stability_limits(system)
