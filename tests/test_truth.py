@@ -13,7 +13,14 @@ import ufl
 from dolfinx import fem
 
 from helpers import run_script
-from tissuebench.solvers.truth import Boundary, Problem, Truth, case_truth, estimate_error
+from tissuebench.solvers.truth import (
+    Boundary,
+    Problem,
+    Truth,
+    case_truth,
+    estimate_error,
+    interior_difference,
+)
 
 COMM = MPI.COMM_WORLD
 
@@ -240,6 +247,25 @@ def test_error_estimate_recovers_a_known_expansion():
     arrays = estimate_error([np.array([1.0, 1.0, 0.0]), np.array([0.25, 2.0, 0.0])])
     assert arrays.order[0] == pytest.approx(2.0) and np.isnan(arrays.order[1])
     assert np.isnan(arrays.space[1]) and arrays.space[2] == 0.0
+
+
+def test_one_truth_runs_again_with_another_step():
+    """A Truth run at h and then at h/2 gives the h/2 run of a fresh Truth (the factorised step
+    matrix holds h), and the level difference does not depend on how steps are batched."""
+    truth, bench = case_truth("rod", 1)
+    first = truth.run(bench.dt, 4)
+    again = truth.run(bench.dt / 2, 8, keep=2)
+    fresh, _ = case_truth("rod", 1)
+    half = fresh.run(bench.dt / 2, 8, keep=2)
+    assert np.allclose(again.u, half.u, rtol=0, atol=1e-14)
+    assert not np.allclose(again.u[-1], first.u[-1], rtol=0, atol=1e-9)  # h matters
+    fine, _ = case_truth("rod", 2)
+    finer = fine.run(bench.dt, 4)
+    whole = interior_difference(first, finer)
+    assert np.allclose(interior_difference(first, finer, batch=2), whole, rtol=1e-12, atol=0)
+    assert whole[0] == 0 and np.all(whole[1:] > 0)
+    # the same space: no interpolation, h against h/2 at the steps of h
+    assert np.allclose(interior_difference(first, again), interior_difference(first, half))
 
 
 @pytest.mark.serial

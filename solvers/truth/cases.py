@@ -128,8 +128,7 @@ def hierarchy(case: str, levels: Sequence[int], steps: int | None = None, log=No
         runs.append(truth.run(bench.dt, count))
         if log:
             log(f"{case} n={n}: {runs[-1].dofs} dofs, {count} steps, {runs[-1].wall:.1f} s")
-    truth, bench = case_truth(case, levels[-1])
-    half = truth.run(bench.dt / 2, 2 * count, keep=2)
+    half = truth.run(bench.dt / 2, 2 * count, keep=2)  # the finest level's Truth, h/2
     if log:
         log(f"{case} n={levels[-1]} h/2: {half.wall:.1f} s")
     level_ei = [interior_difference(a, b) for a, b in zip(runs, runs[1:])]

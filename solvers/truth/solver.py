@@ -177,6 +177,7 @@ class Truth:
         self.U = fem.Function(self.W)
         self.f = pb.body_force(ufl.SpatialCoordinate(mesh), self.t)
         self._step_solver = None
+        self._step_h = None  # the step of the factorised linear step matrix, s
         self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
 
     # -- forms -----------------------------------------------------------------------------
@@ -324,6 +325,10 @@ class Truth:
         if self.kind == "mixed-nh":
             self._newton()
         else:
+            if self._step_solver is not None and self._step_h != h:  # the matrix holds h
+                self._destroy(self._step_solver)
+                self._step_solver = None
+            self._step_h = h
             self.bc.set(self.U.x.array)
             self._step_solver = self._linear_solve(self.step_residual(), self.U, self._step_solver)
         u = self._get_u(self.U)
