@@ -385,3 +385,12 @@ def test_leaderboard_leaves_out_bad_user_folders_before_it_runs(
     assert "x\\|y&lt;script&gt;alert(1)&lt;/script&gt;" in text
     assert "no wall\\_time\\_s" in text  # the note under the case says what was left out
     leaderboard.check_target(tmp_path, set(), force=False)  # "my" is no simulator
+
+
+def test_figure_takes_labels_as_plain_text(tmp_path):
+    """Labels that matplotlib would parse as (broken) mathtext are drawn as they are."""
+    rows = [row(r"$\frac{$ x", 1.0, 1e-3), row("a$b$c", 2.0, 1e-4), row(r"$\bad", 0.5, 2e-3)]
+    mark_pareto(rows)
+    path = tmp_path / f"figure-{COMM.rank}.png"
+    ranking.plot_case(path, Board("c", "rod", "MP3", "linear", description="d"), rows)
+    assert all_ranks(path.stat().st_size > 10_000)
