@@ -159,21 +159,28 @@ def test_signal_at_start_up(tmp_path, ranks, sig, delay):
 
 
 @pytest.mark.parametrize(
-    "ranks, sig, delays",
-    [(1, signal.SIGTERM, (0.0, 0.6)), (2, signal.SIGINT, (0.4,))],
+    "ranks, sig, fractions",
+    [(1, signal.SIGTERM, (0.0, 0.3, 0.6)), (2, signal.SIGINT, (0.2, 0.5))],
 )
-def test_signal_while_the_figures_are_drawn(tmp_path, ranks, sig, delays):
+def test_signal_while_the_figures_are_drawn(tmp_path, ranks, sig, fractions):
     """Swept over the moments after the run's line, when the figures are drawn with VTK and
-    matplotlib. Before: a segfault leaving the lock and partial folder, or exit 0 with the
-    results, or exit 1 (ImportError, ValueError); under mpiexec exit 0 every time. Now the
-    job ends with the signal's status, or, when the signal came after the results were
-    moved into place, says so; never exit 0."""
-    for delay in delays:
-        folder = tmp_path / str(delay)
+    matplotlib: fractions of the time from that line to the end of a run left alone.
+    Before: a segfault leaving the lock and partial folder, or exit 0 with the results, or
+    exit 1 (ImportError, ValueError); under mpiexec exit 0 every time. Now the job ends with
+    the signal's status, or, when the signal came after the results were moved into place,
+    says so; never exit 0."""
+    process = start([*SHORT_RUN, "--out", tmp_path / "alone"], ranks)
+    after_line(process, "steps in")
+    started = time.monotonic()
+    assert process.wait(timeout=300) == 0
+    window = time.monotonic() - started
+    for fraction in fractions:
+        folder = tmp_path / str(fraction)
         folder.mkdir()
         process = start([*SHORT_RUN, "--out", folder / "out"], ranks)
         after_line(process, "steps in")
-        time.sleep(delay)
+        time.sleep(fraction * window)
+        assert process.poll() is None, "the run ended before the signal"
         process.send_signal(sig)
         line = ended_by(process, sig)
         if "its output is complete" in line:  # too late to stop: complete, and said
@@ -257,7 +264,9 @@ def series(tmp_path_factory):
 
 def test_signal_during_compare_under_mpiexec(tmp_path, series):
     process = start(["compare", *series, "--out", tmp_path / "c"], 2)
-    time.sleep(3.0)  # reading, grading or writing: which one depends on the machine's load
+    while not any(tmp_path.iterdir()):  # graded: the output folder is being prepared
+        assert process.poll() is None, process.communicate()
+        time.sleep(0.01)
     process.send_signal(signal.SIGTERM)
     line = ended_by(process, signal.SIGTERM)
     if "its output is complete" not in line:

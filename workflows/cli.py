@@ -10,6 +10,7 @@ on (solvers/interrupt.py). In every case the partial output is removed and nothi
 touched; what a command had still to write is named in the line.
 """
 
+import os
 import signal
 import sys
 from pathlib import Path
@@ -18,11 +19,22 @@ from pathlib import Path
 def _record(signum, frame):
     """The command line's first handler, before the heavy imports: records a signal, which
     main() raises once MPI is up (solvers/interrupt.py), instead of a traceback (SIGINT) or
-    a silent death (SIGTERM)."""
+    a silent death (SIGTERM). In force again once main() has returned, while the process
+    ends (`end`): a command that succeeded ends at once with the signal's status (rank 0's,
+    under mpiexec) and says that its output is complete."""
+    if _record.finished is not None:
+        command, rank0 = _record.finished
+        if not rank0:  # rank 0 says it and sets the status; the others end as they were
+            return
+        said = "interrupted (SIGINT)" if signum == signal.SIGINT else "terminated (SIGTERM)"
+        print(f"{command}: {said} as it ended; its output is complete", file=sys.stderr)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130 if signum == signal.SIGINT else 143)
     _record.received = _record.received or signum
 
 
-_record.received = 0
+_record.received, _record.finished = 0, None
 if __name__ == "__main__" or Path(sys.argv[0]).name == "tissuebench":  # not when imported
     if not hasattr(signal.getsignal(signal.SIGINT), "received"):  # python -m: once
         signal.signal(signal.SIGINT, _record)
@@ -31,7 +43,6 @@ if __name__ == "__main__" or Path(sys.argv[0]).name == "tissuebench":  # not whe
 import argparse  # noqa: E402 (after the handlers above)
 import errno  # noqa: E402
 import importlib  # noqa: E402
-import os  # noqa: E402
 import traceback  # noqa: E402
 
 from tissuebench.workflows.errors import UserError  # noqa: E402
@@ -88,6 +99,37 @@ def fault(err: OSError) -> str:
 
 
 def main(argv=None):
+    """Run the command line `tissuebench argv...` (sys.argv without argv) and return its exit
+    status. Run as the command line (not imported), the process also ends here (`end`)."""
+    status = command_line(argv)
+    if hasattr(signal.getsignal(signal.SIGINT), "finished"):  # _record: the command line
+        end(status)
+    return status
+
+
+def end(status: int) -> None:
+    """End the process with status now, as the interpreter would but without its teardown of
+    every module, which runs in C for 0.5 to 2.5 s here and during which a signal could be
+    neither raised nor said (it ended in exit 0, or 2 and 15 without a line, under mpiexec).
+    PETSc and MPI are finalized first (every rank), the streams flushed; meanwhile a signal
+    is said by _record and ends the process with its status."""
+    import atexit
+    import gc
+
+    atexit._run_exitfuncs()
+    gc.collect()
+    from petsc4py import PETSc
+    from mpi4py import MPI
+
+    PETSc._finalize()
+    if not MPI.Is_finalized():
+        MPI.Finalize()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
+
+
+def command_line(argv=None) -> int:
     from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
     import petsc4py
 
@@ -100,6 +142,7 @@ def main(argv=None):
     restore = interrupt.install(comm)  # takes over a signal recorded by _record meanwhile
     command = "tissuebench"
     ended = False  # the command returned: its output is complete
+    succeeded = False
 
     def say(text, alone=False):
         if comm.rank == 0 or alone:
@@ -121,6 +164,7 @@ def main(argv=None):
         status = args.func(args) or 0
         ended = True
         interrupt.checkpoint(comm)  # one that no step acted on: never exit 0 after a signal
+        succeeded = status == 0
         return status
     except SystemExit:
         raise
@@ -156,6 +200,9 @@ def main(argv=None):
         raise
     finally:
         restore()
+        first = signal.getsignal(signal.SIGINT)  # _record when run as the command line
+        if succeeded and hasattr(first, "finished"):
+            first.finished = (command, comm.rank == 0)
 
 
 if __name__ == "__main__":  # python -m: run the imported module, not a second copy of it
