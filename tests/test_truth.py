@@ -249,6 +249,19 @@ def test_error_estimate_recovers_a_known_expansion():
     assert np.isnan(arrays.space[1]) and arrays.space[2] == 0.0
 
 
+def test_needle_moves_every_q2_node_of_its_segment():
+    """Block, w = 0.2 m, N = 10: the needle's Q2 nodes are the vertices and the edge midpoints
+    of x = 1, 0.4 <= y <= 0.6 (five), and each follows g(t) exactly (SPEC 4)."""
+    truth, bench = case_truth("block-MP2-w0.2", 10)
+    needle = truth.boundaries[[c.name for c in bench.constraints].index("needle")].nodes
+    owned = needle[needle < truth.V.dofmap.index_map.size_local]
+    y = np.concatenate(COMM.allgather(truth.xnodes[owned, 1]))
+    assert np.allclose(np.sort(y), [0.4, 0.45, 0.5, 0.55, 0.6])
+    run = truth.run(bench.dt, 3)
+    u = run.u[-1].reshape(-1, 2)[owned]
+    assert np.allclose(u, [-0.08 * 3 * bench.dt, 0.0], rtol=0, atol=1e-14)
+
+
 def test_one_truth_runs_again_with_another_step():
     """A Truth run at h and then at h/2 gives the h/2 run of a fresh Truth (the factorised step
     matrix holds h), and the level difference does not depend on how steps are batched."""
