@@ -262,16 +262,19 @@ def test_needle_moves_every_q2_node_of_its_segment():
     assert np.allclose(u, [-0.08 * 3 * bench.dt, 0.0], rtol=0, atol=1e-14)
 
 
-def test_one_truth_runs_again_with_another_step():
-    """A Truth run at h and then at h/2 gives the h/2 run of a fresh Truth (the factorised step
-    matrix holds h), and the level difference does not depend on how steps are batched."""
-    truth, bench = case_truth("rod", 1)
+@pytest.mark.parametrize("case", ["rod", "rod-nh-s3"])
+def test_one_truth_runs_again_with_another_step(case):
+    """A Truth run at h and then at h/2 gives the h/2 run of a fresh Truth (the factorised
+    tangent holds h), and the level difference does not depend on how steps are batched."""
+    truth, bench = case_truth(case, 1)
     first = truth.run(bench.dt, 4)
     again = truth.run(bench.dt / 2, 8, keep=2)
-    fresh, _ = case_truth("rod", 1)
+    fresh, _ = case_truth(case, 1)
     half = fresh.run(bench.dt / 2, 8, keep=2)
-    assert np.allclose(again.u, half.u, rtol=0, atol=1e-14)
+    assert np.allclose(again.u, half.u, rtol=0, atol=1e-11)  # Newton's 1e-10 (of ~1e-2 m)
     assert not np.allclose(again.u[-1], first.u[-1], rtol=0, atol=1e-9)  # h matters
+    if case != "rod":
+        return
     fine, _ = case_truth("rod", 2)
     finer = fine.run(bench.dt, 4)
     whole = interior_difference(first, finer)
