@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 from mpi4py import MPI
 
@@ -12,9 +12,12 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
+from tissuebench.meshes.benchmark import Benchmark
+from tissuebench.solvers.materials import Material, get_material
 from tissuebench.solvers.truth.estimate import ErrorEstimate, estimate_error, interior_difference
 from tissuebench.solvers.truth.solver import Boundary, Problem, Truth, TruthRun
 
+# case -> (benchmark, material, model, load scale s, needle width w in m or None)
 CASES = {
     "rod": ("rod", "MP3", "linear", 1.0, None),
     "rod-nh-s1": ("rod", "MP3", "neo-hookean", 1.0, None),
@@ -49,17 +52,15 @@ def _constraint_nodes(V: fem.FunctionSpace, dim: int, entities: np.ndarray) -> n
             dtype=np.int32,
         )
         nodes.append(fem.locate_dofs_topological(V, tdim - 1, facets))
-    else:
-        nodes.append(fem.locate_dofs_topological(V, tdim - 1, np.zeros(0, np.int32)))
     return np.unique(np.concatenate(nodes)).astype(np.int32)
 
 
-def benchmark_problem(benchmark, material, model: str = "linear") -> Problem:
+def benchmark_problem(
+    benchmark: Benchmark, material: Material | str, model: str = "linear"
+) -> Problem:
     """The truth Problem of a benchmark (meshes.benchmark.Benchmark, built with its load scale
     and needle width) with a material (solvers.materials.Material or name): its constraints on
     every Q2 node of the constrained entities, gravity rho g (N/m^3), and its probe."""
-    from tissuebench.solvers.materials import get_material
-
     mat = get_material(material)
     rho = mat.rho
     gravity = np.asarray(benchmark.gravity, dtype=float)
@@ -87,7 +88,9 @@ def benchmark_problem(benchmark, material, model: str = "linear") -> Problem:
     )
 
 
-def case_truth(case: str, mesh_size: int, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[Truth, object]:
+def case_truth(
+    case: str, mesh_size: int, comm: MPI.Comm = MPI.COMM_WORLD
+) -> tuple[Truth, Benchmark]:
     """(Truth, Benchmark) of a SPEC 10 case on the benchmark's grid of `mesh_size`."""
     from tissuebench.meshes import get_benchmark
 
@@ -104,7 +107,8 @@ class Hierarchy:
     """A truth case computed on uniformly refined levels (mesh sizes) and, on the finest,
     with h/2: runs[k] at h on levels[k]; half the finest at h/2 (kept at the steps of h);
     level_ei[k] E_i per step between levels k and k+1; time_ei E_i per step between h and
-    h/2 on the finest; estimate of the finest level's E_i per step (SPEC 10)."""
+    h/2 on the finest; estimate: the finest level's own E_i, its maximum over the steps (SPEC
+    10; m^3 on the rod, m^2 on the block)."""
 
     case: str
     levels: tuple
@@ -115,7 +119,12 @@ class Hierarchy:
     estimate: ErrorEstimate
 
 
-def hierarchy(case: str, levels: Sequence[int], steps: int | None = None, log=None) -> Hierarchy:
+def hierarchy(
+    case: str,
+    levels: Sequence[int],
+    steps: int | None = None,
+    log: Callable[[str], None] | None = None,
+) -> Hierarchy:
     """Compute a SPEC 10 case on `levels` (at least three mesh sizes, each twice the previous)
     with the benchmark's h and, on the finest, h/2, for `steps` steps of h (default: to the
     benchmark's end time). `log(message)` is told what was done and how long it took."""

@@ -1,5 +1,5 @@
-"""The truth (SPEC section 10): a DOLFINx solver that converges to the continuum problem of
-sections 1-5 and 8 without locking, and the estimate of its own error from a hierarchy.
+"""The truth's solver (SPEC section 10): DOLFINx forms and PETSc solvers that converge to the
+continuum problem of sections 1-5 and 8 without locking.
 
 Discretisation (all in SI units: m, s, Pa, kg/m^3):
 
@@ -250,7 +250,7 @@ class Truth:
     def _linear_solve(self, residual, U, solver=None):
         """One Newton step on a residual linear in U: U -= J^-1 R(U) with homogeneous
         constraints on the correction; U's constrained dofs must hold their values. Returns the
-        (reusable) solver: (J form, R form, matrix, KSP)."""
+        (reusable) solver: (R form, factorised matrix, KSP, residual vector)."""
         if solver is None:
             R = fem.form(residual)
             Jf = fem.form(ufl.derivative(residual, U))
