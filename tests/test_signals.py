@@ -342,6 +342,7 @@ def test_file_system_turning_read_only_mid_run_is_one_line(small_disk, ranks):
     lines = lines_of(stderr)
     assert process.returncode == 1, stderr[-3000:]
     assert len(lines) == 1 and "Read-only file system" in lines[0], stderr[-3000:]
+    assert f"{small_disk / 'r'}:" in lines[0]  # the failure, not the lock that it left
     assert "Traceback" not in stderr
 
 

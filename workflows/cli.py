@@ -138,6 +138,7 @@ def command_line(argv=None) -> int:
     from tissuebench.solvers import interrupt
     from tissuebench.workflows.output import WriteFailure
 
+    signalled = (KeyboardInterrupt, interrupt.Terminated, interrupt.Interrupted)
     comm = MPI.COMM_WORLD
     restore = interrupt.install(comm)  # takes over a signal recorded by _record meanwhile
     command = "tissuebench"
@@ -168,19 +169,24 @@ def command_line(argv=None) -> int:
         return status
     except SystemExit:
         raise
-    except UserError as err:
-        say(f"error: {err}")
-        return 2
-    except WriteFailure as err:
-        say(f"error: {err}")
-        return 1
-    except OSError as err:  # met outside output.collective: on this rank alone, maybe
-        say(f"error: {fault(err)}", alone=True)
-        if comm.size > 1:
-            leave(1)
-        return 1
-    except (KeyboardInterrupt, interrupt.Terminated, interrupt.Interrupted) as signalled:
-        signum = interrupt.signal_of(signalled)
+    except (UserError, WriteFailure, OSError, *signalled) as caught:
+        failure = caught  # an OSError while cleaning up after a failure (a read-only disk):
+        while isinstance(failure, OSError) and isinstance(
+            failure.__context__, (UserError, WriteFailure, OSError, *signalled)
+        ):
+            failure = failure.__context__  # the failure is said, not the cleaning up's
+        if isinstance(failure, UserError):
+            say(f"error: {failure}")
+            return 2
+        if isinstance(failure, WriteFailure):
+            say(f"error: {failure}")
+            return 1
+        if isinstance(failure, OSError):  # met outside output.collective: on this rank alone?
+            say(f"error: {fault(failure)}", alone=True)
+            if comm.size > 1:
+                leave(1)
+            return 1
+        signum = interrupt.signal_of(failure)
         status = interrupt.STATUS[signum]
         if ended:
             say(f"{interrupt.SAID[signum]} as it ended; its output is complete")
@@ -188,7 +194,7 @@ def command_line(argv=None) -> int:
             unwritten = interrupt.unwritten()
             said = f"; not written: {', '.join(unwritten)}" if unwritten else ""
             say(f"{interrupt.SAID[signum]}; partial output removed{said}")
-        together = interrupt.raised_together() or isinstance(signalled, interrupt.Interrupted)
+        together = interrupt.raised_together() or isinstance(failure, interrupt.Interrupted)
         if comm.size > 1 and not together:
             leave(status)  # rank 0 alone (no point where all could stop came in time)
         return status
