@@ -140,7 +140,10 @@ def test_leaderboard_on_a_small_rod(tmp_path, monkeypatch):
     assert text.startswith(leaderboard.MARKER) and "## rod-small" in text
     assert (tmp_path / "leaderboard" / "rod-small.png").stat().st_size > 10_000
     # a full leaderboard (here: one with a simulator that is not installed) is kept
-    with open(tmp_path / "leaderboard.csv", "a", newline="") as f:
-        csv.writer(f).writerow(["rod-small", "elsewhere:fast"])
+    # (written as ours: a leaderboard of another machine, listed in the folder's manifest)
+    from tissuebench.workflows.output import write_owned
+
+    text = (tmp_path / "leaderboard.csv").read_text() + "rod-small,elsewhere:fast\n"
+    write_owned(tmp_path / "leaderboard.csv", lambda tmp: tmp.write_text(text))
     with pytest.raises(leaderboard.OutputError, match="elsewhere, which cannot run here"):
         leaderboard.main(args)

@@ -84,8 +84,10 @@ def test_a_rerun_reads_the_graded_meshes_back(serial):
 
 
 def test_a_quick_run_never_replaces_a_full_report(tmp_path):
-    md = tmp_path / "mesh-sensitivity.md"
-    md.write_text(f"{MARKER}\n\nthe full study\n")
+    from tissuebench.workflows.output import write_owned
+
+    md = tmp_path / "mesh-sensitivity.md"  # a full study's report, written by us
+    write_owned(md, lambda tmp: tmp.write_text(f"{MARKER}\n\nthe full study\n"))
     r = tissuebench("sensitivity", "--quick", "--out", tmp_path)
     assert r.returncode == 2 and "holds a full study" in r.stderr
     assert md.read_text() == f"{MARKER}\n\nthe full study\n"
