@@ -214,8 +214,13 @@ def drawing(draw: Callable) -> Callable:
 
     @functools.wraps(draw)
     def drawn(*args, **kwargs):
-        with deferred():
-            result = draw(*args, **kwargs)
+        try:
+            with deferred():
+                result = draw(*args, **kwargs)
+        except (KeyboardInterrupt, Terminated) as late:  # GRACE passed while drawing
+            if _parallel:  # raised as Interrupted, so that every rank raises it
+                raise Interrupted(signal_of(late)) from None
+            raise
         check()
         return result
 

@@ -79,6 +79,25 @@ def test_under_mpiexec_a_signal_waits_for_a_point_where_all_ranks_stop(handlers)
     assert raised.value.signum == signal.SIGINT and isinstance(raised.value, Exception)
 
 
+def test_drawing_past_the_grace_time_raises_on_every_rank(handlers, monkeypatch):
+    """Rank 0 drawing (inside output.collective) when GRACE runs out: the signal is raised
+    once the figure is done, as Interrupted, which collective broadcasts to every rank."""
+    interrupt = handlers
+    monkeypatch.setattr(interrupt, "GRACE", 0.1)
+    interrupt.install(SimpleNamespace(size=2, rank=0))
+    drawn = []
+
+    @interrupt.drawing
+    def figure():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.5)  # the GRACE alarm comes meanwhile
+        drawn.append(True)
+
+    with pytest.raises(interrupt.Interrupted) as raised:
+        figure()
+    assert drawn and raised.value.signum == signal.SIGINT and interrupt.pending() == 0
+
+
 def test_a_child_process_is_stopped_by_a_signal(handlers):
     interrupt = handlers
     interrupt.install(SimpleNamespace(size=2, rank=1))  # under mpiexec: the signal stays pending
