@@ -41,6 +41,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.solvers import interrupt
 from tissuebench.workflows.errors import UserError
 
 SUMMARY = "summary.json"
@@ -362,7 +363,9 @@ class Lock:
 
 def collective(comm: MPI.Comm, action, where: Path | None = None):
     """Run action() on rank 0 and broadcast its result. An exception on rank 0 is raised on
-    every rank (an OSError as a WriteFailure naming `where`), so that none is left waiting."""
+    every rank (an OSError as a WriteFailure naming `where`), so that none is left waiting.
+    A signal that any rank received is raised on every rank first (solvers/interrupt.py)."""
+    interrupt.checkpoint(comm)  # a signal received before: nothing more is written
     result = error = None
     if comm.rank == 0:
         try:
@@ -529,6 +532,7 @@ def write_owned(path: Path, write: Callable[[Path], None]) -> None:
         lock.acquire()
         check_owned(path)
         listed = read_manifest(folder, "files") or {}
+        interrupt.check()  # a signal while writing: the old file stays
         os.replace(tmp, path)
         _write_manifest(folder, "files", {**listed, path.name: digest})
     finally:
