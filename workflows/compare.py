@@ -28,7 +28,14 @@ def add_parser(sub):
         "and summary.json say why. Complex fields, and series whose steps move or renumber "
         "their nodes, are refused.",
     )
-    p.add_argument("reference", type=Path, help="reference series (.xdmf, .pvd, .frd or .dat)")
+    p.add_argument(
+        "reference",
+        type=Path,
+        help="reference series (.xdmf, .pvd, .frd or .dat), or truth:CASE, the converged "
+        "reference of a SPEC 10 case (rod, rod-nh-s1, rod-nh-s3, block-MP1-w0.2, block-MP2-w0.2, "
+        "block-MP1-nh-s2-w0.2; computed once and cached): the candidate is graded on its own "
+        "mesh at the truth's vertices and quadrature points, and needs every t_i = i h",
+    )
     p.add_argument("candidate", type=Path, help="candidate series (.xdmf, .pvd, .frd or .dat)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
     names = ", ".join(DEFAULT_FIELDS)

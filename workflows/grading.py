@@ -24,6 +24,7 @@ import numpy as np
 
 from tissuebench.metrics.compare import Grading, grade, summarize
 from tissuebench.metrics.errors import METRICS, panels
+from tissuebench.metrics.truth import TruthGrading, grade_against_truth, load_truth, truth_case
 from tissuebench.solvers import interrupt
 from tissuebench.workflows.errors import UserError
 from tissuebench.workflows.files import spans_decades, write_metrics_csv
@@ -87,11 +88,18 @@ def compare(
     folder of ours; complete results of the same inputs (the files' hashes, the fields, the
     label and the wall time) are kept unless `force`, and other inputs are refused without it.
     `folder_of_ours` writes straight into a folder that the caller is writing already (an
-    external simulator's variant inside its own partial folder)."""
+    external simulator's variant inside its own partial folder). A reference `truth:CASE` is
+    SPEC 10's truth of that case (computed or loaded by solvers/truth/store.py; graded by
+    metrics/truth.py; summary.json gets a "truth" entry: case, own error, timings)."""
     check_label(label)
     wall = check_wall_time(wall_time)
-    if folder_of_ours:
-        g = grade(
+    case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
+    truth = None
+
+    def grading() -> Grading:  # against the reference's file, or the truth
+        if case is not None:
+            return grade_against_truth(truth, candidate, candidate_field or field, comm, label)
+        return grade(
             reference,
             candidate,
             field,
@@ -100,14 +108,19 @@ def compare(
             candidate_field=candidate_field,
             label=label,
         )
+
+    if folder_of_ours:
+        truth = load_truth(case, comm) if case is not None else None
+        g = grading()
         summary = summary_of(g, reference, candidate, wall)
         collective(comm, lambda: write_grading(Path(out_dir), g, summary), Path(out_dir))
         return {**{f"note {k + 1}": note for k, note in enumerate(g.notes)}, **g.summaries}
     with RunFolder(out_dir, comm) as folder:
+        truth = load_truth(case, comm) if case is not None else None
         inputs = collective(
             comm,
             lambda: compare_inputs(
-                reference, candidate, field, reference_field, candidate_field, label, wall
+                reference, candidate, field, reference_field, candidate_field, label, wall, truth
             ),
         )
         if folder.prepare(inputs, force) == "complete":
@@ -115,15 +128,7 @@ def compare(
                 "skipped": f"{out_dir}: complete results for the same inputs exist, skipped "
                 "(--force grades again)"
             }
-        g = grade(
-            reference,
-            candidate,
-            field,
-            comm,
-            reference_field=reference_field,
-            candidate_field=candidate_field,
-            label=label,
-        )
+        g = grading()
         summary = summary_of(g, reference, candidate, wall)
         summary["inputs"], summary["fingerprint"] = inputs, fingerprint(inputs)
         with folder.writing() as tmp:
@@ -146,13 +151,20 @@ def series_files(path: Path) -> dict[str, str]:
     return {p.name: file_hash(p) for p in {path, *siblings}}
 
 
-def compare_inputs(reference, candidate, field, reference_field, candidate_field, label, wall):
-    """Every input that changes a compare folder's numbers (rank 0: it reads the files)."""
+def compare_inputs(
+    reference, candidate, field, reference_field, candidate_field, label, wall, truth=None
+):
+    """Every input that changes a compare folder's numbers (rank 0: it reads the files); for a
+    truth (rank 0's TruthSamples), its case and the fingerprint of its inputs."""
     from importlib.metadata import version
 
+    if truth is not None:
+        ref = {"truth": truth.case, "fingerprint": fingerprint(truth.inputs)}
+    else:
+        ref = {"file": str(Path(reference).resolve()), "files": series_files(reference)}
     return {
         "command": "compare",
-        "reference": {"file": str(Path(reference).resolve()), "files": series_files(reference)},
+        "reference": ref,
         "candidate": {"file": str(Path(candidate).resolve()), "files": series_files(candidate)},
         "field": field,
         "reference_field": reference_field,
@@ -189,6 +201,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         peak, mean = summarize(g.curves[name])
         entry[f"{name}_max"], entry[f"{name}_mean"] = none_if_nan(peak), none_if_nan(mean)
     steps = len(times) - 1
+    truth = {"truth": g.summary()} if isinstance(g, TruthGrading) else {}
     return {
         "kind": "compare",
         "reference": {"file": str(reference), "field": g.fields[0]},
@@ -202,6 +215,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         "runs": {g.label: entry},
         "versions": {"tissuebench": version("tissuebench")},
         "files": ["metrics.csv", "metrics.png", SUMMARY],
+        **truth,
     }
 
 

@@ -1,0 +1,525 @@
+"""Grading a candidate against the truth (SPEC section 10, "Grading against the truth"): as
+SPEC section 9, with the truth as the reference mesh M and its own element's interpolation
+u_h(X), sampled in a TruthSamples (solvers/truth/samples.py).
+
+- E_n = ‖Π u′ − u‖ / ‖u‖ at the truth's vertices, Π u′ the candidate's u′_h there (found in
+  the undeformed candidate mesh; a vertex within τ of a candidate node takes its value);
+  NaN where ‖u‖ = 0.
+- E_i = |Ω_0|^(−1/d) Σ_q w_q ‖u′_h(X_q) − u_h(X_q)‖ over the truth's quadrature points
+  (3 Gauss points per direction in each truth cell, u_h the truth's second-order field there),
+  |Ω_0| = Σ_q w_q; the nodal form |Ω_0|^(−1/d) Σ_n w_n ‖(Π u′)_n − u_n‖ with w_n = ∫ φ_n dX,
+  φ_n the Q1 basis of the truth's (first-order) cells.
+- E_s = |Ω_t ⊕ Ω′_t| / |Ω_t|, Ω_t bounded by the truth's deformed boundary through its
+  vertices, Ω′_t by the candidate's own deformed boundary (metrics/surface.py).
+
+The candidate is located once: at the truth's vertices and at its quadrature points, each
+point keeps its candidate cell's nodes and shape-function weights, and every step is applied
+with numpy fancy indexing (crossmesh.PointValues): a sparse interpolation matrix in all but
+name.
+
+Checks as compare's (metrics/compare.py): same body (SPEC 9: every node of either mesh within
+τ = 1e-6 of the truth's extent of the other's undeformed domain, volumes within 1e-6), time
+stamps t_i = i h within 1e-5 max(t, h) (a candidate may stop early: "missing"; one at other
+times is refused), divergence (NaN from the step a series diverges, status column). A
+candidate that starts at t = h starts from the zero initial state.
+
+Rank 0 computes, every rank gets the same TruthGrading (the work is serial: numpy and
+shapely/manifold3d on one process).
+
+main() prints a table of timings (issue 25, item 6).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+from tissuebench.metrics.cells import (
+    DIM,
+    NAMES,
+    Locator,
+    boundary_facets,
+    shape_functions,
+    shape_gradients,
+)
+from tissuebench.metrics.compare import (
+    Grading,
+    _divergence,
+    divergence,
+    smallest_step,
+    starts_at_h,
+    statuses,
+    summarize,
+    time_tolerance,
+    with_initial_state,
+)
+from tissuebench.metrics.crossmesh import BODY_TOLERANCE, Mesh, PointValues, check_same_body
+from tissuebench.metrics.errors import METRICS
+from tissuebench.metrics.series import InputError, Series
+from tissuebench.metrics.surface import domain, surface_error
+from tissuebench.solvers.truth.samples import TruthSamples
+
+GAUSS = 3  # points per direction for the truth's Q1 nodal weights (exact: 2 would do)
+
+
+def truth_name(truth: TruthSamples) -> str:
+    """How the truth is named in messages and titles: "truth:CASE"."""
+    return f"truth:{truth.case}"
+
+
+def truth_series(truth: TruthSamples) -> Series:
+    """The truth's vertex values as a Series (for the checks that compare makes)."""
+    return Series(
+        Path(truth_name(truth)),
+        np.asarray(truth.vertices, dtype=np.float64),
+        np.asarray(truth.cells),
+        truth.cell_type,
+        np.asarray(truth.times, dtype=np.float64),
+        list(truth.u_vertices),
+    )
+
+
+def own_error(truth: TruthSamples) -> float:
+    """The truth's own E_i estimate (max over steps, m^gdim), NaN if it carries none."""
+    value = truth.own_error.get("interior_error_max")
+    return np.nan if value is None else float(value)
+
+
+def nodal_weights(points: np.ndarray, cells: np.ndarray, cell_type: str) -> np.ndarray:
+    """w_n = ∫ φ_n dX for the Q1 (or P1) basis of a first-order mesh (units of the coordinates
+    to the power d), by GAUSS points per direction on each cell (exact for first-order cells).
+    """
+    d = DIM[cell_type]
+    g, gw = np.polynomial.legendre.leggauss(GAUSS)
+    g, gw = 0.5 * (g + 1), 0.5 * gw
+    xi = np.stack(np.meshgrid(*[g] * d, indexing="ij"), axis=-1).reshape(-1, d)
+    w = np.prod(np.stack(np.meshgrid(*[gw] * d, indexing="ij"), axis=-1).reshape(-1, d), axis=1)
+    if cell_type in ("triangle", "tetrahedron"):  # a simplex: w_n = |cell| / (d + 1)
+        X = points[cells]
+        volume = np.abs(np.linalg.det(X[:, 1:] - X[:, :1])) / (2.0 if d == 2 else 6.0)
+        contribution = np.repeat(volume[:, None] / (d + 1), d + 1, axis=1)
+    else:
+        phi = shape_functions(cell_type, xi)  # (q, k)
+        J = np.einsum("cki,qkj->cqij", points[cells], shape_gradients(cell_type, xi))
+        contribution = np.einsum("q,cq,qk->ck", w, np.abs(np.linalg.det(J)), phi)
+    weights = np.zeros(len(points))
+    np.add.at(weights, cells, contribution)
+    return weights
+
+
+def _boundary(points: np.ndarray, cells: np.ndarray, cell_type: str):
+    """(boundary nodes, their undeformed coordinates, the Polygon or Solid they bound)."""
+    facets = boundary_facets(points, cells, cell_type)
+    nodes = np.unique(facets)
+    return nodes, points[nodes], domain(points[nodes], np.searchsorted(nodes, facets))
+
+
+class TruthMetrics:
+    """The metrics of METRICS for a candidate mesh against a truth, located once.
+    `evaluate(i, u_cand)` grades the candidate's nodal displacement u_cand (N′, d), m, against
+    the truth's step i. Raises InputError if a truth vertex or quadrature point lies farther
+    than tol (m) outside the candidate's mesh (`where` starts the message)."""
+
+    def __init__(self, truth: TruthSamples, mesh: Mesh, tol: float, where: str):
+        self.truth = truth
+        self.dim = truth.gdim
+        locator = Locator(mesh.points, mesh.cells, mesh.cell_type, tol)
+        vertices = np.asarray(truth.vertices, dtype=np.float64)
+        points = np.asarray(truth.points, dtype=np.float64)
+        self.at_vertices = PointValues(locator, vertices, snap=tol)
+        self.at_points = PointValues(locator, points)
+        lost_v, lost_q = self.at_vertices.missing, self.at_points.missing
+        if len(lost_v) + len(lost_q):
+            x = vertices[lost_v[0]] if len(lost_v) else points[lost_q[0]]
+            what = "vertex" if len(lost_v) else "quadrature point"
+            raise InputError(
+                f"{where}: {len(lost_v)} truth vertices and {len(lost_q)} quadrature points lie "
+                f"farther than {tol:.3g} outside the candidate's mesh, e.g. the {what} at "
+                f"({', '.join(f'{c:.9g}' for c in x)})"
+            )
+        self.weights = np.asarray(truth.weights, dtype=np.float64)
+        self.volume = float(self.weights.sum())
+        self.scale = self.volume ** (-1 / self.dim)
+        self.nodal = nodal_weights(vertices, np.asarray(truth.cells), truth.cell_type)
+        self.truth_nodes, self.truth_X, self.truth_shape = _boundary(
+            vertices, np.asarray(truth.cells), truth.cell_type
+        )
+        self.cand_nodes, self.cand_X, self.cand_shape = _boundary(
+            mesh.points, mesh.cells, mesh.cell_type
+        )
+
+    def evaluate(self, i: int, u_cand: np.ndarray) -> dict[str, float]:
+        """The metrics (dimensionless E_n and E_s; E_i in m, as SPEC 6 scales it) of u_cand
+        (N′, d), m, against the truth's step i, keyed as METRICS (NaN for a metric this
+        module does not know)."""
+        u_cand = np.asarray(u_cand, dtype=np.float64)
+        u_v = np.asarray(self.truth.u_vertices[i], dtype=np.float64)
+        u_q = np.asarray(self.truth.u_points[i], dtype=np.float64)
+        at_v = self.at_vertices(u_cand)
+        reference = float(np.linalg.norm(u_v))
+        gap = np.linalg.norm(at_v - u_v, axis=1)
+        values = {
+            "relative_error": float(np.sqrt(gap @ gap)) / reference if reference > 0 else np.nan,
+            "interior_error": self.scale
+            * float(self.weights @ np.linalg.norm(self.at_points(u_cand) - u_q, axis=1)),
+            "interior_error_nodal": self.scale * float(self.nodal @ gap),
+            "surface_error": surface_error(
+                self.truth_shape,
+                self.truth_X + u_v[self.truth_nodes],
+                self.cand_X + u_cand[self.cand_nodes],
+                self.cand_shape,
+            ),
+        }
+        return {name: float(values.get(name, np.nan)) for name in METRICS}
+
+
+# --- checks ---------------------------------------------------------------------------------
+
+
+def check_truth_times(truth: Series, cand: Series, h: float) -> None:
+    """The candidate's times are the truth's t_i = i h (within compare's time_tolerance), or a
+    prefix of them (a run that stopped); else InputError, one line."""
+    steps = len(truth.times) - 1
+    need = (
+        f"grading against the truth needs the candidate at every t_i = i h, h = {h:.6g} s, "
+        f"i = 0..{steps} (t_N = {truth.times[-1]:.6g} s; t = 0 may be left out)"
+    )
+    if len(cand.times) > len(truth.times):
+        raise InputError(
+            f"{cand.path}: {len(cand.times) - 1} steps after t = 0, more than the truth's "
+            f"{steps}: {need}"
+        )
+    t_ref = truth.times[: len(cand.times)]
+    tolerance = time_tolerance(t_ref, h)
+    bad = np.flatnonzero(~(np.abs(cand.times - t_ref) <= tolerance))
+    if len(bad):
+        k = bad[0]
+        raise InputError(
+            f"{cand.path}: step {k} is at t = {cand.times[k]:.9g} s, not at t_{k} = "
+            f"{t_ref[k]:.9g} s (tolerance {tolerance[k]:.3g} s): {need}"
+        )
+
+
+# --- grading --------------------------------------------------------------------------------
+
+
+@dataclass
+class TruthGrading(Grading):
+    """A Grading against the truth: also the truth's `case`, its `own_error` (as stored) and
+    the seconds the grading took (`seconds`: locating, and the steps)."""
+
+    case: str = ""
+    own_error: dict = field(default_factory=dict)
+    seconds: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """The entry "truth" of compare's summary.json: the case, its own error, timings."""
+        return {"case": self.case, "own_error": self.own_error, "seconds": self.seconds}
+
+
+def _grade(truth: TruthSamples, cand: Series, label: str | None, log) -> TruthGrading:
+    """grade_truth on one process."""
+    start = time.perf_counter()
+    ref = truth_series(truth)
+    name = truth_name(truth)
+    if cand.dim != truth.gdim:
+        raise InputError(
+            f"{cand.path}: {cand.dim}D {NAMES[cand.cell_type]} cannot be graded against the "
+            f"{truth.gdim}D truth of {truth.case}"
+        )
+    notes = []
+    h = smallest_step(ref.times)
+    if starts_at_h(cand, ref):
+        cand = with_initial_state(cand)
+        notes.append(
+            f"candidate {cand.path.name} starts at t = {cand.times[1]:.6g} s = h: taken to start "
+            "from the SPEC's zero initial state (u = 0 at t = 0, step 0)"
+        )
+    check_truth_times(ref, cand, h)
+    extent = float(np.ptp(ref.points, axis=0).max())
+    check_same_body(ref, cand)
+    where = f"{cand.path}: not a mesh of the body of {name}"
+    grader = TruthMetrics(truth, Mesh.of(cand), BODY_TOLERANCE * extent, where)
+    located = time.perf_counter() - start
+    notes.append(
+        f"graded against the truth {truth.case} ({len(truth.vertices):,} vertices, "
+        f"{NAMES[truth.cell_type]}, second-order field): candidate on its own mesh, "
+        f"{len(cand.points):,} nodes, {NAMES[cand.cell_type]}, interpolated at the truth's "
+        f"{len(truth.vertices):,} vertices and {len(truth.points):,} quadrature points"
+    )
+
+    steps = len(ref.times)
+    ref_divergence, cand_divergence = divergence(ref), divergence(cand)
+    ref_diverged, ref_reason = ref_divergence or (None, None)
+    cand_diverged, cand_reason = cand_divergence or (None, None)
+    status = statuses(steps, len(cand.times), ref_diverged, cand_diverged)
+    graded = status.count("ok")
+    curves = {n: np.full(steps, np.nan) for n in METRICS}
+    for i in range(graded):
+        for n, value in grader.evaluate(i, cand.displacements[i]).items():
+            curves[n][i] = value
+    seconds = {"locate": located, "steps": time.perf_counter() - start - located}
+
+    times = ref.times
+    summaries = {}
+    if ref_diverged is not None:
+        summaries["reference"] = _divergence(
+            "reference", ref_diverged, times[ref_diverged], ref_reason
+        )
+    if cand_diverged is not None:
+        summaries["candidate"] = _divergence(
+            "candidate", cand_diverged, times[cand_diverged], cand_reason
+        )
+    elif len(cand.times) < steps:
+        k = len(cand.times)
+        summaries["candidate"] = (
+            f"candidate ends at step {k - 1} (t = {times[k - 1]:.6g} s): steps {k}..{steps - 1} "
+            "missing"
+        )
+    label = label or cand.path.stem
+    title = f"{label} against {name}"
+    if "candidate" in summaries or "reference" in summaries:
+        title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
+    scope = (
+        f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
+    )
+    if graded <= 1:
+        scope = f"no step of 1..{steps - 1} graded"
+    own = own_error(truth)
+    for n in METRICS:
+        peak, mean = summarize(curves[n])
+        line = f"{n}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
+        if n.startswith("interior_error"):
+            line += f" (the truth's own error: {own:.2g})"
+        summaries[n] = line
+    if log is not None:
+        log(
+            f"graded {graded - 1} steps against {name} in {seconds['locate'] + seconds['steps']:.1f} s"
+        )
+    return TruthGrading(
+        label,
+        title,
+        np.asarray(times),
+        curves,
+        status,
+        summaries,
+        notes,
+        ("displacement", cand.field),
+        ref_diverged,
+        cand_diverged,
+        len(cand.times),
+        ref_reason,
+        cand_reason,
+        case=truth.case,
+        own_error=dict(truth.own_error),
+        seconds=seconds,
+    )
+
+
+def grade_truth(
+    truth: TruthSamples | None,
+    cand: Series | None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    label: str | None = None,
+    log=None,
+) -> TruthGrading:
+    """Grade the candidate series (rank 0's; None may be passed elsewhere) against the truth
+    (rank 0's) as the module docstring says. Collective: rank 0 computes, every rank gets the
+    same TruthGrading; InputError on every rank for a candidate of another dimension or body,
+    other time stamps, or points outside its mesh. `label` names the candidate (default: its
+    file name without suffix); `log` (rank 0) is given one line with the time taken."""
+    result = error = None
+    if comm.rank == 0:
+        try:
+            result = _grade(truth, cand, label, log)
+        except InputError as exc:
+            error = InputError(str(exc))
+        except Exception as exc:  # never leave the other ranks waiting
+            error = exc
+    result, error = comm.bcast((result, error), root=0)
+    if error is not None:
+        raise error
+    return result
+
+
+# --- compare truth:CASE ----------------------------------------------------------------------
+
+PREFIX = "truth:"
+
+
+def truth_case(reference: str | Path, reference_field: str | None = None) -> str | None:
+    """The SPEC 10 case of a reference given as `truth:CASE`; None for a reference file.
+    InputError (one line) for a case without a truth: a point-needle block case (w = 0), or a
+    name not in SPEC 10's table; and for a --reference-field, which a truth has no use for."""
+    text = str(reference)
+    if not text.startswith(PREFIX):
+        return None
+    from tissuebench.solvers.truth.cases import CASES
+
+    case = text[len(PREFIX) :]
+    if reference_field is not None:
+        raise InputError(
+            f"{text}: --reference-field does not apply to the truth (its field is the displacement)"
+        )
+    if case in CASES:
+        return case
+    blocks = ", ".join(c for c in CASES if CASES[c][0] == "block")
+    width = case.rpartition("-w")[2] if "-w" in case else "0"
+    try:
+        point_needle = case.startswith("block") and float(width) == 0
+    except ValueError:
+        point_needle = False
+    if point_needle:
+        raise InputError(
+            f"{text}: this case has no converged reference (SPEC 10: with a point needle, "
+            f"w = 0, refinement converges to no solution); the block's truth cases have a "
+            f"needle of width w = 0.2 m: {blocks}"
+        )
+    raise InputError(f"{text}: no such truth case; the cases (SPEC 10) are {', '.join(CASES)}")
+
+
+def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | None:
+    """The truth of a case, computed or loaded from its cache (solvers/truth/store.py;
+    collective); rank 0 prints its progress. Rank 0's TruthSamples is the one used."""
+    from tissuebench.solvers.truth.store import truth_samples
+
+    def log(*args, **kwargs):
+        if comm.rank == 0:
+            print(*args, **kwargs)
+
+    return truth_samples(case, comm=comm, log=log)
+
+
+def grade_against_truth(
+    truth: TruthSamples | None,
+    candidate: str | Path,
+    field: str | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    label: str | None = None,
+) -> TruthGrading:
+    """Read the candidate series file (XDMF, PVD, CalculiX .frd or .dat; point field `field`,
+    else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
+    truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
+    and for an unreadable file."""
+    from tissuebench.metrics.series import read_series
+
+    cand = error = None
+    if comm.rank == 0:
+        try:
+            cand = read_series(candidate, field)
+        except InputError as exc:
+            error = str(exc)
+        except Exception as exc:  # never leave the other ranks waiting
+            error = (
+                f"{candidate}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
+            )
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise InputError(error)
+    return grade_truth(truth, cand, comm, label=label)
+
+
+# --- timing (issue 25, item 6) --------------------------------------------------------------
+
+
+def _grid(n: tuple[int, ...], lengths: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """A structured grid of quadrilaterals or hexahedra (VTK order): points and cells."""
+    d = len(n)
+    axes = [np.linspace(0.0, L, k + 1) for k, L in zip(n, lengths)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
+    index = np.arange(len(points)).reshape([k + 1 for k in n])
+    corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    if d == 3:
+        corners = [(*c, 0) for c in corners] + [(*c, 1) for c in corners]
+    cells = np.stack(
+        [index[tuple(slice(o, o + k) for o, k in zip(c, n))].ravel() for c in corners], axis=1
+    )
+    return points, cells
+
+
+def gauss_points(
+    points: np.ndarray, cells: np.ndarray, cell_type: str, per_direction: int = 3
+) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature points (m) and weights (m^d) of a first-order Q1 mesh, per_direction Gauss
+    points per direction, cell by cell."""
+    d = DIM[cell_type]
+    g, gw = np.polynomial.legendre.leggauss(per_direction)
+    g, gw = 0.5 * (g + 1), 0.5 * gw
+    xi = np.stack(np.meshgrid(*[g] * d, indexing="ij"), axis=-1).reshape(-1, d)
+    w = np.prod(np.stack(np.meshgrid(*[gw] * d, indexing="ij"), axis=-1).reshape(-1, d), axis=1)
+    X = points[cells]
+    x = np.einsum("qk,cki->cqi", shape_functions(cell_type, xi), X).reshape(-1, d)
+    J = np.einsum("cki,qkj->cqij", X, shape_gradients(cell_type, xi))
+    return x, (w * np.abs(np.linalg.det(J))).ravel()
+
+
+def bench(
+    truth_cells: tuple[int, ...] = (24, 12, 12),
+    candidate_cells: tuple[int, ...] = (50, 25, 25),
+    steps: int = 300,
+) -> dict[str, float]:
+    """Time grade_truth on COMM_SELF for a synthetic rod-shaped truth (hexahedra, 27 Gauss
+    points per cell) and a hexahedral candidate of 3 x its node count dofs over `steps` steps:
+    wall seconds for locating and for the steps, and the total in wall and CPU seconds (the
+    CPU time of this process: the one core's work, whatever else the machine runs)."""
+    lengths = (10.0, 1.0, 1.0)
+    tv, tc = _grid(truth_cells, lengths)
+    tq, tw = gauss_points(tv, tc, "hexahedron")
+    times = np.arange(steps + 1) * 0.0333
+
+    def field_at(x, t):
+        s = np.sin(np.pi * x[:, 0] / 20.0)
+        return np.stack([0.01 * s * x[:, 1], -0.1 * s * t / times[-1], 0.02 * s * x[:, 2]], 1)
+
+    truth = TruthSamples(
+        "bench",
+        "hexahedron",
+        times,
+        tv,
+        tc,
+        boundary_facets(tv, tc, "hexahedron"),
+        tq,
+        tw,
+        np.stack([field_at(tv, t) for t in times]),
+        np.stack([field_at(tq, t) for t in times]),
+        {"interior_error_max": 1e-6},
+    )
+    cv, cc = _grid(candidate_cells, lengths)
+    cand = Series(
+        Path("candidate.xdmf"),
+        cv,
+        cc,
+        "hexahedron",
+        times,
+        [field_at(cv, t) * 1.001 for t in times],
+    )
+    start, cpu = time.perf_counter(), time.process_time()
+    g = grade_truth(truth, cand, MPI.COMM_SELF)
+    total, cpu = time.perf_counter() - start, time.process_time() - cpu
+    return {
+        "truth vertices": len(tv),
+        "truth quadrature points": len(tq),
+        "candidate dofs": 3 * len(cv),
+        "steps": steps,
+        "locate s": g.seconds["locate"],
+        "steps s": g.seconds["steps"],
+        "total s": total,
+        "total CPU s": cpu,
+        "E_i max": summarize(g.curves["interior_error"])[0],
+    }
+
+
+def main() -> None:
+    """Print bench()'s table: `python -c "from mpi4py import MPI; from
+    tissuebench.metrics.truth import main; main()"`."""
+    row = bench()
+    width = max(len(k) for k in row)
+    for key, value in row.items():
+        shown = f"{value:.4g}" if isinstance(value, float) else f"{value:,}"
+        print(f"{key:<{width}}  {shown}")
