@@ -154,7 +154,7 @@ class TruthMetrics:
         )
 
     def evaluate(self, i: int, u_cand: np.ndarray) -> dict[str, float]:
-        """The metrics (dimensionless E_n and E_s; E_i in m, as SPEC 6 scales it) of u_cand
+        """The metrics (dimensionless E_n and E_s; E_i in m^d, as SPEC 6 scales it) of u_cand
         (N′, d), m, against the truth's step i, keyed as METRICS (NaN for a metric this
         module does not know)."""
         u_cand = np.asarray(u_cand, dtype=np.float64)
