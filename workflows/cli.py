@@ -59,6 +59,7 @@ COMMANDS = [
     "tissuebench.workflows.stability",
     "tissuebench.workflows.convergence",
     "tissuebench.workflows.bench",
+    "tissuebench.workflows.truth",
 ]
 
 

@@ -426,9 +426,11 @@ class Truth:
         im = self.W.dofmap.index_map
         return im.size_global * self.W.dofmap.index_map_bs
 
-    def run(self, h: float, steps: int, keep: int = 1) -> TruthRun:
+    def run(
+        self, h: float, steps: int, keep: int = 1, on_step: Callable[[int], None] | None = None
+    ) -> TruthRun:
         """Integrate `steps` steps of size h (s) from t = 0; keep every `keep`-th step's
-        displacement (0: none) and the probe at every step."""
+        displacement (0: none) and the probe at every step; on_step(i) after step i."""
         start = time.perf_counter()
         self.initial_state()
         history, tips, times = [], [], []
@@ -445,6 +447,8 @@ class Truth:
         for i in range(steps):
             self.step((i + 1) * h, h)
             record(i + 1)
+            if on_step is not None:
+                on_step(i + 1)
         return TruthRun(
             V=self.V,
             times=np.array(times) if keep else np.arange(steps + 1) * h,

@@ -1,0 +1,486 @@
+"""Where the truth lives (SPEC 10, issue 25 item 2): a case's hierarchy computed once, its own
+error estimated, its finest level sampled for grading (samples.TruthSamples) and cached
+outside git, keyed by the fingerprint of every input it was computed from.
+
+- sample(truth, run): a truth run's displacement at the vertices of its mesh and at the
+  Gauss-Legendre points (3 per direction) of its cells, with the cells (VTK order), the
+  boundary facets and the quadrature weights, on rank 0 in a numbering that does not depend
+  on the number of ranks (vertices by their input index, cells by their original index).
+- truth_samples(case, quick): the TruthSamples of a SPEC 10 case, from the cache
+  ($TISSUEBENCH_CACHE/truth/, default ~/.cache/tissuebench/truth/) or computed there.
+
+The hierarchy (SPEC 10: three uniformly refined levels, h and h/2 on the finest): rod
+n = 2, 4, 8 (16 x 8 x 8 hexahedra on the finest), block N = 20, 40, 80, each to the
+benchmark's end time T = 10 s with its h = 1/30 s. Quick (CI and tests, never the truth):
+rod n = 1, 2, 4 and block N = 10, 20, 40, 30 steps of h = 1/30 s (T = 1 s).
+
+Units: SI (m, s); E_i in m^3 (rod) and m^2 (block).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from pathlib import Path
+from typing import Callable
+
+from mpi4py import MPI
+
+import basix
+import dolfinx.mesh
+import numpy as np
+from dolfinx import fem
+from dolfinx.io.utils import cell_perm_vtk
+
+from tissuebench.solvers import interrupt
+from tissuebench.solvers.materials import get_material
+from tissuebench.solvers.truth.cases import CASES, case_truth
+from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
+from tissuebench.solvers.truth.samples import TruthSamples
+from tissuebench.solvers.truth.solver import MIXED_NU, Truth, TruthRun
+from tissuebench.workflows.errors import UserError
+
+SAMPLING = 1  # the version of sample() and compute(): part of the inputs (the cache key)
+QUADRATURE_POINTS = 3  # Gauss-Legendre points per direction (metrics/crossmesh.py's rule)
+LEVELS = {"rod": (2, 4, 8), "block": (20, 40, 80)}  # mesh sizes, each twice the last
+QUICK_LEVELS = {"rod": (1, 2, 4), "block": (10, 20, 40)}
+QUICK_STEPS = 30  # quick: 30 steps of h = 1/30 s, T = 1 s
+TARGET = {3: 1e-5, 2: 2e-5}  # SPEC 10: own E_i max, m^3 (3D, rod) and m^2 (2D, block)
+# s per step of h on each level (one rank): the first 6 steps after 2, measured on this 2-core
+# machine while it was shared with other jobs (an upper bound; None: not measured)
+MEASURED_STEP_SECONDS: dict[str, tuple] = {
+    "rod-nh-s1": (0.058, 0.38, 5.1),
+    "rod-nh-s3": (None, None, 3.4),
+    "block-MP1-nh-s2-w0.2": (0.087, 0.42, 3.6),
+}
+# wall time (s) of a full computation here, one rank: linear cases measured by `tissuebench
+# truth` (the hierarchy, h/2 and the sampling); neo-Hookean ones from MEASURED_STEP_SECONDS
+# (300 steps on each level, 600 at h/2 on the finest; rod-nh-s3's coarse levels as s1's)
+EXPECTED_SECONDS = {
+    "rod": 135.0,
+    "rod-nh-s1": 4700.0,
+    "rod-nh-s3": 3200.0,
+    "block-MP1-w0.2": 85.0,
+    "block-MP2-w0.2": 85.0,
+    "block-MP1-nh-s2-w0.2": 3400.0,
+}
+QUICK_SECONDS = {"rod": 5.0, "block": 15.0}  # about, a linear case; neo-Hookean ~ x5
+# the code a truth comes from: its fingerprint changes when any of these files does
+SOURCES = (
+    "solvers/truth/solver.py",
+    "solvers/truth/cases.py",
+    "solvers/truth/estimate.py",
+    "solvers/materials.py",
+    "meshes/benchmark.py",
+    "meshes/rod.py",
+    "meshes/block.py",
+)
+PACKAGE = Path(__file__).resolve().parents[2]  # the tissuebench package's folder
+
+
+def check_case(case: str) -> None:
+    """Raise UserError (one line) unless `case` is a SPEC 10 truth case."""
+    if case not in CASES:
+        raise UserError(
+            f"no truth for {case!r}: the truth cases are {', '.join(CASES)} (a point needle, "
+            "w = 0, has no converged reference)"
+        )
+
+
+def levels_of(case: str, quick: bool = False) -> tuple[int, ...]:
+    """The mesh sizes of a case's hierarchy."""
+    return (QUICK_LEVELS if quick else LEVELS)[CASES[case][0]]
+
+
+def expected_seconds(case: str, quick: bool = False) -> float:
+    """About how long the first computation of a case takes here, s (one rank)."""
+    if quick:
+        factor = 5.0 if CASES[case][2] == "neo-hookean" else 1.0
+        return QUICK_SECONDS[CASES[case][0]] * factor
+    return EXPECTED_SECONDS[case]
+
+
+def _versions() -> dict:
+    import petsc4py
+    from importlib.metadata import version
+    from petsc4py import PETSc
+
+    return {
+        "tissuebench": version("tissuebench"),
+        "dolfinx": dolfinx.__version__,
+        "basix": basix.__version__,
+        "petsc4py": petsc4py.__version__,
+        "petsc": ".".join(str(v) for v in PETSc.Sys.getVersion()),
+        "numpy": np.__version__,
+    }
+
+
+def _code() -> str:
+    """The SHA-256 of the truth's sources (SOURCES), in order."""
+    digest = hashlib.sha256()
+    for name in SOURCES:
+        digest.update(name.encode())
+        digest.update((PACKAGE / name).read_bytes())
+    return digest.hexdigest()
+
+
+def inputs(case: str, quick: bool = False) -> dict:
+    """Every input a case's truth is computed from (JSON-ready): the case's parameters and
+    material, its levels, h and steps, the element and time rule, the sampling, the software's
+    versions and the sources' hash. Its fingerprint is the cache key."""
+    from tissuebench.meshes import get_entry
+
+    check_case(case)
+    benchmark, material, model, scale, width = CASES[case]
+    mat = get_material(material)
+    entry = get_entry(benchmark)
+    steps = QUICK_STEPS if quick else round(entry.end_time / entry.dt)
+    if model == "neo-hookean":
+        form = "Taylor-Hood Q2-Q1-Q1 (u, p, p_d)"
+    elif mat.nu >= MIXED_NU:
+        form = "Taylor-Hood Q2-Q1 (u, p)"
+    else:
+        form = "Q2 (u)"
+    return {
+        "case": case,
+        "benchmark": benchmark,
+        "material": {k: getattr(mat, k) for k in ("name", "E", "nu", "rho", "alpha", "beta")},
+        "model": model,
+        "load_scale": scale,
+        "needle_width": width,
+        "levels": list(levels_of(case, quick)),
+        "h": entry.dt,
+        "h_half": True,
+        "steps": steps,
+        "end_time": steps * entry.dt,
+        "element": form,
+        "time": "trapezoidal rule, consistent mass",
+        "quadrature_points": QUADRATURE_POINTS,
+        "sampling": SAMPLING,
+        "quick": quick,
+        "versions": _versions(),
+        "code": _code(),
+    }
+
+
+def fingerprint_of(case: str, quick: bool = False) -> str:
+    from tissuebench.workflows.output import fingerprint
+
+    return fingerprint(inputs(case, quick))
+
+
+def cache_dir() -> Path:
+    """$TISSUEBENCH_CACHE/truth, default ~/.cache/tissuebench/truth."""
+    root = os.environ.get("TISSUEBENCH_CACHE") or Path.home() / ".cache" / "tissuebench"
+    return Path(root) / "truth"
+
+
+def cache_path(case: str, quick: bool = False) -> Path:
+    """The cache file of a case's truth: CASE[-quick]-FINGERPRINT.npz."""
+    key = fingerprint_of(case, quick)
+    return cache_dir() / f"{case}{'-quick' if quick else ''}-{key[:20]}.npz"
+
+
+# --- sampling -----------------------------------------------------------------------------------
+
+
+def _facet_cycles(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
+    """The owned exterior facets as local geometry nodes, ordered around each facet and
+    oriented as metrics.cells.boundary_facets orients them (outward: the domain on the left
+    of an edge in 2D; a face's right-handed normal out of its cell in 3D)."""
+    tdim, gdim = mesh.topology.dim, mesh.geometry.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    facets = dolfinx.mesh.exterior_facet_indices(mesh.topology)
+    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets)
+    if nodes.shape[1] == 4:  # a quadrilateral face's vertices are in tensor order
+        nodes = nodes[:, [0, 1, 3, 2]]
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    x = mesh.geometry.x[:, :gdim]
+    owner = np.array([f2c.links(f)[0] for f in facets], dtype=np.int64)
+    gdofs = mesh.geometry.dofmaps[0]
+    inside = x[gdofs[owner]].mean(axis=1) if len(owner) else np.zeros((0, gdim))
+    p = x[nodes]
+    if gdim == 2:
+        edge, to_inside = p[:, 1] - p[:, 0], inside - p[:, 0]
+        keep = edge[:, 0] * to_inside[:, 1] - edge[:, 1] * to_inside[:, 0] > 0
+    else:
+        normal = np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+        keep = np.einsum("ij,ij->i", normal, p.mean(axis=1) - inside) > 0
+    return np.where(keep[:, None], nodes, nodes[:, ::-1])
+
+
+def canonical_cycles(facets: np.ndarray) -> np.ndarray:
+    """Each facet's cycle of vertices rotated to start at its smallest index (its direction
+    kept), and the rows sorted: one order for the same set of oriented facets."""
+    facets = np.asarray(facets)
+    if len(facets) == 0:
+        return facets
+    first = np.argmin(facets, axis=1)
+    m = facets.shape[1]
+    rotated = np.take_along_axis(facets, (first[:, None] + np.arange(m)) % m, axis=1)
+    return rotated[np.lexsort(rotated.T[::-1])]
+
+
+def sample(
+    truth: Truth | None,
+    run: TruthRun,
+    case: str = "",
+    own_error: dict | None = None,
+    inputs: dict | None = None,
+    hierarchy: dict | None = None,
+) -> TruthSamples | None:
+    """The truth run's samples for grading (samples.TruthSamples): on rank 0, None elsewhere.
+    Collective.
+
+    vertices: the geometry nodes of the (first-order) mesh, ordered by their input index;
+    cells: ordered by their original index, their vertices in VTK order; boundary: the
+    exterior facets, ordered around each facet and oriented outward, rows sorted by their
+    vertices; points and weights: Gauss-Legendre, QUADRATURE_POINTS per direction on each
+    cell (w |det J|, m^gdim), cell by cell; u_vertices and u_points: the truth's Q2
+    displacement there (m) at every kept step of `run`. These do not depend on the number of
+    ranks."""
+    V = run.V if run.V is not None else truth.V
+    mesh = V.mesh
+    comm = mesh.comm
+    tdim, gdim = mesh.topology.dim, mesh.geometry.dim
+    cell_type = mesh.topology.cell_name()
+    if cell_type not in ("quadrilateral", "hexahedron") or mesh.geometry.cmaps[0].degree != 1:
+        raise ValueError(f"sample() takes first-order quadrilaterals or hexahedra, not {cell_type}")
+    if V.element.needs_dof_transformations:
+        raise ValueError("sample() takes Lagrange spaces without dof transformations")
+    n_cells = mesh.topology.index_map(tdim).size_local
+    gdofs = mesh.geometry.dofmaps[0]
+    nv = gdofs.shape[1]
+    ids = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
+    n_nodes = mesh.geometry.index_map().size_local
+    # the Q2 dof at each geometry node: the cell's vertex dofs (first order: node k = vertex k)
+    vertex_dofs = [V.dofmap.dof_layout.entity_dofs(0, k)[0] for k in range(nv)]
+    node_dof = np.empty(len(mesh.geometry.x), dtype=np.int64)
+    node_dof[gdofs.ravel()] = V.dofmap.list[:, vertex_dofs].ravel()
+    node_dof = node_dof[:n_nodes]
+
+    perm = np.asarray(cell_perm_vtk(mesh.topology.cell_type, nv))  # VTK node k = DOLFINx perm[k]
+    cells = ids[gdofs[:n_cells][:, perm]]
+    original = np.asarray(mesh.topology.original_cell_index[:n_cells], dtype=np.int64)
+    boundary = ids[_facet_cycles(mesh)]
+
+    basix_cell = basix.CellType[cell_type]
+    xi, w = basix.make_quadrature(basix_cell, 2 * QUADRATURE_POINTS - 1)
+    q1 = basix.create_element(basix.ElementFamily.P, basix_cell, 1).tabulate(1, xi)[..., 0]
+    X = mesh.geometry.x[gdofs[:n_cells], :gdim]  # (cells, nodes, gdim)
+    points = np.einsum("qk,cki->cqi", q1[0], X)
+    J = np.einsum("jqk,cki->cqij", q1[1:], X)
+    weights = w * np.abs(np.linalg.det(J))  # (cells, q)
+    phi = V.element.basix_element.tabulate(0, xi)[0, :, :, 0]  # (q, Q2 nodes)
+    dofs = V.dofmap.list[:n_cells]
+
+    fn = fem.Function(V)
+    steps = len(run.u)
+    u_vertices = np.empty((steps, n_nodes, gdim))
+    u_points = np.empty((steps, n_cells, len(w), gdim))
+    for k in range(steps):
+        fn.x.array[: len(run.u[k])] = run.u[k]
+        fn.x.scatter_forward()
+        U = fn.x.array.reshape(-1, gdim)
+        u_vertices[k] = U[node_dof]
+        u_points[k] = np.einsum("qk,ckd->cqd", phi, U[dofs])
+
+    mine = {
+        "ids": ids[:n_nodes],
+        "x": mesh.geometry.x[:n_nodes, :gdim],
+        "original": original,
+        "cells": cells,
+        "boundary": boundary,
+        "points": points,
+        "weights": weights,
+        "u_vertices": u_vertices,
+        "u_points": u_points,
+    }
+    parts = comm.gather(mine, root=0)
+    if comm.rank != 0:
+        return None
+
+    def joined(name, axis=0):
+        return np.concatenate([part[name] for part in parts], axis=axis)
+
+    node_ids = joined("ids")
+    by_id = np.argsort(node_ids, kind="stable")
+    sorted_ids = node_ids[by_id]
+
+    def position(global_ids):
+        return np.searchsorted(sorted_ids, global_ids)
+
+    cell_order = np.argsort(joined("original"), kind="stable")
+    facets = canonical_cycles(position(joined("boundary")))
+    return TruthSamples(
+        case=case,
+        cell_type=cell_type,
+        times=np.asarray(run.times, dtype=float),
+        vertices=joined("x")[by_id],
+        cells=position(joined("cells"))[cell_order],
+        boundary=facets,
+        points=joined("points")[cell_order].reshape(-1, gdim),
+        weights=joined("weights")[cell_order].reshape(-1),
+        u_vertices=joined("u_vertices", axis=1)[:, by_id],
+        u_points=joined("u_points", axis=1)[:, cell_order].reshape(steps, -1, gdim),
+        own_error=dict(own_error or {}),
+        inputs=dict(inputs or {}),
+        hierarchy=dict(hierarchy or {}),
+    )
+
+
+# --- computing a case ---------------------------------------------------------------------------
+
+
+def _progress(comm: MPI.Comm, total: int, desc: str):
+    """(on_step, close) of a tqdm bar on rank 0; on_step also lets a signal stop every rank
+    together (interrupt.checkpoint)."""
+    from tqdm import tqdm
+
+    bar = tqdm(
+        total=total, desc=desc, unit="step", leave=False, disable=comm.rank != 0, mininterval=0.5
+    )
+
+    def on_step(i: int) -> None:
+        bar.update(1)
+        interrupt.checkpoint(comm)
+
+    return on_step, bar.close
+
+
+def _timed_run(truth: Truth, h: float, steps: int, keep: int, desc: str, comm) -> TruthRun:
+    on_step, close = _progress(comm, steps, desc)
+    try:
+        return truth.run(h, steps, keep=keep, on_step=on_step)
+    finally:
+        close()
+
+
+def compute(
+    case: str,
+    quick: bool = False,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log: Callable[[str], None] | None = None,
+) -> TruthSamples | None:
+    """Compute a case's hierarchy (levels_of(case, quick), h on each and h/2 on the finest),
+    estimate its own error (estimate.estimate_error) and sample the finest level at h. On
+    rank 0 the TruthSamples, None elsewhere. Collective. `log` is told each level's cost."""
+    check_case(case)
+    say = log or (lambda line: None)
+    start = time.perf_counter()
+    given = inputs(case, quick)
+    steps = given["steps"]
+    info: dict = {"levels": [], "dofs": [], "wall": [], "steps": steps, "level_differences": []}
+    tips, statics = [], []
+    previous = None
+    for n in levels_of(case, quick):
+        truth, bench = case_truth(case, n, comm)
+        run = _timed_run(truth, bench.dt, steps, 1, f"{case} n={n}", comm)
+        wall = comm.allreduce(run.wall, op=MPI.MAX)
+        info["levels"].append(n)
+        info["dofs"].append(run.dofs)
+        info["wall"].append(wall)
+        info["h"] = bench.dt
+        if run.tip is not None:
+            tips.append(np.asarray(run.tip).tolist())
+            statics.append(np.asarray(truth.tip(truth.static(steps * bench.dt))).tolist())
+        if previous is not None:
+            info["level_differences"].append(interior_difference(previous, run).tolist())
+            previous.u = None  # the coarser level's history is no longer needed
+        say(f"{case} n={n}: {run.dofs:,} dofs, {steps} steps, {wall:.1f} s")
+        previous = run
+    half = _timed_run(truth, bench.dt / 2, 2 * steps, 2, f"{case} n={n} h/2", comm)
+    info["half_wall"] = comm.allreduce(half.wall, op=MPI.MAX)
+    if half.tip is not None:
+        info["half_tip"] = np.asarray(half.tip).tolist()
+    say(f"{case} n={n} h/2: {2 * steps} steps, {info['half_wall']:.1f} s")
+    time_ei = interior_difference(run, half)
+    half = None
+    info["time_difference"] = time_ei.tolist()
+    if tips:
+        info["tip"], info["static_tip"] = tips, statics
+    est = estimate_error([max(d) for d in info["level_differences"]], float(time_ei.max()))
+    gdim = bench.mesh.geometry.dim
+    target = TARGET[gdim]
+    own = {
+        "interior_error_max": est.total,
+        "order": est.order,
+        "space": est.space,
+        "time": est.time,
+        "target": target,
+        "meets_target": bool(est.total <= target),
+        "units": "m^3" if gdim == 3 else "m^2",
+        "how": "E_i max between the last two levels / (2^p - 1) plus E_i max(h, h/2) 4/3",
+    }
+    samples = sample(truth, run, case, own, given, info)
+    wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    if samples is not None:
+        samples.hierarchy["total_wall"] = wall
+    return samples
+
+
+def load_cached(
+    case: str, quick: bool = False, comm: MPI.Comm = MPI.COMM_WORLD
+) -> TruthSamples | None:
+    """The cached truth of a case on rank 0 if there is one for today's inputs (else None);
+    None on other ranks. Whether one was found is the same on every rank: found(...)."""
+    path = cache_path(case, quick)
+    samples = None
+    if comm.rank == 0 and path.is_file():
+        try:
+            samples = TruthSamples.load(path)
+            if json.dumps(samples.inputs, sort_keys=True) != json.dumps(
+                inputs(case, quick), sort_keys=True
+            ):
+                samples = None
+        except (OSError, ValueError, KeyError, TypeError):
+            samples = None  # unreadable: computed again
+    return samples
+
+
+def is_cached(case: str, quick: bool = False, comm: MPI.Comm = MPI.COMM_WORLD) -> bool:
+    """Whether a readable cached truth exists for today's inputs (the same on every rank)."""
+    return bool(comm.bcast(load_cached(case, quick, comm) is not None if comm.rank == 0 else None))
+
+
+def truth_samples(
+    case: str,
+    quick: bool = False,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log: Callable[[str], None] | None = None,
+) -> TruthSamples | None:
+    """The TruthSamples of a SPEC 10 case, from the cache or computed (and then cached): on
+    rank 0, None elsewhere. Collective. `log(line)` (rank 0) hears where it comes from and,
+    before a computation, how long it is expected to take. UserError for a case that has no
+    truth."""
+    check_case(case)
+    say = log if (log is not None and comm.rank == 0) else (lambda line: None)
+    path = cache_path(case, quick) if comm.rank == 0 else None
+    samples = load_cached(case, quick, comm)
+    if comm.bcast(samples is not None if comm.rank == 0 else None):
+        say(f"truth {case}{' (quick)' if quick else ''}: from the cache, {path}")
+        return samples
+    minutes = expected_seconds(case, quick) / 60
+    about = f"{minutes:.0f} min" if minutes >= 1.5 else f"{60 * minutes:.0f} s"
+    say(
+        f"truth {case}{' (quick)' if quick else ''}: not in the cache, computing it once "
+        f"(about {about} on one core here; later runs read {path})"
+    )
+    samples = compute(case, quick, comm, log=say)
+
+    def store():
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            samples.save(path)
+        except OSError as err:
+            say(
+                f"truth {case}: could not be cached at {path} ({err.strerror or err}); "
+                "it will be computed again next time"
+            )
+
+    if comm.rank == 0:
+        store()
+    comm.barrier()
+    return samples

@@ -1,0 +1,197 @@
+"""Where the truth lives (solvers/truth/store.py, workflows/truth.py): its samples on the
+vertices and quadrature points of its mesh (cells in VTK order, boundary facets, weights,
+the Q2 values of a known field), serial against mpiexec -n 2, the cache (a second call
+reads it; a change of input changes the key), and `tissuebench truth`."""
+
+import csv
+from pathlib import Path
+
+from mpi4py import MPI
+
+import dolfinx.mesh
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem
+
+from helpers import run_script, tissuebench
+from tissuebench.metrics.cells import boundary_facets, measures
+from tissuebench.solvers.truth import Problem, Truth
+from tissuebench.solvers.truth import store
+from tissuebench.solvers.truth.cases import CASES
+from tissuebench.solvers.truth.solver import TruthRun
+from tissuebench.workflows.output import write_owned
+
+COMM = MPI.COMM_WORLD
+BOX = {2: [1.0, 0.5], 3: [1.0, 0.5, 0.25]}  # m
+CELLS = {2: [3, 2], 3: [3, 2, 2]}
+
+
+def field(x, gdim):
+    """A quadratic displacement (m), in Q2: its interpolation is exact."""
+    if gdim == 2:
+        return np.stack([x[0] * x[1] + 0.5, x[0] ** 2 - 0.3 * x[1] ** 2])
+    return np.stack([x[0] * x[1] + 0.5, x[0] ** 2 - x[2], x[1] * x[2] - 0.25 * x[0] ** 2])
+
+
+def agreed(failures: list) -> list:
+    """Rank 0's failures on every rank (the samples are on rank 0)."""
+    return COMM.bcast(failures if COMM.rank == 0 else None)
+
+
+@pytest.mark.parametrize("gdim", [2, 3])
+@pytest.mark.parametrize("nu", [0.3, 0.49])  # Q2 alone; Taylor-Hood (V collapsed from W)
+def test_samples_of_a_known_field(gdim, nu):
+    kind = dolfinx.mesh.CellType.quadrilateral if gdim == 2 else dolfinx.mesh.CellType.hexahedron
+    if gdim == 2:
+        mesh = dolfinx.mesh.create_rectangle(COMM, [[0, 0], BOX[2]], CELLS[2], kind)
+    else:
+        mesh = dolfinx.mesh.create_box(COMM, [[0, 0, 0], BOX[3]], CELLS[3], kind)
+    mu, lmbda = 1.0 / (2 * (1 + nu)), nu / ((1 + nu) * (1 - 2 * nu))
+    truth = Truth(
+        Problem(
+            mesh,
+            mu,
+            lmbda,
+            1.0,
+            0.0,
+            0.0,
+            "linear",
+            lambda x, t: ufl.as_vector([0.0] * gdim),
+            lambda V: [],
+        )
+    )
+    assert truth.kind == ("mixed" if nu > 0.45 else "displacement")
+    u = fem.Function(truth.V)
+    u.interpolate(lambda x: field(x, gdim))
+    owned = truth.n_owned
+    run = TruthRun(
+        truth.V,
+        np.array([0.0, 0.5]),
+        np.array([u.x.array[:owned], -2 * u.x.array[:owned]]),
+        None,
+        0,
+        0.0,
+    )
+    s = store.sample(truth, run, "box")
+    failures = []
+    if COMM.rank == 0:
+        volume = np.prod(BOX[gdim])
+        cell_type = s.cell_type
+        q = 3**gdim
+        if len(s.vertices) != np.prod(np.array(CELLS[gdim]) + 1):
+            failures.append(f"{len(s.vertices)} vertices")
+        m = measures(s.vertices, s.cells, cell_type)
+        # a cell with its vertices out of VTK order folds: |det J| then covers less than it
+        if m.min() <= 0 or not np.isclose(m.sum(), volume, rtol=1e-12, atol=0):
+            failures.append(f"measures {m.min()}, sum {m.sum()} (volume {volume})")
+        if s.weights.min() <= 0 or not np.isclose(s.weights.sum(), volume, rtol=1e-12, atol=0):
+            failures.append(f"weights sum {s.weights.sum()}")
+        if len(s.points) != q * len(s.cells):
+            failures.append(f"{len(s.points)} points for {len(s.cells)} cells")
+        X = s.vertices[s.cells]  # each cell's points inside its box
+        P = s.points.reshape(len(s.cells), q, gdim)
+        if not (np.all(P >= X.min(axis=1)[:, None]) and np.all(P <= X.max(axis=1)[:, None])):
+            failures.append("a quadrature point outside its cell")
+        expected = store.canonical_cycles(boundary_facets(s.vertices, s.cells, cell_type))
+        if s.boundary.shape != expected.shape or not np.array_equal(s.boundary, expected):
+            failures.append("boundary facets differ from metrics.cells.boundary_facets")
+        for k, scale in enumerate((1.0, -2.0)):
+            at_vertices = scale * field(s.vertices.T, gdim).T
+            at_points = scale * field(s.points.T, gdim).T
+            if not np.allclose(s.u_vertices[k], at_vertices, rtol=0, atol=1e-14):
+                failures.append(
+                    f"vertices, step {k}: {np.abs(s.u_vertices[k] - at_vertices).max()}"
+                )
+            if not np.allclose(s.u_points[k], at_points, rtol=0, atol=1e-14):
+                failures.append(f"points, step {k}: {np.abs(s.u_points[k] - at_points).max()}")
+    else:
+        assert s is None
+    assert agreed(failures) == []
+
+
+@pytest.mark.serial
+def test_samples_serial_equal_two_ranks():
+    one = run_script("mpi_truth_store.py", ranks=1)
+    two = run_script("mpi_truth_store.py", ranks=2)
+    assert one.keys() == two.keys() == {"field", "rod", "block-MP2-w0.2"}
+    for case, parts in one.items():
+        for name, a in parts.items():
+            a, b = np.array(a), np.array(two[case][name])
+            assert a.shape == b.shape, (case, name)
+            if name.startswith("u_"):  # the solves' round-off (MUMPS on 1 or 2 ranks)
+                scale = np.abs(a).max()
+                assert np.allclose(a, b, rtol=0, atol=1e-14 * max(scale, 1.0)), (case, name)
+            else:  # the mesh, its cells and facets, the points and weights: the same numbers
+                assert np.array_equal(a, b), (case, name)
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return Path(COMM.bcast(str(tmp_path_factory.mktemp("cache")) if COMM.rank == 0 else None))
+
+
+def test_the_cache_is_read_back_and_keyed_by_the_inputs(cache, monkeypatch):
+    monkeypatch.setenv("TISSUEBENCH_CACHE", str(cache))
+    first = store.truth_samples("rod", quick=True)
+    path = store.cache_path("rod", quick=True)
+    assert COMM.bcast(path.is_file() if COMM.rank == 0 else None)
+
+    def no(*args, **kwargs):
+        raise AssertionError("computed again")
+
+    monkeypatch.setattr(store, "compute", no)
+    again = store.truth_samples("rod", quick=True)
+    failures = []
+    if COMM.rank == 0:
+        for name in ("vertices", "cells", "points", "weights", "u_vertices", "u_points"):
+            if not np.array_equal(getattr(first, name), getattr(again, name)):
+                failures.append(name)
+        if again.inputs != store.inputs("rod", quick=True) or again.own_error != first.own_error:
+            failures.append("inputs or own error")
+        h = again.hierarchy
+        if h["levels"] != list(store.QUICK_LEVELS["rod"]) or len(h["tip"]) != 3:
+            failures.append(f"hierarchy {h['levels']}")
+    assert agreed(failures) == []
+    # a change of any input is another key
+    keys = {store.fingerprint_of("rod", True), store.fingerprint_of("rod", False)}
+    keys.add(store.fingerprint_of("rod-nh-s1", True))
+    monkeypatch.setattr(store, "QUICK_STEPS", 29)
+    keys.add(store.fingerprint_of("rod", True))
+    monkeypatch.setitem(CASES, "rod", ("rod", "MP1", "linear", 1.0, None))
+    keys.add(store.fingerprint_of("rod", True))
+    monkeypatch.setattr(store, "SOURCES", store.SOURCES[:-1])
+    keys.add(store.fingerprint_of("rod", True))
+    assert len(keys) == 6
+    assert store.cache_path("rod", True) != path
+
+
+@pytest.mark.serial
+def test_command_writes_the_summary_and_refuses_bad_input(cache, tmp_path, monkeypatch):
+    monkeypatch.setenv("TISSUEBENCH_CACHE", str(cache))
+    out = tmp_path / "out"
+    done = tissuebench("truth", "rod", "--quick", "--out", str(out))
+    assert done.returncode == 0, done.stderr[-2000:]
+    text = (out / "truth.md").read_text()
+    assert text.startswith("# The truth (SPEC 10) (quick check, not the truth)")
+    with open(out / "truth.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0]) == ["case", "level", "dofs", "time", "u_x", "u_y", "u_z"]
+    assert [(r["case"], r["level"], r["time"]) for r in rows] == [
+        ("rod", level, "1") for level in ("1", "2", "truth")
+    ]
+    samples = store.load_cached("rod", quick=True)
+    if samples is not None:  # the cache the command wrote (or read): the same numbers
+        tip = np.asarray(samples.hierarchy["tip"][-1])[30]
+        assert np.allclose([float(rows[-1][c]) for c in ("u_x", "u_y", "u_z")], tip, rtol=1e-9)
+    # a case outside CASES: one line naming the cases
+    bad = tissuebench("truth", "block-MP1-w0", "--quick", "--out", str(out))
+    assert bad.returncode == 2
+    assert len(bad.stderr.strip().splitlines()) == 1 and "rod-nh-s1" in bad.stderr
+    # a quick run never replaces a full truth.md
+    full = tmp_path / "full"
+    write_owned(full / "truth.md", lambda tmp: tmp.write_text("# The truth (SPEC 10)\n"))
+    refused = tissuebench("truth", "rod", "--quick", "--out", str(full))
+    assert refused.returncode == 2
+    assert len(refused.stderr.strip().splitlines()) == 1 and "--force" in refused.stderr
+    assert (full / "truth.md").read_text() == "# The truth (SPEC 10)\n"
