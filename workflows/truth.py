@@ -4,7 +4,7 @@ Computes each named case once (Q2, Taylor-Hood Q2-Q1 where nu >= 0.45 or neo-Hoo
 trapezoidal rule; three uniformly refined levels and h, h/2 on the finest), estimates its own
 error from them and caches it outside git ($TISSUEBENCH_CACHE/truth/, default
 ~/.cache/tissuebench/truth/, keyed by the fingerprint of its inputs); a second call reads the
-cache. compare, the leaderboard and the other commands fetch the same cache on demand.
+cache. `compare truth:CASE` and the leaderboard fetch the same cache on demand.
 
 Writes DIR/truth.md (per case: levels, dofs, wall time, observed order, the estimated own
 E_i max in space and time and whether it meets SPEC 10's target, 1e-5 m^3 rod and 2e-5 m^2
@@ -244,8 +244,9 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
         "",
         f"Cached outside git in `{cache_dir()}` (or $TISSUEBENCH_CACHE/truth), keyed by "
         "the fingerprint of every input (case, material, levels, h, steps, element, "
-        "software versions, the truth's sources); the paper reference's own error against "
-        "the truth is graded by `compare --reference truth:CASE` and the leaderboard.",
+        "software versions, the truth's sources). A run is graded against it by "
+        "`tissuebench compare truth:CASE CANDIDATE --out DIR` (the paper reference's own "
+        "error against the truth included) and in the leaderboard.",
         "",
         "| case | finest level | dofs | wall (s) | order p | own E_i max: space | time | "
         "total | target | meets |",
