@@ -23,6 +23,7 @@ import hashlib
 import json
 import os
 import time
+import zipfile
 from pathlib import Path
 from typing import Callable
 
@@ -435,8 +436,8 @@ def load_cached(
                 inputs(case, quick), sort_keys=True
             ):
                 samples = None
-        except (OSError, ValueError, KeyError, TypeError):
-            samples = None  # unreadable: computed again
+        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile):
+            samples = None  # unreadable (truncated, not ours): computed again
     return samples
 
 
