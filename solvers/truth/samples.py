@@ -13,6 +13,7 @@ times in s. A TruthSamples is saved as one .npz (numpy arrays and a JSON text fo
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -79,7 +80,7 @@ class TruthSamples:
         meta = {"case": self.case, "cell_type": self.cell_type, "own_error": self.own_error}
         meta["inputs"] = self.inputs
         meta["hierarchy"] = self.hierarchy
-        tmp = path.with_name(f".{path.name}.tmp.npz")
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.npz")  # one per writing process
         try:
             np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
             tmp.replace(path)
