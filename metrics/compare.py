@@ -351,23 +351,32 @@ def grade(
     itself, a missing field, complex values, or a series whose steps change the mesh or
     its node order.
     """
-    ref = cand = error = None
+    ref, cand = read_on_rank0(
+        comm, (reference, reference_field or field), (candidate, candidate_field or field)
+    )
+    return grade_series(ref, cand, comm, label=label)
+
+
+def read_on_rank0(comm: MPI.Comm, *files: tuple) -> list[Series | None]:
+    """The series of each (path, field) read on rank 0 (None on the other ranks). Collective:
+    an unreadable file raises one InputError on every rank, so that none is left waiting."""
+    series, error = [], None
     if comm.rank == 0:
-        reading = reference
-        try:
-            ref = read_series(reference, reference_field or field)
-            reading = candidate
-            cand = read_series(candidate, candidate_field or field)
-        except InputError as exc:
-            error = str(exc)
-        except Exception as exc:  # never leave the other ranks waiting
-            error = (
-                f"{reading}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
-            )
+        for path, field in files:
+            try:
+                series.append(read_series(path, field))
+            except InputError as exc:
+                error = str(exc)
+            except Exception as exc:
+                error = (
+                    f"{path}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
+                )
+            if error is not None:
+                break
     error = comm.bcast(error, root=0)
     if error is not None:
         raise InputError(error)
-    return grade_series(ref, cand, comm, label=label)
+    return series if comm.rank == 0 else [None] * len(files)
 
 
 def grade_series(

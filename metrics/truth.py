@@ -407,21 +407,9 @@ def grade_against_truth(
     else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
     truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
     and for an unreadable file."""
-    from tissuebench.metrics.series import read_series
+    from tissuebench.metrics.compare import read_on_rank0
 
-    cand = error = None
-    if comm.rank == 0:
-        try:
-            cand = read_series(candidate, field)
-        except InputError as exc:
-            error = str(exc)
-        except Exception as exc:  # never leave the other ranks waiting
-            error = (
-                f"{candidate}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
-            )
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise InputError(error)
+    (cand,) = read_on_rank0(comm, (candidate, field))
     return grade_truth(truth, cand, comm, label=label)
 
 
