@@ -133,7 +133,8 @@ def check_times(ref, cand):
         raise InputError(
             f"{cand.path}: time stamps do not match {ref.path}: step {k} is at "
             f"t = {cand.times[k]:.9g} s, the reference's at t = {t_ref[k]:.9g} s "
-            f"(tolerance {tolerance[k]:.3g} s)"
+            f"(tolerance {tolerance[k]:.3g} s); write every step t_i = i h of the reference "
+            f"(h = {smallest_step(ref.times):.6g} s), from t = 0 or t = h"
         )
 
 

@@ -78,8 +78,13 @@ def field_names(field: str | None) -> tuple[str, ...]:
 def missing_field(path, names, fields) -> InputError:
     """One line: none of `names` is among the file's `fields`."""
     nor = f" (nor {', '.join(names[1:])})" if len(names) > 1 else ""
+    hint = (
+        "; name the displacement field with --candidate-field or --reference-field (or --field)"
+        if fields
+        else ""
+    )
     return InputError(
-        f"{path}: no point field {names[0]!r}{nor}; fields: {', '.join(fields) or 'none'}"
+        f"{path}: no point field {names[0]!r}{nor}; fields: {', '.join(fields) or 'none'}{hint}"
     )
 
 

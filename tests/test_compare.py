@@ -567,7 +567,7 @@ def test_fields_per_side_and_common_names(tmp_path):
 
     with pytest.raises(
         InputError,
-        match=r"a.xdmf: no point field 'displacement' \(nor U, DISP, Displacement\); fields: disp_ref$",
+        match=r"a.xdmf: no point field 'displacement' \(nor U, DISP, Displacement\); fields: disp_ref; name the displacement field",
     ):
         compare(tmp_path / "a.xdmf", tmp_path / "b.pvd", tmp_path / "out")
     with pytest.raises(InputError, match="b_000.vtu: no point field 'displacement'; fields: U"):
