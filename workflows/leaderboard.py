@@ -6,6 +6,7 @@ session: OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case (workflow
 from __future__ import annotations
 
 import csv
+import re
 import sys
 from pathlib import Path
 
@@ -16,10 +17,21 @@ from tissuebench.solvers.external import get_simulator
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.arguments import add_common, check_common
-from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
+from tissuebench.workflows.output import (
+    OutputError,
+    check_writable,
+    collective,
+    read_summary,
+    write_owned,
+)
 from tissuebench.workflows.ranking import (
+    E_I,
+    E_N,
     Board,
     Row,
+    candidate_of,
+    finite,
+    mark_truth_pareto,
     external_rows,
     mark_pareto,
     markdown,
@@ -45,6 +57,9 @@ BOARDS = [
         "linear",
         description="Block and needle (SPEC 4), MP1, 20 x 20 quadrilaterals, plane strain, "
         "h = 1/30 s, T = 10 s, linear model.",
+        truth_note="none: the needle is a point (w = 0), and refinement converges to no "
+        "solution (SPEC 10); the block's truth is posed with a needle of width 0.2 m "
+        "(block-MP1-w0.2: the mesh-sensitivity-block-MP1 case below).",
     ),
     Board(
         "rod-MP3",
@@ -53,6 +68,7 @@ BOARDS = [
         "linear",
         description="Bending rod (SPEC 5), MP3, 6 x 3 x 3 hexahedra, h = 1/30 s, T = 10 s, "
         "linear model.",
+        truth="rod",
     ),
     Board(
         "rod-MP3-s3",
@@ -63,6 +79,7 @@ BOARDS = [
         options={"load_scale": 3.0},
         description="Bending rod, MP3, load scale s = 3 (SPEC 8): large deformation, against "
         "implicit+neo-hookean; ours with every model, the simulators with the neo-Hookean one.",
+        truth="rod-nh-s3",
     ),
 ]
 
@@ -141,6 +158,8 @@ def run_board(
     )
     summary = run_case(case, folder / "ours", comm, log, force=True)
     rows: list[Row] = our_rows(board.name, summary)
+    for row in rows:
+        row.series = str(folder / "ours" / f"{row.label}.xdmf")
     if board.models == ("linear",):
         rows += simplex_rows(board, case, folder, summary, comm, log)
     notes = []
@@ -169,7 +188,10 @@ def run_board(
         except SimulatorError as exc:
             notes.append(str(exc))
             continue
-        rows += external_rows(board.name, result)
+        graded = external_rows(board.name, result)
+        for row, run in zip(graded, result["runs"].values()):
+            row.series, row.series_field = external_series(folder / name, run.get("variant"))
+        rows += graded
         for variant, why in (result.get("skipped_variants") or {}).items():
             notes.append(f"{name}:{variant} not posed: {why}")
     rows += users or []
@@ -194,7 +216,8 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
         sub = replace(case, name=f"{board.name}-{name}", options={**board.options, **options})
         on_shape = run_case(sub, folder / f"ours-{name}", comm, log, force=True)
         for row in our_rows(board.name, on_shape):
-            graded = grade(reference, folder / f"ours-{name}" / f"{row.label}.xdmf", comm=comm)
+            row.series = str(folder / f"ours-{name}" / f"{row.label}.xdmf")
+            graded = grade(reference, row.series, comm=comm)
             for metric, curve in graded.curves.items():
                 row.errors[f"{metric}_max"], row.errors[f"{metric}_mean"] = summarize(curve)
             row.label = f"{row.label} ({shape})"
@@ -203,6 +226,173 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
             row.group = "tissuebench on simplices"
             rows.append(row)
     return rows
+
+
+def external_series(folder: Path, variant) -> tuple[str | None, str | None]:
+    """The series file (and its field) that a simulator variant's compare graded, as its
+    summary.json (FOLDER/VARIANT/summary.json) records it; the file was recorded in the
+    folder's partial copy, so its path is taken from the variant's folder on (None, None
+    when nothing is recorded). Rank 0 reads."""
+    if not isinstance(variant, str) or not variant:
+        return None, None
+    summary = read_summary(folder / variant)
+    recorded = candidate_of(summary) if isinstance(summary, dict) else {}
+    file = recorded.get("series")
+    if file is None:
+        return None, None
+    parts = Path(file).parts
+    if variant in parts:  # .../<partial folder>/VARIANT/...: the same under the final folder
+        at = len(parts) - 1 - parts[::-1].index(variant)
+        moved = folder.joinpath(*parts[at:])
+        if moved.is_file() or not Path(file).is_file():
+            file = str(moved)
+    return file, recorded.get("series_field")
+
+
+# --- against the truth (SPEC 10) ----------------------------------------------------------------
+
+# the truth case (SPEC 10) of each mesh-sensitivity study's board (the block's study is w = 0.2)
+STUDY_TRUTHS = {"mesh-sensitivity-rod-MP3": "rod", "mesh-sensitivity-block-MP1": "block-MP1-w0.2"}
+STUDY = re.compile(r"(?P<algorithm>\S+) \((?P<shape>.+), size (?P<size>\d+)\)")
+
+
+def study_series(out: Path, board: Board, rows: list[Row]) -> None:
+    """The series file of each row of a mesh-sensitivity board, where `tissuebench
+    sensitivity` writes it (OUT/mesh-sensitivity/STUDY/SHAPE-SIZE-ALGORITHM.xdmf), and its
+    board's truth case."""
+    from tissuebench.workflows.sensitivity import NAME
+
+    board.truth = STUDY_TRUTHS.get(board.name)
+    study = board.name.removeprefix(f"{NAME}-")
+    for row in rows:
+        m = STUDY.fullmatch(row.label)
+        if m:
+            stem = f"{m['shape'].replace(' ', '-')}-{m['size']}-{m['algorithm']}"
+            row.series = str(out / NAME / study / f"{stem}.xdmf")
+
+
+def summarized(curve) -> tuple[float | None, float | None]:
+    """(max, time-mean) of an error curve over steps 1..N, None for NaN."""
+    from tissuebench.metrics.compare import summarize
+
+    return tuple(None if not finite(x) else float(x) for x in summarize(curve))
+
+
+def grade_row_truth(truth, row: Row) -> None:
+    """Grade a row's own series against the truth (metrics/truth.py), into row.truth; or say in
+    row.truth_note why it is not graded. Rank 0 (serial)."""
+    from tissuebench.metrics.series import read_series
+    from tissuebench.metrics.truth import grade_truth
+
+    if not row.series:
+        row.truth_note = "no series file of it is recorded"
+        return
+    if not Path(row.series).is_file():
+        row.truth_note = f"its series {row.series} is not on this machine"
+        return
+    try:
+        cand = read_series(row.series, row.series_field)
+        g = grade_truth(truth, cand, MPI.COMM_SELF, label=row.label)
+    except Exception as exc:  # anything a file can do: this row is not graded, the rest are
+        row.truth_note = f"not graded: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
+        return
+    for metric in (E_N, E_I):
+        row.truth[f"{metric}_max"], row.truth[f"{metric}_mean"] = summarized(g.curves[metric])
+
+
+def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> None:
+    """Every row of every case with a truth graded against it (rank 0, serial): each truth
+    case's cached TruthSamples is loaded once, never computed here (a truth not in the cache
+    says so in its case's header); then the Pareto flags against the truth and the error
+    budget."""
+    from tissuebench.metrics.truth import own_error
+    from tissuebench.solvers.truth.store import expected_seconds, load_cached
+
+    cases = {}
+    for board in boards:
+        if board.truth is not None:
+            cases.setdefault(board.truth, []).append(board)
+    for case, mine in cases.items():
+        truth = load_cached(case, comm=MPI.COMM_SELF)
+        if truth is None:
+            minutes = expected_seconds(case) / 60
+            for board in mine:
+                board.truth_note = (
+                    f"{case}, not computed on this machine (tissuebench truth {case}: about "
+                    f"{minutes:.0f} min on one core): no truth columns."
+                )
+            continue
+        for board in mine:
+            board.truth_band = own_error(truth)
+            for row in rows[board.name]:
+                grade_row_truth(truth, row)
+            if not any(r.truth for r in rows[board.name]):
+                absent = {r.truth_note for r in rows[board.name]}
+                folders = sorted({str(Path(r.series).parent) for r in rows[board.name] if r.series})
+                board.truth_note = f"{case}; no run of this case graded against it: " + (
+                    f"their series files ({', '.join(folders)}) are not on this machine"
+                    if all(n and "not on this machine" in n for n in absent)
+                    else "; ".join(sorted(n for n in absent if n))[:300]
+                )
+                continue
+            mark_truth_pareto(rows[board.name])
+            error_budget(rows[board.name])
+            log(f"{board.name}: graded against the truth {case}")
+        del truth
+
+
+def error_budget(rows: list[Row]) -> None:
+    """The error budget (SPEC 10) of every row of a case graded against the truth, in
+    row.budget (time-mean E_i, m^gdim): total (the row against the truth), discretisation
+    (our implicit on the row's mesh against the truth), algorithm (the row against our
+    implicit on its mesh: the same-mesh column on our grid; graded here on our simplices),
+    model (none: the linear case's model is the truth's). Rank 0."""
+    from tissuebench.metrics.compare import grade
+
+    reference = next((r for r in rows if r.reference and r.truth), None)
+    if reference is None:
+        return
+    implicit = {r.mesh.split(":")[0]: r for r in rows if r.label.startswith(f"{reference.label} (")}
+    for row in rows:
+        if not row.truth:
+            continue
+        b = {"total": row.truth.get(f"{E_I}_mean")}
+        ours, how = None, None
+        if row.mesh == reference.mesh:  # our grid (ours, SfePy's, CalculiX's)
+            ours = reference
+            element = row.label.rsplit("-", 1)[-1] if row.source.startswith("CalculiX") else ""
+            if element and element != "C3D8":
+                how = f"our element's (Q1) on its mesh: {element} is an element we do not have"
+        elif row.group and row.mesh.split(":")[0] in implicit:  # ours on simplices
+            ours = implicit[row.mesh.split(":")[0]]
+        elif row.mesh.startswith("tetrahedra, 6 per hexahedron") and "tetrahedron grid" in implicit:
+            ours = implicit["tetrahedron grid"]
+            how = (
+                "our implicit on our tetrahedron grid (6 per hexahedron on the same nodes; "
+                "the diagonals may differ)"
+            )
+        elif row.source == "user":
+            how = "its mesh is not known here"
+        else:
+            how = "no run of our implicit on its mesh in this case"
+        b["discretisation"] = None if ours is None else ours.truth.get(f"{E_I}_mean")
+        b["discretisation_how"] = how
+        if ours is reference:
+            b["algorithm"] = 0.0 if row is reference else row.errors.get(f"{E_I}_mean")
+        elif ours is row:
+            b["algorithm"] = 0.0
+        elif ours is not None:
+            try:
+                g = grade(
+                    ours.series, row.series, comm=MPI.COMM_SELF, candidate_field=row.series_field
+                )
+                b["algorithm"] = summarized(g.curves[E_I])[1]
+                b["algorithm_how"] = f"against {ours.label}"
+            except Exception as exc:
+                b["algorithm"] = None
+                b["algorithm_how"] = f"not graded: {type(exc).__name__}"
+        b["model"] = None
+        row.budget = b
 
 
 def read_users(out: Path, boards: list[Board]) -> tuple[dict, dict]:
@@ -251,8 +441,11 @@ def main(args) -> int:
     boards = list(BOARDS)
     for board, board_rows in studied:
         mark_pareto(board_rows)  # the mesh-sensitivity study's runs
+        study_series(out, board, board_rows)
         boards.append(board)
         rows[board.name], notes[board.name] = board_rows, []
+    if comm.rank == 0:  # against the truth: serial, on rank 0, which writes
+        grade_truths(boards, rows)
 
     def write():
         (out / FOLDER).mkdir(parents=True, exist_ok=True)

@@ -58,6 +58,9 @@ class Board:
     description: str = ""
     mesh_size: int | None = None  # None: the benchmark's default
     end_time: float | None = None  # s; None: the benchmark's default
+    truth: str | None = None  # its SPEC 10 truth case (None: it has none, truth_note says why)
+    truth_note: str = ""  # one line on the truth in the case's header (why none, not computed)
+    truth_band: float | None = None  # the truth's own E_i max (m^gdim), once it is loaded
 
 
 @dataclass
@@ -79,6 +82,12 @@ class Row:
     reference: bool = False
     pareto: dict = field(default_factory=dict)  # "mean" / "max" -> bool
     group: str | None = None  # its own legend entry and marker in the figure (default: source)
+    series: str | None = None  # the run's own series file (graded against the truth)
+    series_field: str | None = None  # its point field (None: series.DEFAULT_FIELDS)
+    truth: dict = field(default_factory=dict)  # TRUTH_KEYS -> value or None, against the truth
+    truth_pareto: dict = field(default_factory=dict)  # "mean" / "max" -> bool, against the truth
+    truth_note: str | None = None  # why the row has no truth columns
+    budget: dict = field(default_factory=dict)  # the error budget (SPEC 10): workflows/leaderboard
 
     @property
     def cost(self) -> float | None:
@@ -325,9 +334,21 @@ def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
                     None if run["wall_time_s"] is None else float(run["wall_time_s"]),
                     float(summary["end_time"]),
                     "reported by the user",
+                    **candidate_of(summary),
                 )
             )
     return rows, skipped
+
+
+def candidate_of(summary: dict) -> dict:
+    """The series file and field a compare summary records as its candidate ({} when it names
+    none): {"series": path, "series_field": field or None}."""
+    cand = summary.get("candidate")
+    file = cand.get("file") if isinstance(cand, dict) else None
+    if not isinstance(file, str) or not file:
+        return {}
+    field = cand.get("field")
+    return {"series": file, "series_field": field if isinstance(field, str) else None}
 
 
 def error_keys() -> list[str]:
@@ -372,6 +393,32 @@ def mark_pareto(rows: list[Row]) -> None:
             r.pareto[kind] = flag
 
 
+# --- against the truth (SPEC 10) ----------------------------------------------------------------
+
+TRUTH_KEYS = [f"{name}_{kind}" for name in (E_N, E_I) for kind in ("max", "mean")]
+
+
+def truth_error(r: Row, kind: str) -> float | None:
+    """A row's E_i (time-mean or max: kind) against the truth by which it ranks there, or None:
+    a run that did not finish, no grade against the truth, and a NaN, infinite or negative
+    cost or error. Our `implicit` ranks too: against the truth its error is not zero."""
+    error = r.truth.get(f"{E_I}_{kind}")
+    if r.status != "ok" or not finite(r.cost) or not finite(error):
+        return None
+    return error if error >= 0 and r.cost >= 0 else None
+
+
+def mark_truth_pareto(rows: list[Row]) -> None:
+    """Set row.truth_pareto["mean"|"max"] on the rows graded against the truth (truth_error)."""
+    for kind in ("mean", "max"):
+        ranked = [r for r in rows if truth_error(r, kind) is not None]
+        flags = pareto([(r.cost, truth_error(r, kind)) for r in ranked])
+        for r in rows:
+            r.truth_pareto.pop(kind, None)
+        for r, flag in zip(ranked, flags):
+            r.truth_pareto[kind] = flag
+
+
 # --- files ------------------------------------------------------------------------------------
 
 
@@ -383,6 +430,7 @@ def write_csv(path: Path, rows: list[Row]) -> None:
     names = ["case", "label", "source", "description", "mesh", "dofs", "status", "reason"]
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
+    names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
     with open(path, "w", newline="") as f:
         out = csv.writer(f)
         out.writerow(names)
@@ -392,6 +440,8 @@ def write_csv(path: Path, rows: list[Row]) -> None:
                 + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
                 + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
                 + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
+                + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
+                + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
             )
 
 
@@ -404,52 +454,24 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     one marker per source, the Pareto front as a dashed staircase, the reference's cost as a
     dotted line (in the legend); labels on every point, or on the front's when more than
     LABELLED are shown; a group of rows (our runs on simplices) has its own marker, and labels
-    on the front only."""
+    on the front only. When rows were graded against the truth (SPEC 10), a second row of two
+    panels: the same against the truth, with the truth's own error band as a dotted line."""
     from matplotlib.figure import Figure
 
-    markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "user": "*"}
-    fig = Figure(figsize=(12, 5.2), layout="constrained")
-    axes = fig.subplots(1, 2)
+    against_truth = any(truth_error(r, k) for r in rows for k in ("mean", "max"))
+    fig = Figure(figsize=(12, 10.4 if against_truth else 5.2), layout="constrained")
+    axes = fig.subplots(2 if against_truth else 1, 2, squeeze=False)
     reference = next((r for r in rows if r.reference), None)
     not_shown = [r for r in rows if not r.reference and (r.status != "ok" or r.cost is None)]
-    for ax, kind in zip(axes, ("mean", "max")):
-        shown = [r for r in rows if (ranked_error(r, kind) or 0) > 0 and r.cost > 0]
-        placed = []
-        crowded = sum(r.group is None for r in shown) > LABELLED
-        for source in dict.fromkeys(r.group or r.source for r in shown):
-            group = [r for r in shown if (r.group or r.source) == source]
-            marker = "v" if group[0].group else markers.get(source.split()[0], "P")
-            ax.scatter(
-                [r.cost for r in group],
-                [r.errors[f"{E_I}_{kind}"] for r in group],
-                marker=marker,
-                s=46,
-                label=plain(source),
-                zorder=3,
-            )
-            for r in group:
-                if (crowded or r.group) and not r.pareto.get(kind):
-                    continue  # a crowd, or a group: only its front is labelled (the table has all)
-                xy = (r.cost, r.errors[f"{E_I}_{kind}"])
-                near = sum(  # labels already placed next to this point go above it
-                    abs(math.log(xy[0] / p[0])) < 0.25 and abs(math.log(xy[1] / p[1])) < 0.25
-                    for p in placed
-                )
-                placed.append(xy)
-                ax.annotate(  # a simulator's variant without the simulator's name
-                    plain(r.label if r.source == "user" else r.label.split(":", 1)[-1]),
-                    xy,
-                    textcoords="offset points",
-                    xytext=(4, 3 + 9 * near),
-                    fontsize=7,
-                )
-        front = sorted((r for r in shown if r.pareto.get(kind)), key=lambda r: r.cost)
-        if front:
-            xs = [r.cost for r in front]
-            ys = [r.errors[f"{E_I}_{kind}"] for r in front]
-            ax.step(
-                xs, ys, where="post", ls="--", color="0.3", lw=1, label="Pareto front", zorder=2
-            )
+    for ax, kind in zip(axes[0], ("mean", "max")):
+        _panel(
+            ax,
+            rows,
+            lambda r, kind=kind: ranked_error(r, kind),
+            lambda r, kind=kind: r.pareto.get(kind),
+            f"{'time-mean' if kind == 'mean' else 'maximum'} interior error E_i, same mesh "
+            f"against {plain(reference.label) if reference else 'the reference'}",
+        )
         if reference is not None and reference.cost is not None:
             ax.axvline(
                 reference.cost,
@@ -458,12 +480,23 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 lw=1,
                 label=f"cost of the reference {plain(reference.label)} (E = 0)",
             )
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("wall time per simulated second (s/s), this machine")
-        ax.set_ylabel(f"{'time-mean' if kind == 'mean' else 'maximum'} interior error E_i")
-        ax.grid(True, which="both", alpha=0.25)
         ax.legend(fontsize=8, loc="best")
+    if against_truth:
+        band = board.truth_band
+        for ax, kind in zip(axes[1], ("mean", "max")):
+            _panel(
+                ax,
+                rows,
+                lambda r, kind=kind: truth_error(r, kind),
+                lambda r, kind=kind: r.truth_pareto.get(kind),
+                f"{'time-mean' if kind == 'mean' else 'maximum'} E_i against the truth "
+                f"{plain(board.truth)} (SPEC 10)",
+            )
+            if finite(band) and band > 0:
+                ax.axhline(
+                    band, ls=":", color="0.5", lw=1, label=f"the truth's own E_i max {band:.2g}"
+                )
+            ax.legend(fontsize=8, loc="best")
     title = textwrap.wrap(f"{board.name}: {board.description}", 150)
     if not_shown:
         title += textwrap.wrap(
@@ -472,6 +505,59 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
         )
     fig.suptitle("\n".join(title), fontsize=10)
     fig.savefig(path, format="png", dpi=110)
+
+
+def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str) -> None:
+    """One log-log panel of plot_case: error_of(row) (None: not shown) against cost, one marker
+    per source or group, the front (on_front(row)) as a dashed staircase, labels."""
+    markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "user": "*"}
+    shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost > 0]
+    placed = []
+    crowded = sum(r.group is None for r in shown) > LABELLED
+    for source in dict.fromkeys(r.group or r.source for r in shown):
+        group = [r for r in shown if (r.group or r.source) == source]
+        marker = "v" if group[0].group else markers.get(source.split()[0], "P")
+        ax.scatter(
+            [r.cost for r in group],
+            [error_of(r) for r in group],
+            marker=marker,
+            s=46,
+            label=plain(source),
+            zorder=3,
+        )
+        for r in group:
+            if (crowded or r.group) and not on_front(r):
+                continue  # a crowd, or a group: only its front is labelled (the table has all)
+            xy = (r.cost, error_of(r))
+            near = sum(  # labels already placed next to this point go above it
+                abs(math.log(xy[0] / p[0])) < 0.25 and abs(math.log(xy[1] / p[1])) < 0.25
+                for p in placed
+            )
+            placed.append(xy)
+            ax.annotate(  # a simulator's variant without the simulator's name
+                plain(r.label if r.source == "user" else r.label.split(":", 1)[-1]),
+                xy,
+                textcoords="offset points",
+                xytext=(4, 3 + 9 * near),
+                fontsize=7,
+            )
+    front = sorted((r for r in shown if on_front(r)), key=lambda r: r.cost)
+    if front:
+        ax.step(
+            [r.cost for r in front],
+            [error_of(r) for r in front],
+            where="post",
+            ls="--",
+            color="0.3",
+            lw=1,
+            label="Pareto front",
+            zorder=2,
+        )
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time per simulated second (s/s), this machine")
+    ax.set_ylabel(ylabel, fontsize=9)
+    ax.grid(True, which="both", alpha=0.25)
 
 
 def table(rows: list[Row]) -> list[str]:
@@ -496,6 +582,123 @@ def table(rows: list[Row]) -> list[str]:
             f"{fmt(r.wall_time_s)} | {fmt(r.cost)} | {fmt(r.cost_per_dof)} | {front} |"
         )
     return lines
+
+
+def truth_table(rows: list[Row]) -> list[str]:
+    """The markdown table of one case's rows graded against the truth, the best time-mean E_i
+    against the truth first; the same-mesh E_i mean (SPEC 6) beside it, unchanged."""
+    head = (
+        "| run | source | mesh, dofs | E_i mean, truth | E_i max, truth | E_n max, truth "
+        "| E_i mean, same mesh (SPEC 6) | s per simulated s | Pareto against the truth "
+        "(mean/max) |"
+    )
+    lines = [head, "|" + "---|" * 9]
+    graded = [r for r in rows if r.truth]
+
+    def key(r: Row):
+        mean = r.truth.get(f"{E_I}_mean")
+        return (r.status != "ok", mean if finite(mean) else math.inf)
+
+    for r in sorted(graded, key=key):
+        front = "/".join("yes" if r.truth_pareto.get(k) else "-" for k in ("mean", "max"))
+        same = "0 (the reference)" if r.reference else fmt(r.errors.get(f"{E_I}_mean"))
+        status = "" if r.status == "ok" else f" ({md(r.status)})"
+        lines.append(
+            f"| {md(r.label)}{status} | {md(r.source)} | {md(r.mesh)}, {r.dofs} | "
+            f"{fmt(r.truth.get(f'{E_I}_mean'))} | {fmt(r.truth.get(f'{E_I}_max'))} | "
+            f"{fmt(r.truth.get(f'{E_N}_max'))} | {same} | {fmt(r.cost)} | {front} |"
+        )
+    return lines
+
+
+BUDGET_PARTS = ("total", "discretisation", "algorithm", "model")
+
+
+def budget_table(rows: list[Row]) -> list[str]:
+    """The error budget (SPEC 10) of the rows that have one: each part's time-mean E_i, how it
+    was measured, and the part that dominates (the largest of discretisation, algorithm and
+    model)."""
+    lines = [
+        "| run | total: against the truth | discretisation: our implicit on its mesh against "
+        "the truth | algorithm: against our implicit on its mesh | model | dominates |",
+        "|" + "---|" * 6,
+    ]
+    for r in sorted(
+        (r for r in rows if r.budget),
+        key=lambda r: r.budget.get("total") if finite(r.budget.get("total")) else math.inf,
+    ):
+        b = r.budget
+        cells = []
+        for part in BUDGET_PARTS:
+            how = b.get(f"{part}_how")
+            cells.append(fmt(b.get(part)) + (f" ({md(how)})" if how else ""))
+        lines.append(f"| {md(r.label)} | {' | '.join(cells)} | {md(dominant(b))} |")
+    return lines
+
+
+def dominant(budget: dict) -> str:
+    """The part of an error budget that dominates (the largest finite one of discretisation,
+    algorithm, model) with its share of their sum, or "-" when none is known."""
+    parts = {p: budget.get(p) for p in BUDGET_PARTS[1:] if finite(budget.get(p))}
+    if not parts:
+        return "-"
+    top = max(parts, key=parts.get)
+    total = sum(parts.values())
+    return top if total == 0 else f"{top} ({100 * parts[top] / total:.0f} %)"
+
+
+def unit_of(board: Board) -> str:
+    """The unit of E_i on a case (SPEC 6): m^3 in 3D, m^2 in 2D."""
+    return "m^3" if get_entry(board.benchmark).gdim == 3 else "m^2"
+
+
+def truth_header(board: Board, rows: list[Row]) -> str:
+    """One line for the case's header on its truth (SPEC 10): the truth and its own error band,
+    or why there is none (board.truth_note)."""
+    if board.truth is not None and any(r.truth for r in rows):
+        return (
+            f"Truth (SPEC 10): `{md(board.truth)}`, its own E_i max {fmt(board.truth_band)} "
+            f"{unit_of(board)}; every run is also ranked against it (below the table)."
+        )
+    return f"Truth (SPEC 10): {md(board.truth_note or 'none')}"
+
+
+def truth_lines(board: Board, rows: list[Row]) -> list[str]:
+    """The part of a case's section in leaderboard.md against the truth (SPEC 10): one line
+    when the case has none or it is not computed, else its own error band, the table ranked
+    against the truth, the rows not graded against it and why, and the error budget."""
+    if board.truth is None or not any(r.truth for r in rows):
+        return []
+    unit = unit_of(board)
+    out = [
+        f"### Against the truth `{md(board.truth)}` (SPEC 10)",
+        "",
+        f"Every run graded on its own mesh against the truth {md(board.truth)} (E_i by "
+        "quadrature on the truth's cells, E_n at its vertices; metrics/truth.py). The truth's "
+        f"own error band: E_i max {fmt(board.truth_band)} {unit} (estimated from its levels, "
+        "results/truth.md): an E_i against the truth below it is not resolved. Our `implicit` "
+        "ranks here too.",
+        "",
+        *truth_table(rows),
+    ]
+    missing = [r for r in rows if not r.truth and r.truth_note]
+    if missing:
+        out += ["", "Not graded against the truth:", ""]
+        out += [f"- {md(r.label)}: {md(r.truth_note)}" for r in missing]
+    if any(r.budget for r in rows):
+        out += [
+            "",
+            "#### Error budget (SPEC 10), time-mean E_i (" + unit + ")",
+            "",
+            "total: the run against the truth; discretisation: our `implicit` on the run's mesh "
+            "against the truth; algorithm: the run against our `implicit` on its mesh (SPEC 6); "
+            "model: our `implicit` with the run's model against it with the truth's (none here: "
+            "the case is linear and so is the truth). The parts are not additive (the total is "
+            "at most their sum).",
+            "",
+            *budget_table(rows),
+        ]
+    return out + [""]
 
 
 def machine() -> str:
@@ -547,6 +750,8 @@ def markdown(
             "",
             board.description,
             "",
+            truth_header(board, rows[board.name]),
+            "",
             f"![{board.name}](leaderboard/{board.name}.png)",
             "",
         ]
@@ -561,5 +766,8 @@ def markdown(
             ]
         if notes.get(board.name):
             out += ["", *[f"- {md(n)}" for n in notes[board.name]]]
+        against = truth_lines(board, rows[board.name])
+        if against:
+            out += ["", *against[:-1]]
         out.append("")
     return "\n".join(out)
