@@ -7,6 +7,10 @@ rod-MP3 taken on to 40 s and 30 s, on which the report checks claims 3 (every sc
 on the quasi-static solution) and 6 (the rod oscillates about its static shape). A case whose
 directory is complete is skipped unless --force.
 
+The paper against the truth (SPEC section 10, workflows/paper_truth.py): truth-rod-MP3 and
+truth-block-w0.2 (N = 20, needle width w = 0.2 m), each run graded against the cached truth
+of its case; a truth not cached is named with the command that computes it.
+
 Part 2, beyond the paper (SPEC section 8): the four large-deformation cases, every algorithm
 with every elastic model against implicit+neo-hookean, in OUT/large-deformation/: the block
 (MP1) at the paper's load (s = 1, the point needle) and at s = 2 with a 0.2 m needle, the rod
@@ -21,7 +25,7 @@ from mpi4py import MPI
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
-from tissuebench.workflows import report
+from tissuebench.workflows import paper_truth, report
 from tissuebench.workflows.output import (
     check_owned,
     check_writable,
@@ -184,10 +188,15 @@ def main(args):
     collective(comm, lambda: check_owned(out / "README.md"))
     summaries, large, limits = {}, {}, {}
     first, second = cases(args.solver, args.petsc), model_cases(args.solver, args.petsc)
-    parts = [out / c.name for c in first] + [out / LARGE / c.name for c in second]
+    truth_cases = paper_truth.cases(args.solver, args.petsc)
+    parts = [out / c.name for c in first + truth_cases] + [out / LARGE / c.name for c in second]
     interrupt.will_write([*parts, out / "README.md"])  # named on a signal if not written
     for case in first:
         summaries[case.name] = run_case(case, out / case.name, comm, force=args.force)
+        interrupt.written(out / case.name)
+    # the paper against the truth (SPEC 10): its runs, graded against the cached truths
+    truth = paper_truth.compute(out, comm, args.solver, args.petsc, force=args.force)
+    for case in truth_cases:
         interrupt.written(out / case.name)
     for case in second:
         large[case.name] = run_case(case, out / LARGE / case.name, comm, force=args.force)
@@ -195,7 +204,7 @@ def main(args):
         interrupt.written(out / LARGE / case.name)
 
     def write():
-        text = report.paper_report(out, summaries, large, limits)
+        text = report.paper_report(out, summaries, large, limits, truth)
         write_owned(out / "README.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
