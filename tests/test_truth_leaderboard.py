@@ -207,6 +207,7 @@ def test_the_error_budget_takes_our_implicit_on_the_rows_mesh():
     assert c3d8i.budget["total"] == 3e-4 and c3d8i.budget["discretisation"] == 4e-4
     assert c3d8i.budget["algorithm"] == 1.6e-4
     assert "our element's (Q1) on its mesh: C3D8I" in c3d8i.budget["discretisation_how"]
+    assert "C3D8I's difference included" in c3d8i.budget["algorithm_how"]
     assert (
         user.budget["discretisation"] is None and "not known" in user.budget["discretisation_how"]
     )

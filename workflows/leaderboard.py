@@ -330,7 +330,8 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                 absent = {r.truth_note for r in rows[board.name]}
                 folders = sorted({str(Path(r.series).parent) for r in rows[board.name] if r.series})
                 board.truth_note = f"{case}; no run of this case graded against it: " + (
-                    f"their series files ({', '.join(folders)}) are not on this machine"
+                    f"their series files ({', '.join(folders)}) are not on this machine; "
+                    "graded against the truth where tissuebench sensitivity ran"
                     if all(n and "not on this machine" in n for n in absent)
                     else "; ".join(sorted(n for n in absent if n))[:300]
                 )
@@ -363,6 +364,7 @@ def error_budget(rows: list[Row]) -> None:
             element = row.label.rsplit("-", 1)[-1] if row.source.startswith("CalculiX") else ""
             if element and element != "C3D8":
                 how = f"our element's (Q1) on its mesh: {element} is an element we do not have"
+                b["algorithm_how"] = f"against our Q1 implicit: {element}'s difference included"
         elif row.group and row.mesh.split(":")[0] in implicit:  # ours on simplices
             ours = implicit[row.mesh.split(":")[0]]
         elif row.mesh.startswith("tetrahedra, 6 per hexahedron") and "tetrahedron grid" in implicit:

@@ -490,7 +490,8 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 lambda r, kind=kind: truth_error(r, kind),
                 lambda r, kind=kind: r.truth_pareto.get(kind),
                 f"{'time-mean' if kind == 'mean' else 'maximum'} E_i against the truth "
-                f"{plain(board.truth)} (SPEC 10)",
+                f"{plain(board.truth)} (SPEC 10); front labelled",
+                front_only=True,
             )
             if finite(band) and band > 0:
                 ax.axhline(
@@ -507,13 +508,14 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     fig.savefig(path, format="png", dpi=110)
 
 
-def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str) -> None:
+def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=False) -> None:
     """One log-log panel of plot_case: error_of(row) (None: not shown) against cost, one marker
-    per source or group, the front (on_front(row)) as a dashed staircase, labels."""
+    per source or group, the front (on_front(row)) as a dashed staircase, labels (the front's
+    only when front_only: against the truth, runs of one mesh crowd one error)."""
     markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "user": "*"}
     shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost > 0]
     placed = []
-    crowded = sum(r.group is None for r in shown) > LABELLED
+    crowded = front_only or sum(r.group is None for r in shown) > LABELLED
     for source in dict.fromkeys(r.group or r.source for r in shown):
         group = [r for r in shown if (r.group or r.source) == source]
         marker = "v" if group[0].group else markers.get(source.split()[0], "P")
