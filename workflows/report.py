@@ -697,7 +697,7 @@ def paper_report(out, summaries, large=None, limits=None, truth=None):
         MARKER,
         "",
         "Written by `tissuebench paper` (do not edit by hand). The study of Alterovitz and Goldberg, "
-        "*Comparing Algorithms for Soft Tissue Deformation*, as `../shared/SPEC.md` specifies it: Q1 elements, "
+        "*Comparing Algorithms for Soft Tissue Deformation*, as tissuebench poses it (README): Q1 elements, "
         "five integrators, three metrics against the `implicit` reference on the same mesh."
         + (
             " Part 2 goes beyond the paper (SPEC section 8): large deformation, every integrator with "
