@@ -36,6 +36,7 @@ from __future__ import annotations
 import functools
 import signal
 import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -46,6 +47,7 @@ STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}  # exit status of the command
 SAID = {signal.SIGINT: "interrupted (SIGINT)", signal.SIGTERM: "terminated (SIGTERM)"}
 
 _pending = 0  # the signal received and not yet raised, 0 if none
+_raised = 0  # the signal last raised and not yet acknowledged by the command line
 _parallel = False  # under mpiexec (more than one rank): record, never raise in the handler
 _rank0 = True
 _depth = 0  # critical sections open (`deferred`)
@@ -80,11 +82,26 @@ def signal_of(exc: BaseException) -> int:
 
 
 def _take() -> BaseException:
-    """The pending signal as an exception, cleared."""
-    global _pending, _late
-    signum, _pending, _late = _pending, 0, False
+    """The pending signal as an exception, cleared (and kept as raised: `pending`)."""
+    global _pending, _late, _raised
+    signum, _pending, _late = _pending or _raised, 0, False
+    _raised = signum
     signal.setitimer(signal.ITIMER_REAL, 0)
     return exception(signum)
+
+
+def _lost() -> int:
+    """A signal raised earlier that did not reach the command line: an exception raised in a
+    handler runs at the next bytecode, and where that is inside a __del__ or a library's broad
+    `except`, Python drops it. Outside the handling of an exception (sys.exc_info() empty:
+    not while an exception unwinds through `finally` or `except`), it is raised again."""
+    return _raised if sys.exc_info()[0] is None else 0
+
+
+def acknowledge() -> None:
+    """The command line has taken the signal raised (it ends with its status)."""
+    global _raised
+    _raised = 0
 
 
 def _handle(signum, frame):
@@ -111,11 +128,11 @@ def install(comm, received: int = 0) -> Callable[[], None]:
     """Install the handlers for a job on `comm` (an mpi4py communicator). `received` is a
     signal recorded before, by the command line's first handler, which may also carry it as
     its attribute `received`. Return the function that restores the old handlers."""
-    global _pending, _together, _parallel, _rank0, _depth, _late, _unwritten
+    global _pending, _together, _parallel, _rank0, _depth, _late, _unwritten, _raised
     names = (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)
     previous = {s: signal.getsignal(s) for s in names}
     received = received or getattr(previous[signal.SIGINT], "received", 0)
-    _pending, _together, _late, _unwritten = 0, False, False, []
+    _pending, _together, _late, _unwritten, _raised = 0, False, False, [], 0
     _parallel, _rank0, _depth = comm.size > 1, comm.rank == 0, 0
     signal.signal(signal.SIGALRM, _alarm)
     signal.signal(signal.SIGINT, _handle)
@@ -126,48 +143,49 @@ def install(comm, received: int = 0) -> Callable[[], None]:
             signal.setitimer(signal.ITIMER_REAL, GRACE)
 
     def restore():
-        global _pending, _depth
+        global _pending, _depth, _raised
         signal.setitimer(signal.ITIMER_REAL, 0)
         for number, old in previous.items():
             signal.signal(number, old)
-        _pending, _depth = 0, 0
+        _pending, _depth, _raised = 0, 0, 0
 
     return restore
 
 
 def pending() -> int:
-    """The signal this rank received and has not raised yet, 0 if none."""
-    return _pending
+    """The signal this rank received and has not raised yet (or raised, and lost: `_lost`),
+    0 if none."""
+    return _pending or _lost()
 
 
 def stop_together(received: Iterable[int]) -> None:
     """Raise the signal if any rank received one. `received` is every rank's `pending()`,
     gathered, so that all ranks decide alike and raise at the same point."""
-    global _pending, _together, _late
+    global _pending, _together, _late, _raised
     signum = max(received, default=0)
     if signum:
         signal.setitimer(signal.ITIMER_REAL, 0)
-        _pending, _together, _late = 0, True, False
+        _pending, _together, _late, _raised = 0, True, False, signum
         raise exception(signum)
 
 
 def checkpoint(comm) -> None:
     """Collective: raise the signal on every rank if any rank received one."""
     if comm.size == 1:
-        if _pending and not _depth:
+        if (_pending or _lost()) and not _depth:
             raise _take()
         return
-    stop_together(comm.allgather(_pending))
+    stop_together(comm.allgather(pending()))
 
 
 def check() -> None:
     """Rank 0 inside an action of `output.collective` (or in serial): raise a signal received
     and not yet raised, as `Interrupted`, which every rank raises with rank 0."""
-    global _pending, _together, _late
-    if _pending and not _depth:
-        signum = _pending
+    global _pending, _together, _late, _raised
+    if (_pending or _lost()) and not _depth:
+        signum = _pending or _raised
         signal.setitimer(signal.ITIMER_REAL, 0)
-        _pending, _together, _late = 0, True, False
+        _pending, _together, _late, _raised = 0, True, False, signum
         raise Interrupted(signum)
 
 

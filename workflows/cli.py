@@ -188,6 +188,7 @@ def command_line(argv=None) -> int:
                 leave(1)
             return 1
         signum = interrupt.signal_of(failure)
+        interrupt.acknowledge()
         status = interrupt.STATUS[signum]
         if ended:
             say(f"{interrupt.SAID[signum]} as it ended; its output is complete")
