@@ -358,6 +358,46 @@ def grade(
     return grade_series(ref, cand, comm, label=label)
 
 
+def describe(
+    label: str,
+    against: str,
+    times: np.ndarray,
+    curves: dict[str, np.ndarray],
+    graded: int,
+    cand_steps: int,
+    reference: tuple[int | None, str | None],
+    candidate: tuple[int | None, str | None],
+    suffix=lambda name: "",
+) -> tuple[str, dict[str, str]]:
+    """The title and one-line summaries of a grading: where a series diverged or the
+    candidate ended, and each metric's maximum and time-mean over the steps graded (with
+    `suffix(metric name)` after its line). `reference` and `candidate` are (divergence step
+    or None, reason)."""
+    steps = len(times)
+    summaries = {}
+    for side, (step, reason) in (("reference", reference), ("candidate", candidate)):
+        if step is not None:
+            summaries[side] = _divergence(side, step, times[step], reason)
+    if candidate[0] is None and cand_steps < steps:
+        summaries["candidate"] = (
+            f"candidate ends at step {cand_steps - 1} (t = {times[cand_steps - 1]:.6g} s): "
+            f"steps {cand_steps}..{steps - 1} missing"
+        )
+    title = f"{label} against {against}"
+    if summaries:
+        title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
+    scope = (
+        f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
+    )
+    if graded <= 1:
+        scope = f"no step of 1..{steps - 1} graded"
+    for name in METRICS:
+        peak, mean = summarize(curves[name])
+        line = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
+        summaries[name] = line + suffix(name)
+    return title, summaries
+
+
 def read_on_rank0(comm: MPI.Comm, *files: tuple) -> list[Series | None]:
     """The series of each (path, field) read on rank 0 (None on the other ranks). Collective:
     an unreadable file raises one InputError on every rank, so that none is left waiting."""
@@ -441,33 +481,11 @@ def grade_series(
         grader = CrossMetrics(V, mesh, BODY_TOLERANCE * extent, where)
     curves = _curves(comm, V, points, ref, cand, steps, graded, match, grader)
 
-    summaries = {}
-    if ref_diverged is not None:
-        summaries["reference"] = _divergence(
-            "reference", ref_diverged, times[ref_diverged], ref_reason
-        )
-    if cand_diverged is not None:
-        summaries["candidate"] = _divergence(
-            "candidate", cand_diverged, times[cand_diverged], cand_reason
-        )
-    elif cand_steps < steps:
-        summaries["candidate"] = (
-            f"candidate ends at step {cand_steps - 1} (t = {times[cand_steps - 1]:.6g} s): "
-            f"steps {cand_steps}..{steps - 1} missing"
-        )
-
     label = names[0]
-    title = f"{label} against {names[1]}"
-    if "candidate" in summaries or "reference" in summaries:
-        title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
-    scope = (
-        f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
-    )
-    if graded <= 1:
-        scope = f"no step of 1..{steps - 1} graded"
-    for name in METRICS:
-        peak, mean = summarize(curves[name])
-        summaries[name] = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
+    title, summaries = describe(
+        label, names[1], times, curves, graded, cand_steps,
+        (ref_diverged, ref_reason), (cand_diverged, cand_reason),
+    )  # fmt: skip
     return Grading(
         label,
         title,

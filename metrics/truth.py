@@ -49,7 +49,7 @@ from tissuebench.metrics.cells import (
 )
 from tissuebench.metrics.compare import (
     Grading,
-    _divergence,
+    describe,
     divergence,
     smallest_step,
     starts_at_h,
@@ -265,38 +265,14 @@ def _grade(truth: TruthSamples, cand: Series, label: str | None, log) -> TruthGr
             curves[n][i] = value
     seconds = {"locate": located, "steps": time.perf_counter() - start - located}
 
-    times = ref.times
-    summaries = {}
-    if ref_diverged is not None:
-        summaries["reference"] = _divergence(
-            "reference", ref_diverged, times[ref_diverged], ref_reason
-        )
-    if cand_diverged is not None:
-        summaries["candidate"] = _divergence(
-            "candidate", cand_diverged, times[cand_diverged], cand_reason
-        )
-    elif len(cand.times) < steps:
-        k = len(cand.times)
-        summaries["candidate"] = (
-            f"candidate ends at step {k - 1} (t = {times[k - 1]:.6g} s): steps {k}..{steps - 1} "
-            "missing"
-        )
     label = label or cand.path.stem
-    title = f"{label} against {name}"
-    if "candidate" in summaries or "reference" in summaries:
-        title += f" (graded up to t = {times[graded - 1]:.4g} s)" if graded else " (no step graded)"
-    scope = (
-        f"steps 1..{steps - 1}" if graded == steps else f"steps 1..{graded - 1} of 1..{steps - 1}"
-    )
-    if graded <= 1:
-        scope = f"no step of 1..{steps - 1} graded"
     own = own_error(truth)
-    for n in METRICS:
-        peak, mean = summarize(curves[n])
-        line = f"{n}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
-        if n.startswith("interior_error"):
-            line += f" (the truth's own error: {own:.2g})"
-        summaries[n] = line
+    title, summaries = describe(
+        label, name, ref.times, curves, graded, len(cand.times),
+        (ref_diverged, ref_reason), (cand_diverged, cand_reason),
+        suffix=lambda n: f" (the truth's own error: {own:.2g})" if n.startswith("interior") else "",
+    )  # fmt: skip
+    times = ref.times
     if log is not None:
         log(
             f"graded {graded - 1} steps against {name} in {seconds['locate'] + seconds['steps']:.1f} s"
