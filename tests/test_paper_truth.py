@@ -5,7 +5,6 @@ computes it instead of numbers."""
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
-import numpy as np
 import pytest
 
 from tissuebench.workflows import paper_truth as pt
@@ -91,19 +90,8 @@ def test_missing_truths_leave_the_claims_unjudged():
 
 
 def data(graded: dict, own: dict) -> pt.PaperTruth:
-    references = [
-        pt.Reference(
-            what,
-            label,
-            name,
-            graded[name][label] if name in graded else None,
-            own.get(name, np.nan),
-            f"tissuebench truth {name}",
-        )
-        for what, _, label, name in pt.REFERENCES
-    ]
     missing = [name for _, _, _, name in pt.REFERENCES if name not in graded]
-    return pt.PaperTruth(references, graded, own, pt.judge(graded), missing)
+    return pt.assemble(graded, own, missing)
 
 
 def test_the_section_shows_the_numbers_and_verdicts_of_its_data():

@@ -274,6 +274,12 @@ def compute(
         truth = truth_samples(name, comm=comm)
         own[name] = comm.bcast(own_error(truth) if comm.rank == 0 else None, root=0)
         graded[name] = grade_runs(folders[case][0], labels, truth, comm)
+    return assemble(graded, own, missing)
+
+
+def assemble(graded: dict, own: dict, missing: list[str]) -> PaperTruth:
+    """The section's data from the runs graded against each truth (`graded`: truth case ->
+    {run label: values}), the truths' own errors (m^d) and the truths not computed."""
     references = [
         Reference(
             what,
