@@ -98,6 +98,19 @@ def _lost() -> int:
     return _raised if sys.exc_info()[0] is None else 0
 
 
+def _unraisable(previous: Callable) -> Callable:
+    """A hook for `sys.unraisablehook`: where Python drops our exception (raised in a
+    __del__ or a weak reference's callback), it would print "Exception ignored in" and a
+    traceback; the signal is raised again at the next point (`_lost`), so say nothing."""
+
+    def hook(unraisable):
+        if _raised and isinstance(unraisable.exc_value, (KeyboardInterrupt, Terminated)):
+            return
+        previous(unraisable)
+
+    return hook
+
+
 def acknowledge() -> None:
     """The command line has taken the signal raised (it ends with its status)."""
     global _raised
@@ -137,6 +150,8 @@ def install(comm, received: int = 0) -> Callable[[], None]:
     signal.signal(signal.SIGALRM, _alarm)
     signal.signal(signal.SIGINT, _handle)
     signal.signal(signal.SIGTERM, _handle)
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _unraisable(previous_hook)
     if received:
         _pending = received
         if _parallel and _rank0:
@@ -147,6 +162,7 @@ def install(comm, received: int = 0) -> Callable[[], None]:
         signal.setitimer(signal.ITIMER_REAL, 0)
         for number, old in previous.items():
             signal.signal(number, old)
+        sys.unraisablehook = previous_hook
         _pending, _depth, _raised = 0, 0, 0
 
     return restore

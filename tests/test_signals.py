@@ -81,6 +81,36 @@ def test_a_signal_swallowed_on_its_way_up_is_raised_again_at_the_next_point(hand
     assert interrupt.pending() == 0
 
 
+def test_a_signal_dropped_in_a_finalizer_prints_nothing_and_is_raised_again():
+    """Python prints "Exception ignored in" and a traceback for an exception dropped in a
+    __del__ or a weak reference's callback; a CI run's SIGINT landed in one (a
+    WeakValueDictionary's) and its leaderboard ended with 8 lines instead of one. The
+    dropped signal says nothing there and is raised at the next checkpoint."""
+    script = """
+import os, signal, time
+from mpi4py import MPI  # noqa: F401 (before PETSc, which the package imports)
+from types import SimpleNamespace
+from tissuebench.solvers import interrupt
+interrupt.install(SimpleNamespace(size=1, rank=0))
+class Finalized:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.5)
+Finalized()
+print("went on", flush=True)
+try:
+    interrupt.checkpoint(SimpleNamespace(size=1, rank=0))
+except KeyboardInterrupt:
+    print("raised again")
+"""
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == ["went on", "raised again"], done.stdout
+    assert done.stderr == ""
+
+
 def test_under_mpiexec_a_signal_waits_for_a_point_where_all_ranks_stop(handlers):
     """Two ranks (a stand-in communicator): recorded only; a checkpoint raises it on every
     rank when any rank holds one; check() (rank 0 in output.collective) raises Interrupted,
@@ -217,11 +247,14 @@ def test_signal_while_the_figures_are_drawn(tmp_path, ranks, sig, fractions):
     exit 1 (ImportError, ValueError); under mpiexec exit 0 every time. Now the job ends with
     the signal's status, or, when the signal came after the results were moved into place,
     says so; never exit 0."""
-    process = start([*SHORT_RUN, "--out", tmp_path / "alone"], ranks)
-    after_line(process, "steps in")
-    started = time.monotonic()
-    assert process.wait(timeout=300) == 0
-    window = time.monotonic() - started
+    windows = []  # the first run loads VTK cold: the shorter of two runs left alone
+    for alone in ("alone", "alone-again"):
+        process = start([*SHORT_RUN, "--out", tmp_path / alone], ranks)
+        after_line(process, "steps in")
+        started = time.monotonic()
+        assert process.wait(timeout=300) == 0
+        windows.append(time.monotonic() - started)
+    window = min(windows)
     for fraction in fractions:
         folder = tmp_path / str(fraction)
         folder.mkdir()

@@ -209,3 +209,28 @@ def test_command_writes_the_summary_and_refuses_bad_input(cache, tmp_path, monke
     assert refused.returncode == 2
     assert len(refused.stderr.strip().splitlines()) == 1 and "--force" in refused.stderr
     assert (full / "truth.md").read_text() == "# The truth (SPEC 10)\n"
+
+
+def test_the_cache_key_follows_the_code_not_its_text(tmp_path, monkeypatch):
+    """Moving imports, editing docstrings or type hints, reformatting: the same truth, the
+    same key (a rod truth costs minutes, a neo-Hookean one an hour); a changed number or
+    statement: another key."""
+    for name in store.SOURCES:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text((store.PACKAGE / name).read_text())
+    monkeypatch.setattr(store, "PACKAGE", tmp_path)
+    before = store._code()
+    solver = tmp_path / "solvers/truth/solver.py"
+    text = solver.read_text()
+    edited = text.replace('"""', '"""An edited docstring. ', 1)
+    edited = edited.replace("import time\n", "import os  # a new import\nimport time\n", 1)
+    edited = edited.replace("-> None:", "-> 'None':")
+    assert edited != text
+    solver.write_text(edited)
+    assert store._code() == before
+    numbers = store.SOURCES.index("solvers/materials.py")
+    materials = tmp_path / store.SOURCES[numbers]
+    changed = materials.read_text().replace("0.47", "0.471", 1)
+    assert changed != materials.read_text()
+    materials.write_text(changed)
+    assert store._code() != before
