@@ -15,7 +15,7 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 import gmsh
 import dolfinx.io.gmsh
 import numpy as np
-from tissuebench.workflows.errors import UserError
+from tissuebench.meshes.errors import UserError
 
 
 class MeshError(UserError):

@@ -1,8 +1,9 @@
-"""The accuracy metrics of SPEC section 6 (E_n, E_s, E_i) and `compare` for any two simulations."""
+"""The accuracy metrics of SPEC section 6 (E_n, E_s, E_i) on arrays and meshes, and the grading
+of one displacement series against another (files are read in workflows/io/)."""
 
-from tissuebench.metrics.errors import METRICS, NAMES, Metric, Metrics
-from tissuebench.metrics.series import InputError, Series, read_series
-from tissuebench.metrics.compare import Grading, grade, summarize
+from tissuebench.metrics.table import METRICS, NAMES, Metric, Metrics
+from tissuebench.metrics.series import InputError, Series
+from tissuebench.metrics.compare import Grading, grade_series, summarize
 
 __all__ = [
     "METRICS",
@@ -12,7 +13,6 @@ __all__ = [
     "Metrics",
     "Series",
     "Grading",
-    "grade",
-    "read_series",
+    "grade_series",
     "summarize",
 ]

@@ -17,7 +17,6 @@ bound no metric of a graded step can overflow (series.py bounds the coordinates)
 """
 
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -36,8 +35,8 @@ from tissuebench.metrics.crossmesh import (
     check_same_body,
     note,
 )
-from tissuebench.metrics.errors import METRICS, Metrics
-from tissuebench.metrics.series import InputError, Series, read_series
+from tissuebench.metrics.table import METRICS, Metrics
+from tissuebench.metrics.series import InputError, Series
 
 
 def columns() -> tuple[str, ...]:
@@ -326,38 +325,6 @@ class Grading:
     candidate_reason: str | None = None
 
 
-def grade(
-    reference: str | Path,
-    candidate: str | Path,
-    field: str | None = None,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-    *,
-    reference_field: str | None = None,
-    candidate_field: str | None = None,
-    label: str | None = None,
-) -> Grading:
-    """Measure the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
-    .dat files). The point field of each side is `reference_field` / `candidate_field`, else
-    `field`, else the first of series.DEFAULT_FIELDS that the file holds. A series that
-    starts at t = h starts from the zero initial state at t = 0 (a note says so). A series'
-    first step with a non-finite displacement, or one beyond 100 times its largest extent, is
-    its divergence (Grading gives the reason): nothing is graded from there on. A candidate
-    on another mesh of the reference's body (triangles, quadrilaterals, tetrahedra or
-    hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
-    `label` names the candidate (default: its file name without suffix). Collective over
-    comm; the same Grading on every rank.
-
-    Raises InputError on every rank for unreadable files, meshes of different dimensions or
-    bodies, time stamps that do not match, degenerate cells, a mesh boundary that touches
-    itself, a missing field, complex values, or a series whose steps change the mesh or
-    its node order.
-    """
-    ref, cand = read_on_rank0(
-        comm, (reference, reference_field or field), (candidate, candidate_field or field)
-    )
-    return grade_series(ref, cand, comm, label=label)
-
-
 def describe(
     label: str,
     against: str,
@@ -396,28 +363,6 @@ def describe(
         line = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
         summaries[name] = line + suffix(name)
     return title, summaries
-
-
-def read_on_rank0(comm: MPI.Comm, *files: tuple) -> list[Series | None]:
-    """The series of each (path, field) read on rank 0 (None on the other ranks). Collective:
-    an unreadable file raises one InputError on every rank, so that none is left waiting."""
-    series, error = [], None
-    if comm.rank == 0:
-        for path, field in files:
-            try:
-                series.append(read_series(path, field))
-            except InputError as exc:
-                error = str(exc)
-            except Exception as exc:
-                error = (
-                    f"{path}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})"
-                )
-            if error is not None:
-                break
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise InputError(error)
-    return series if comm.rank == 0 else [None] * len(files)
 
 
 def grade_series(

@@ -8,7 +8,7 @@
   coordinate, the rule by which compare matches the nodes of one mesh) takes that node's
   value. E_n = ‖Π u′ − u‖ / ‖u‖ and the nodal E_i use Π u′ as section 6 uses u′.
 - E_i = |Ω_0|^(−1/d) Σ_cells Σ_q w_q |det J_q| ‖u′_h(x_q) − u_h(x_q)‖, with the reference's
-  cells and the quadrature rule that InteriorError's form uses, u′_h located at every x_q.
+  cells and the quadrature rule that InteriorMetric's form uses, u′_h located at every x_q.
 - E_s: Ω′_t is bounded by the candidate's own deformed boundary facets.
 
 The candidate mesh is whole on every rank; each rank locates its own reference nodes and
@@ -34,7 +34,7 @@ from tissuebench.metrics.cells import (
     measures,
     shape_functions,
 )
-from tissuebench.metrics.errors import METRICS, Metrics
+from tissuebench.metrics.table import METRICS, Metrics
 from tissuebench.metrics.series import InputError, Series
 from tissuebench.metrics.surface import domain, surface_error
 
@@ -123,7 +123,7 @@ def check_same_body(ref: Series, cand: Series) -> tuple[str, float]:
 
 
 def quadrature_points(cell_type: str, points: int = 3) -> int:
-    """The number of quadrature points per cell of InteriorError with `points` Gauss points per
+    """The number of quadrature points per cell of InteriorMetric with `points` Gauss points per
     direction (the rule of degree 2 points − 1)."""
     return len(basix.make_quadrature(basix.CellType[cell_type], 2 * points - 1)[1])
 
@@ -170,12 +170,12 @@ class PointValues:
 
 class CrossInterior:
     """E_i of a candidate on its own mesh by quadrature on V's cells (the rule of
-    InteriorError), and the nodal form from Π u′. `candidate` holds the candidate's nodal
+    InteriorMetric), and the nodal form from Π u′. `candidate` holds the candidate's nodal
     displacement (N′, d) being graded (set by CrossMetrics.evaluate)."""
 
     def __init__(self, V: fem.FunctionSpace, reference, locator: Locator, points: int = 3):
         mesh = V.mesh
-        self.reference = reference  # the InteriorError of V: weights, volume, scale
+        self.reference = reference  # the InteriorMetric of V: weights, volume, scale
         self.comm, self.dim = mesh.comm, mesh.geometry.dim
         self.owned = reference.owned
         d, tdim = self.dim, mesh.topology.dim

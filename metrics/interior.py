@@ -11,7 +11,7 @@ import ufl
 from dolfinx import fem, la
 
 
-class InteriorError:
+class InteriorMetric:
     """E_i and its nodal variant on the vector Q1 (or P1, on simplices) space V, forms compiled
     once.
 

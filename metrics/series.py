@@ -1,8 +1,9 @@
-"""Displacement time series read from files written by other simulators.
+"""Displacement time series (Series) as the metrics take them, and their checks; the files they are
+read from (workflows/io/series.py) are described here since their rules are the Series'.
 
 Formats: XDMF with HDF5 (or inline XML) data, as DOLFINx's XDMFFile.write_function and
 meshio's TimeSeriesWriter write it, ParaView .pvd collections of .vtu files, and CalculiX's
-ASCII .frd and .dat (with its deck, the .inp beside it; metrics/calculix.py). The mesh is
+ASCII .frd and .dat (with its deck, the .inp beside it; workflows/io/calculix.py). The mesh is
 first order, of one cell type: triangles or quadrilaterals (2D; a zero third coordinate, as
 meshio and ParaView store 2D data, is dropped), tetrahedra or hexahedra (3D); the
 displacement is P1 on simplices and Q1 on the others (SPEC section 9). Cells are returned in
@@ -13,18 +14,16 @@ refused); a non-finite value in any component, the third of 2D data included, is
 non-finite, so that the step counts as diverged (metrics/compare.py). Anything else raises
 InputError with one line naming the file and the problem.
 
-The field: a name, taken as it is; or none, and then the first of DEFAULT_FIELDS that the
-file holds (`displacement` as we write it, `U` and `DISP` as CalculiX names it, ...).
+The field: a name, taken as it is; or none, and then the first of io.series.DEFAULT_FIELDS
+that the file holds (`displacement` as we write it, `U` and `DISP` as CalculiX names it, ...).
 """
 
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 from tissuebench.metrics.cells import DIM, FACETS, NAMES
-from tissuebench.workflows.errors import UserError
+from tissuebench.meshes.errors import UserError
 
 # file cell names (XDMF topology types lower-cased, meshio's names) -> (our cell type, nodes
 # per cell)
@@ -42,7 +41,6 @@ class InputError(UserError):
     """Input files that cannot be compared: the message is one line naming file and problem."""
 
 
-DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
 # Coordinates (in any unit) within +-COORDINATE_RANGE, spanning more than 1/COORDINATE_RANGE:
 # the metrics' sums, areas and volumes of such a mesh, displaced by up to 100 times its extent
 # (beyond that a series has diverged, SPEC section 3), cannot overflow or underflow.
@@ -70,46 +68,10 @@ class Series:
         return self.points.shape[1]
 
 
-def field_names(field: str | None) -> tuple[str, ...]:
-    """The names to look for: the one given, or DEFAULT_FIELDS in order."""
-    return (field,) if field else DEFAULT_FIELDS
-
-
-def missing_field(path, names, fields) -> InputError:
-    """One line: none of `names` is among the file's `fields`."""
-    nor = f" (nor {', '.join(names[1:])})" if len(names) > 1 else ""
-    hint = (
-        "; name the displacement field with --candidate-field or --reference-field (or --field)"
-        if fields
-        else ""
-    )
-    return InputError(
-        f"{path}: no point field {names[0]!r}{nor}; fields: {', '.join(fields) or 'none'}{hint}"
-    )
-
-
-def read_series(path, field=None):
-    """The Series of point field `field` (None: the first of DEFAULT_FIELDS present) in an
-    .xdmf, .pvd, .frd or .dat file."""
-    from tissuebench.metrics.calculix import read_dat, read_frd
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    readers = {".xdmf": _read_xdmf, ".pvd": _read_pvd, ".frd": read_frd, ".dat": read_dat}
-    if path.suffix.lower() not in readers:
-        raise InputError(
-            f"{path}: unknown format {path.suffix!r}; expected .xdmf (with .h5), .pvd (with "
-            ".vtu), or CalculiX's .frd or .dat (with its .inp)"
-        )
-    points, cells, cell_type, times, values, found = readers[path.suffix.lower()](
-        path, field_names(field)
-    )
-    return _finish(path, found, points, cells, cell_type, times, values)
-
-
-def _finish(path, field, points, cells, cell_type, times, values):
-    """Check shapes, reduce 2D data stored in 3D to d columns and build the Series."""
+def series_of(path, field, points, cells, cell_type, times, values) -> "Series":
+    """The Series read from `path` (named in errors): its arrays as a file holds them (cell type
+    by the file's name, 2D data possibly with a zero third coordinate), checked, reduced to d
+    columns; InputError (one line) for anything that cannot be graded."""
     if cell_type not in CELLS:
         raise InputError(
             f"{path}: cells of type {cell_type!r}; only first-order triangles, quadrilaterals, "
@@ -372,206 +334,3 @@ def check_boundary(
     several = np.flatnonzero(np.bincount(fans, minlength=len(points)) > 1)
     if len(several):
         raise InputError(f"{touching} {_node(points, int(several[0]))} ({why})")
-
-
-# --- XDMF -----------------------------------------------------------------------------------
-
-
-def _parse_xml(path):
-    try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise InputError(f"{path}: not valid XML ({exc})") from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
-
-
-class _HDF:
-    """Opened HDF5 files of one XDMF file, read through their DataItems."""
-
-    def __init__(self, xdmf):
-        self.xdmf = xdmf
-        self.files = {}
-
-    def close(self):
-        for f in self.files.values():
-            f.close()
-
-    def read(self, item, what):
-        if item is None:
-            raise InputError(f"{self.xdmf}: {what} has no DataItem")
-        form = item.get("Format", "XML").upper()
-        shape = tuple(int(s) for s in item.get("Dimensions", "").split())
-        text = (item.text or "").strip()
-        if form == "XML":
-            try:
-                data = np.array(text.split(), dtype=np.float64)
-                return data.reshape(shape) if shape else data
-            except ValueError:
-                raise InputError(
-                    f"{self.xdmf}: {what}: inline data does not match Dimensions {shape}"
-                ) from None
-        if form != "HDF":
-            raise InputError(
-                f"{self.xdmf}: {what}: DataItem format {form!r} is not supported (HDF or XML)"
-            )
-        filename, _, dataset = text.partition(":")
-        h5 = self.xdmf.parent / filename
-        if h5 not in self.files:
-            if not h5.is_file():
-                raise InputError(f"{h5}: no such file (the HDF5 data of {self.xdmf})")
-            try:
-                self.files[h5] = h5py.File(h5, "r")
-            except OSError:
-                raise InputError(
-                    f"{h5}: not a readable HDF5 file (truncated or corrupt?)"
-                ) from None
-        try:
-            data = self.files[h5][dataset][()]
-        except KeyError:
-            raise InputError(f"{h5}: no dataset {dataset!r} ({what})") from None
-        except OSError:
-            raise InputError(
-                f"{h5}: dataset {dataset!r} cannot be read (truncated or corrupt?)"
-            ) from None
-        if shape and data.shape != shape:
-            raise InputError(
-                f"{h5}: dataset {dataset!r} has shape {data.shape}, {self.xdmf} says {shape}"
-            )
-        return data
-
-
-def _read_xdmf(path, names):
-    root = _parse_xml(path)
-    grids = list(root.iter("Grid"))
-    mesh = next(
-        (g for g in grids if g.find("Topology") is not None and g.find("Geometry") is not None),
-        None,
-    )
-    if mesh is None:
-        raise InputError(f"{path}: no grid with a Topology and a Geometry")
-    steps = [
-        g
-        for g in grids
-        if g.get("GridType", "Uniform") == "Uniform" and g.find("Attribute") is not None
-    ]
-    fields = sorted({a.get("Name") for g in steps for a in g.findall("Attribute")})
-    field = next((n for n in names if n in fields), None)
-    if field is None:
-        raise missing_field(path, names, fields)
-    steps = [g for g in steps if _attribute(g, field) is not None]
-    hdf = _HDF(path)
-    try:
-        topology, geometry = mesh.find("Topology"), mesh.find("Geometry")
-        cell_type = topology.get("TopologyType", topology.get("Type", "")).lower()
-        if geometry.get("GeometryType", geometry.get("Type", "XYZ")).upper() not in ("XY", "XYZ"):
-            raise InputError(
-                f"{path}: geometry type {geometry.get('GeometryType')!r} is not supported (XY or XYZ)"
-            )
-        points = hdf.read(geometry.find("DataItem"), "the geometry")
-        cells = hdf.read(topology.find("DataItem"), "the topology")
-        times, values = [], []
-        for k, grid in enumerate(steps):
-            time = grid.find("Time")
-            try:
-                times.append(float(time.get("Value")) if time is not None else float(k))
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"{path}: time value {time.get('Value')!r} is not a number"
-                ) from None
-            step_mesh = (
-                _step_data(hdf, grid.find("Geometry"), geometry, points, "the geometry"),
-                _step_data(hdf, grid.find("Topology"), topology, cells, "the topology"),
-            )
-            if step_mesh[0] is not points or step_mesh[1] is not cells:
-                where = f"{path} (step {k}, t = {times[-1]:g})"
-                check_same_mesh(where, (points, cells), step_mesh)
-            attribute = _attribute(grid, field)
-            if attribute.get("Center", "Node") != "Node":
-                raise InputError(f"{path}: field {field!r} is not a point (Node) field")
-            values.append(
-                hdf.read(attribute.find("DataItem"), f"field {field!r} at time {times[-1]:g}")
-            )
-    finally:
-        hdf.close()
-    return points, cells, cell_type, times, values, field
-
-
-def _step_data(hdf, element, first_element, first_data, what):
-    """The data of a step grid's own Geometry or Topology `element`: the first's
-    (`first_data`) when the step has none (XDMF's xi:include of the first, as DOLFINx and
-    meshio write), names the same HDF5 dataset, or is a Reference to other data."""
-    item = None if element is None else element.find("DataItem")
-    first = first_element.find("DataItem")
-    if item is None or item is first or item.get("Reference") is not None:
-        return first_data
-    same_form = item.get("Format", "XML").upper() == first.get("Format", "XML").upper() == "HDF"
-    if same_form and (item.text or "").strip() == (first.text or "").strip():
-        return first_data
-    return hdf.read(item, what)
-
-
-def _attribute(grid, field):
-    return next((a for a in grid.findall("Attribute") if a.get("Name") == field), None)
-
-
-# --- PVD + VTU ------------------------------------------------------------------------------
-
-
-def _read_pvd(path, names):
-    import meshio
-
-    root = _parse_xml(path)
-    datasets = list(root.iter("DataSet"))
-    if not datasets:
-        raise InputError(f"{path}: no DataSet entries in the collection")
-    if len({d.get("part", "0") for d in datasets}) > 1:
-        raise InputError(
-            f"{path}: multi-part (parallel) collections are not supported; write one .vtu per step"
-        )
-    points = cells = cell_type = field = None
-    times, values = [], []
-    for k, dataset in enumerate(sorted(datasets, key=lambda d: float(d.get("timestep", 0)))):
-        vtu = path.parent / (dataset.get("file") or "")
-        if vtu.suffix.lower() != ".vtu":
-            raise InputError(
-                f"{path}: step {k} refers to {vtu.name!r}; only .vtu files are supported"
-            )
-        if not vtu.is_file():
-            raise InputError(f"{vtu}: no such file (step {k} of {path})")
-        try:
-            mesh = meshio.vtu.read(str(vtu))  # meshio.read would sys.exit on a bad file
-        except Exception as exc:  # meshio raises many kinds on bad files
-            message = " ".join(str(exc).split()) or "truncated or corrupt?"
-            raise InputError(f"{vtu}: not a readable VTU file ({message})") from None
-        if field is None:  # the first step decides
-            field = next((n for n in names if n in mesh.point_data), None)
-            if field is None:
-                raise missing_field(vtu, names, list(mesh.point_data))
-        if field not in mesh.point_data:
-            raise missing_field(vtu, (field,), list(mesh.point_data))
-        if points is None:
-            points = mesh.points
-            blocks = [block for block in mesh.cells if len(block.data)]
-            if len(blocks) != 1:
-                raise InputError(
-                    f"{vtu}: cells of types {[b.type for b in blocks]}; "
-                    "expected one of triangle, quad, tetra or hexahedron"
-                )
-            cells, cell_type = blocks[0].data, blocks[0].type
-        else:
-            blocks = [block for block in mesh.cells if len(block.data)]
-            same_type = len(blocks) == 1 and blocks[0].type == cell_type
-            check_same_mesh(
-                f"{vtu} (step {k} of {path.name})",
-                (points, cells),
-                (mesh.points, blocks[0].data if same_type else None),
-            )
-        try:
-            times.append(float(dataset.get("timestep", k)))
-        except ValueError:
-            raise InputError(
-                f"{path}: timestep {dataset.get('timestep')!r} is not a number"
-            ) from None
-        values.append(mesh.point_data[field])
-    return points, cells, cell_type, times, values, field

@@ -59,7 +59,7 @@ from tissuebench.metrics.compare import (
     with_initial_state,
 )
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, Mesh, PointValues, check_same_body
-from tissuebench.metrics.errors import METRICS
+from tissuebench.metrics.table import METRICS
 from tissuebench.metrics.series import InputError, Series
 from tissuebench.metrics.surface import domain, surface_error
 from tissuebench.solvers.truth.samples import TruthSamples
@@ -370,23 +370,6 @@ def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | Non
             print(*args, **kwargs)
 
     return truth_samples(case, comm=comm, log=log)
-
-
-def grade_against_truth(
-    truth: TruthSamples | None,
-    candidate: str | Path,
-    field: str | None = None,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-    label: str | None = None,
-) -> TruthGrading:
-    """Read the candidate series file (XDMF, PVD, CalculiX .frd or .dat; point field `field`,
-    else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
-    truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
-    and for an unreadable file."""
-    from tissuebench.metrics.compare import read_on_rank0
-
-    (cand,) = read_on_rank0(comm, (candidate, field))
-    return grade_truth(truth, cand, comm, label=label)
 
 
 # --- timing (issue 25, item 6) --------------------------------------------------------------

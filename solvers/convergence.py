@@ -1,5 +1,5 @@
 """Observed orders of convergence of the schemes, in time and in space (the numerics of
-`tissuebench convergence`, workflows/convergence.py).
+`tissuebench convergence`, workflows/commands/convergence.py).
 
 Time: every dynamic scheme with h, h/2, h/4, h/8 against `implicit` with h/64; each metric's
 error is its maximum over the times t_j = j h that all runs share. Space: solutions at one

@@ -9,7 +9,7 @@ from contextlib import contextmanager
 
 from petsc4py import PETSc
 
-from tissuebench.workflows.errors import UserError
+from tissuebench.meshes.errors import UserError
 
 SOLVERS = {
     # factor once (MUMPS Cholesky: every step matrix here is symmetric positive definite, and

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from helpers import tissuebench
-from tissuebench.metrics.series import read_series
+from tissuebench.workflows.io.series import read_series
 
 COLUMNS = [
     "algorithm",

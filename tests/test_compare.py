@@ -15,8 +15,9 @@ from dolfinx import fem, io, mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
 
 from helpers import run_script, tissuebench
-from tissuebench.metrics import NAMES, InputError, Metrics, read_series
-from tissuebench.workflows.errors import UserError
+from tissuebench.metrics import NAMES, InputError, Metrics
+from tissuebench.workflows.io.series import read_series
+from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.grading import compare
 from tissuebench.metrics.compare import COLUMNS
 

@@ -24,11 +24,13 @@ from test_compare import (
     shuffled,
     write_meshio_xdmf,
 )
-from tissuebench.metrics import InputError, Metrics, read_series
-from tissuebench.metrics.compare import function_space, grade, grade_series
+from tissuebench.metrics import InputError, Metrics
+from tissuebench.workflows.io.series import read_series
+from tissuebench.metrics.compare import function_space, grade_series
+from tissuebench.workflows.grading import grade
 from tissuebench.metrics.series import Series
 from tissuebench.workflows.grading import compare
-from tissuebench.workflows.xdmf import write_series
+from tissuebench.workflows.io.xdmf import write_series
 
 TIMES = np.array([0.0, 0.1, 0.2])
 SQUARE = (1.0, 0.5)  # m, the 2D body

@@ -14,12 +14,15 @@ import pytest
 
 from helpers import tissuebench
 from tissuebench.meshes.block import needle_motion
-from tissuebench.metrics.calculix import read_frd, to_float
+from tissuebench.workflows.io.calculix import read_frd, to_float
 from tissuebench.metrics.compare import COLUMNS
-from tissuebench.metrics.series import InputError, read_series
+from tissuebench.metrics.series import InputError
+from tissuebench.workflows.io.series import read_series
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.errors import UserError
-from tissuebench.workflows.exporting import build, export, inp_text, kinks, read_json
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.posing import build, export
+from tissuebench.workflows.io.calculix import inp_text, kinks
+from tissuebench.workflows.io.exported import read_json
 from tissuebench.workflows.grading import compare
 
 CCX = shutil.which("ccx")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from helpers import tissuebench
-from tissuebench.workflows import leaderboard
+from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.ranking import Board, pareto
 

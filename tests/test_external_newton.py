@@ -1,4 +1,4 @@
-"""The Newton runner of `tissuebench external` (solvers/external/newton.py) on the small rod
+"""The Newton runner of `tissuebench external` (workflows/simulators/newton.py) on the small rod
 (mesh size 2): its tetrahedra against the box geometry, its masses and springs against closed
 sums, its material mappings against the small-strain limits of Newton's energies, and its
 runs against a linear P1 solve on the same tetrahedra and our quasi-static reference. Serial:
@@ -12,9 +12,9 @@ import pytest
 
 pytest.importorskip("newton")
 
-from tissuebench.solvers.external import newton as nw  # noqa: E402
+from tissuebench.workflows.simulators import newton as nw  # noqa: E402
 from tissuebench.solvers.materials import Material, get_material  # noqa: E402
-from tissuebench.workflows.exporting import build, run_reference  # noqa: E402
+from tissuebench.workflows.posing import build, run_reference  # noqa: E402
 
 H = 1 / 30  # the paper's h, s
 LENGTH, HEIGHT, DEPTH = 0.5, 0.25, 0.25  # the rod, m (SPEC section 5)

@@ -1,4 +1,4 @@
-"""The SfePy runner of `tissuebench external` (solvers/external/sfepy.py) against our own,
+"""The SfePy runner of `tissuebench external` (workflows/simulators/sfepy.py) against our own,
 independent implementation: SfePy's ts.newmark with beta = 1/4, gamma = 1/2 is the trapezoidal
 rule of our `implicit` reference, on the same mesh and step, so the two agree to round-off;
 its ts.central_difference is our `explicit`. Small meshes and 40 steps (h = 1/30 s); serial
@@ -15,9 +15,9 @@ import pytest
 
 pytest.importorskip("sfepy")
 
-from tissuebench.solvers.external import sfepy as sf  # noqa: E402
+from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
 from tissuebench.solvers.materials import get_material  # noqa: E402
-from tissuebench.workflows.exporting import build, run_reference  # noqa: E402
+from tissuebench.workflows.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.grading import compare  # noqa: E402
 
 pytestmark = pytest.mark.serial
@@ -154,7 +154,7 @@ def test_other_steppers_on_the_block(block, tmp_path):
     from tissuebench.solvers.simulate import simulate
     from tissuebench.solvers.system import System
     from tissuebench.meshes import get_benchmark
-    from tissuebench.workflows.xdmf import gather_series, write_series
+    from tissuebench.workflows.io.xdmf import gather_series, write_series
 
     data, ref = block
     needle = data.effective_sets()["needle"]

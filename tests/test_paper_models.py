@@ -14,11 +14,12 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 import numpy as np
 import pytest
 
-from tissuebench.metrics.errors import METRICS
+from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import run_label
-from tissuebench.workflows import figures_models, report
-from tissuebench.workflows.paper import cases, model_cases
+from tissuebench.workflows.reports import model_figures as figures_models
+from tissuebench.workflows.reports import paper_report as report
+from tissuebench.workflows.commands.paper import cases, model_cases
 from tissuebench.workflows.study import RunSpec
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
@@ -414,7 +415,7 @@ def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
 
 def test_figures_of_a_model_case_replace_the_paper_figures(tmp_path, monkeypatch):
     """case_figures sends a case with models to figures_models and leaves a linear one alone."""
-    from tissuebench.workflows import figures
+    from tissuebench.workflows.reports import figures
 
     called = []
     monkeypatch.setattr(

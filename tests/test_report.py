@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from tissuebench.metrics.surface import Solid, surface_error
-from tissuebench.workflows import figures, report
+from tissuebench.workflows.reports import figures
+from tissuebench.workflows.reports import paper_report as report
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
 

@@ -9,7 +9,7 @@ import pytest
 
 from helpers import tissuebench
 from tissuebench.solvers import ALGORITHMS
-from tissuebench.workflows.sensitivity import MARKER, QUICK
+from tissuebench.workflows.mesh_sensitivity import MARKER, QUICK
 
 pytestmark = pytest.mark.serial  # subprocesses, serial and under mpiexec
 

@@ -111,6 +111,20 @@ except KeyboardInterrupt:
     assert done.stderr == ""
 
 
+def test_the_command_line_module_starts_no_petsc():
+    """The command line records signals from its first line; PETSc, once started, installs its
+    own handlers ("PETSC ERROR: Caught signal number 15", exit 59 under mpiexec) unless
+    petsc4py.init is told otherwise first. Importing the command line's module must not start
+    PETSc (nor DOLFINx, which starts it)."""
+    script = (
+        "import sys, tissuebench.workflows.cli; "
+        "print(sorted(m for m in ('petsc4py.PETSc', 'dolfinx') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]", done.stdout
+
+
 def test_under_mpiexec_a_signal_waits_for_a_point_where_all_ranks_stop(handlers):
     """Two ranks (a stand-in communicator): recorded only; a checkpoint raises it on every
     rank when any rank holds one; check() (rank 0 in output.collective) raises Interrupted,

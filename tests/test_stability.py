@@ -34,8 +34,9 @@ from tissuebench.solvers.convergence import (
     orders,
     time_study,
 )
-from tissuebench.workflows import convergence, stability
-from tissuebench.workflows.errors import UserError
+from tissuebench.workflows.commands import convergence
+from tissuebench.workflows.commands import stability
+from tissuebench.meshes.errors import UserError
 
 serial_only = pytest.mark.skipif(
     MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial"

@@ -235,4 +235,4 @@ def test_package_names_do_not_leak():
 
     for bare in ("metrics", "solvers", "meshes", "workflows"):
         assert importlib.util.find_spec(bare) is None, bare
-    assert tissuebench.metrics.Metrics.__module__ == "tissuebench.metrics.errors"
+    assert tissuebench.metrics.Metrics.__module__ == "tissuebench.metrics.table"

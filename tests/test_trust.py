@@ -17,10 +17,11 @@ import pytest
 from mpi4py import MPI
 
 from tissuebench.solvers import ALGORITHMS
-from tissuebench.workflows import leaderboard, ranking
+from tissuebench.workflows import ranking
+from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, markdown, pareto
-from tissuebench.workflows.sensitivity import (
+from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     STUDIES,
     Study,

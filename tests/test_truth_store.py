@@ -1,4 +1,4 @@
-"""Where the truth lives (solvers/truth/store.py, workflows/truth.py): its samples on the
+"""Where the truth lives (solvers/truth/store.py, workflows/commands/truth.py): its samples on the
 vertices and quadrature points of its mesh (cells in VTK order, boundary facets, weights,
 the Q2 values of a known field), serial against mpiexec -n 2, the cache (a second call
 reads it; a change of input changes the key), and `tissuebench truth`."""

@@ -3,7 +3,7 @@
 Every subcommand is one module in workflows/ with `add_parser(subparsers)`, which registers its
 arguments and sets `func(args)`; it is listed once in COMMANDS below.
 
-Exit status: 0 done; 2 bad input (UserError, workflows/errors.py; one line on stderr); 1 the
+Exit status: 0 done; 2 bad input (UserError, meshes/errors.py; one line on stderr); 1 the
 environment failed (disk full, file system read-only, permission lost; one line); 130
 interrupted (SIGINT) and 143 terminated (SIGTERM), one line each, at any moment from start-up
 on (solvers/interrupt.py). In every case the partial output is removed and nothing else is
@@ -45,21 +45,19 @@ import errno  # noqa: E402
 import importlib  # noqa: E402
 import traceback  # noqa: E402
 
-from tissuebench.workflows.errors import UserError  # noqa: E402
-
 COMMANDS = [
-    "tissuebench.workflows.run",
-    "tissuebench.workflows.paper",
-    "tissuebench.workflows.compare",
-    "tissuebench.workflows.mesh",
-    "tissuebench.workflows.export",
-    "tissuebench.workflows.external",
-    "tissuebench.workflows.leaderboard",
-    "tissuebench.workflows.sensitivity",
-    "tissuebench.workflows.stability",
-    "tissuebench.workflows.convergence",
-    "tissuebench.workflows.bench",
-    "tissuebench.workflows.truth",
+    "tissuebench.workflows.commands.run",
+    "tissuebench.workflows.commands.paper",
+    "tissuebench.workflows.commands.compare",
+    "tissuebench.workflows.commands.mesh",
+    "tissuebench.workflows.commands.export",
+    "tissuebench.workflows.commands.external",
+    "tissuebench.workflows.commands.leaderboard",
+    "tissuebench.workflows.commands.sensitivity",
+    "tissuebench.workflows.commands.stability",
+    "tissuebench.workflows.commands.convergence",
+    "tissuebench.workflows.commands.bench",
+    "tissuebench.workflows.commands.truth",
 ]
 
 
@@ -136,6 +134,9 @@ def command_line(argv=None) -> int:
 
     petsc4py.init([sys.argv[0], "-no_signal_handler"])  # SIGINT and SIGTERM are ours (below)
 
+    # after petsc4py.init: tissuebench.meshes imports DOLFINx, which would start PETSc with its
+    # own signal handlers
+    from tissuebench.meshes.errors import UserError
     from tissuebench.solvers import interrupt
     from tissuebench.workflows.output import WriteFailure
 

@@ -22,12 +22,14 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.metrics.compare import Grading, grade, summarize
-from tissuebench.metrics.errors import METRICS, panels
-from tissuebench.metrics.truth import TruthGrading, grade_against_truth, load_truth, truth_case
+from tissuebench.metrics.compare import Grading, grade_series, summarize
+from tissuebench.metrics.table import METRICS, panels
+from tissuebench.metrics.truth import TruthGrading, grade_truth, load_truth, truth_case
 from tissuebench.solvers import interrupt
-from tissuebench.workflows.errors import UserError
-from tissuebench.workflows.files import spans_decades, write_metrics_csv
+from tissuebench.solvers.truth.samples import TruthSamples
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.io.series import read_on_rank0
+from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import RunFolder, collective, file_hash, fingerprint
 
 MAX_LABEL = 64  # characters of a candidate's label (it names rows, figures and tables)
@@ -257,3 +259,53 @@ def plot(path, title, times, curves):
     axes[-1].set_xlabel("time (s)")
     axes[0].set_title(title)
     fig.savefig(path, format="png", dpi=120)
+
+
+# --- grading files ---------------------------------------------------------------------------
+
+
+def grade(
+    reference: str | Path,
+    candidate: str | Path,
+    field: str | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    *,
+    reference_field: str | None = None,
+    candidate_field: str | None = None,
+    label: str | None = None,
+) -> Grading:
+    """Measure the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
+    .dat files). The point field of each side is `reference_field` / `candidate_field`, else
+    `field`, else the first of series.DEFAULT_FIELDS that the file holds. A series that
+    starts at t = h starts from the zero initial state at t = 0 (a note says so). A series'
+    first step with a non-finite displacement, or one beyond 100 times its largest extent, is
+    its divergence (Grading gives the reason): nothing is graded from there on. A candidate
+    on another mesh of the reference's body (triangles, quadrilaterals, tetrahedra or
+    hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
+    `label` names the candidate (default: its file name without suffix). Collective over
+    comm; the same Grading on every rank.
+
+    Raises InputError on every rank for unreadable files, meshes of different dimensions or
+    bodies, time stamps that do not match, degenerate cells, a mesh boundary that touches
+    itself, a missing field, complex values, or a series whose steps change the mesh or
+    its node order.
+    """
+    ref, cand = read_on_rank0(
+        comm, (reference, reference_field or field), (candidate, candidate_field or field)
+    )
+    return grade_series(ref, cand, comm, label=label)
+
+
+def grade_against_truth(
+    truth: TruthSamples | None,
+    candidate: str | Path,
+    field: str | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    label: str | None = None,
+) -> TruthGrading:
+    """Read the candidate series file (XDMF, PVD, CalculiX .frd or .dat; point field `field`,
+    else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
+    truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
+    and for an unreadable file."""
+    (cand,) = read_on_rank0(comm, (candidate, field))
+    return grade_truth(truth, cand, comm, label=label)

@@ -42,7 +42,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.solvers import interrupt
-from tissuebench.workflows.errors import UserError
+from tissuebench.meshes.errors import UserError
 
 SUMMARY = "summary.json"
 MANIFEST = ".tissuebench.json"  # what we wrote, with hashes

@@ -25,7 +25,8 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.metrics.compare import read_on_rank0, summarize
+from tissuebench.metrics.compare import summarize
+from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.study import Case, algorithm_case, run_case
 
 ALGORITHMS = ("implicit", "explicit", "implicit-lumped", "explicit-lumped", "quasi-static")

@@ -1,6 +1,6 @@
 """The speed-accuracy leaderboard (`tissuebench leaderboard`): for each case, our algorithms
 and models (a study case, workflows/study.py), every outside simulator's variants that pose it
-(workflows/simulators.py) and any run a user graded with `compare` into the case's `user/`
+(workflows/simulators/runner.py) and any run a user graded with `compare` into the case's `user/`
 folder, in one table and one figure per case: accuracy (time-mean and maximum E_i) against
 cost (wall time per simulated second), with the Pareto front marked.
 
@@ -33,9 +33,9 @@ from pathlib import Path
 
 
 from tissuebench.meshes import get_entry
-from tissuebench.metrics.errors import METRICS
+from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import interrupt
-from tissuebench.solvers.external import SIMULATORS
+from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.limits import step_count
 from tissuebench.workflows.output import read_summary
 
@@ -131,7 +131,7 @@ def our_rows(case: str, summary: dict) -> list[Row]:
 
 
 def external_rows(case: str, summary: dict) -> list[Row]:
-    """Rows of a simulator folder's summary.json (workflows/simulators.py)."""
+    """Rows of a simulator folder's summary.json (workflows/simulators/runner.py)."""
     rows = []
     for label, run in summary["runs"].items():
         version = run.get("version") or ""
@@ -242,7 +242,7 @@ def reference_problem(summary: dict, case: dict) -> str | None:
     if not isinstance(file, str) or not file:
         return "its summary.json names no reference file"
     try:
-        from tissuebench.metrics.series import read_series
+        from tissuebench.workflows.io.series import read_series
 
         series = read_series(file)
         dim, nodes = series.dim, len(series.points)

@@ -20,7 +20,7 @@ from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
-from tissuebench.metrics.errors import METRICS
+from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import REFERENCE, get_integrator
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
@@ -29,9 +29,9 @@ from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System, probe
 from tissuebench.workflows.limits import check as check_limits, estimate, step_count
 from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
-from tissuebench.workflows.errors import UserError
-from tissuebench.workflows.files import write_metrics_csv, write_tip_csv
-from tissuebench.workflows.xdmf import gather_series, write_series
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
+from tissuebench.workflows.io.xdmf import gather_series, write_series
 
 
 class RunSpec(NamedTuple):
@@ -303,7 +303,7 @@ def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, co
         if tips:
             write_tip_csv(tmp / "tip.csv", times, tips)
             files.append("tip.csv")
-        from tissuebench.workflows import figures
+        from tissuebench.workflows.reports import figures
 
         files += figures.case_figures(tmp, case, summary, times, curves, tips)
         summary["files"] = ["metrics.csv", *files, SUMMARY]

@@ -42,7 +42,7 @@ from tissuebench.solvers.truth.cases import CASES, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import MIXED_NU, Truth, TruthRun
-from tissuebench.workflows.errors import UserError
+from tissuebench.meshes.errors import UserError
 
 SAMPLING = 1  # the version of sample() and compute(): part of the inputs (the cache key)
 QUADRATURE_POINTS = 3  # Gauss-Legendre points per direction (metrics/crossmesh.py's rule)
@@ -197,9 +197,9 @@ def inputs(case: str, quick: bool = False) -> dict:
 
 
 def fingerprint_of(case: str, quick: bool = False) -> str:
-    from tissuebench.workflows.output import fingerprint
-
-    return fingerprint(inputs(case, quick))
+    """The SHA-256 of the case's inputs as canonical JSON (as every run's fingerprint)."""
+    text = json.dumps(inputs(case, quick), sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def cache_dir() -> Path:

@@ -1,0 +1,116 @@
+"""The metrics of SPEC section 6 on one vector Q1 function space, for one pair of
+displacement fields or for whole histories, and METRICS, the one table of them: every
+consumer (run and compare CSVs, summaries, report, figures, convergence) iterates it, so a
+metric is added by one line there.
+
+Displacements are numpy arrays of the owned dofs of V, unrolled with block size d (the first
+`V.dofmap.index_map.size_local * d` entries of a Function's x.array). Every method is
+collective and returns the same numbers on every rank.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from dolfinx import fem
+
+from tissuebench.metrics.boundary import Boundary
+from tissuebench.metrics.interior import InteriorMetric
+from tissuebench.metrics.relative import relative_error
+from tissuebench.metrics.surface import domain, surface_error
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric: its symbol (tables), its label (figures; Unicode subscripts, since
+    matplotlib's mathtext is slow to load), and its value for a pair of owned displacement
+    arrays, `value(metrics, u_ref, u_cand)`. A variant (E_i's nodal form) names the metric
+    whose figure panel it shares, and is left out of convergence studies."""
+
+    symbol: str
+    label: str
+    value: Callable[[Metrics, np.ndarray, np.ndarray], float]
+    variant_of: str | None = None
+
+
+METRICS: dict[str, Metric] = {
+    "relative_error": Metric(
+        "E_n",
+        "relative error E\u2099",
+        lambda m, u_ref, u_cand: relative_error(u_ref, u_cand, m.comm),
+    ),
+    "surface_error": Metric(
+        "E_s", "surface error E\u209b", lambda m, u_ref, u_cand: m.surface(u_ref, u_cand)
+    ),
+    "interior_error": Metric(
+        "E_i",
+        "interior error E\u1d62",
+        lambda m, u_ref, u_cand: m.interior.quadrature(u_ref, u_cand),
+    ),
+    "interior_error_nodal": Metric(
+        "E_i nodal",
+        "interior error, nodal form",
+        lambda m, u_ref, u_cand: m.interior.nodal(u_ref, u_cand),
+        variant_of="interior_error",
+    ),
+}
+NAMES = tuple(METRICS)  # the SPEC's four, in order (METRICS itself holds any added later)
+
+
+def panels() -> list[list[str]]:
+    """The metrics grouped for figures: each metric that is no variant, followed by its variants."""
+    return [
+        [name, *(v for v, m in METRICS.items() if m.variant_of == name)]
+        for name, metric in METRICS.items()
+        if metric.variant_of is None
+    ]
+
+
+class Metrics:
+    """E_n, E_s, E_i and E_i's nodal variant on V (vector Q1 on quadrilaterals or hexahedra, or
+    P1 on triangles or tetrahedra; a candidate on another mesh: metrics/crossmesh.py).
+
+    Built once per V: the interior forms and nodal weights (`interior`), |Ω_0| (`volume`),
+    d (`dim`), and the boundary gathered to rank 0 (`boundary`, with `domain` its Polygon or
+    Solid on rank 0).
+    """
+
+    def __init__(self, V: fem.FunctionSpace, points: int = 3):
+        self.comm = V.mesh.comm
+        self.dim = V.mesh.geometry.dim
+        self.size = V.dofmap.index_map.size_local * self.dim
+        self.interior = InteriorMetric(V, points)
+        self.volume = self.interior.volume
+        self.boundary = Boundary(V)
+        self.domain = domain(self.boundary.X, self.boundary.facets) if self.comm.rank == 0 else None
+
+    def _check(self, u):
+        u = np.asarray(u, dtype=np.float64)
+        if u.shape != (self.size,):
+            raise ValueError(f"expected the {self.size} owned dof values of V, got shape {u.shape}")
+        return u
+
+    def surface(self, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
+        """E_s, computed on rank 0 from the gathered deformed boundaries and broadcast."""
+        x_ref, x_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
+        value = None
+        if self.comm.rank == 0:
+            X = self.boundary.X
+            value = surface_error(self.domain, X + x_ref, X + x_cand)
+        return self.comm.bcast(value, root=0)
+
+    def evaluate(self, u_ref: np.ndarray, u_cand: np.ndarray) -> dict[str, float]:
+        """The metrics of candidate u_cand against reference u_ref, a dict keyed as METRICS."""
+        u_ref, u_cand = self._check(u_ref), self._check(u_cand)
+        return {name: float(metric.value(self, u_ref, u_cand)) for name, metric in METRICS.items()}
+
+    def history(self, ref: list[np.ndarray], cand: list[np.ndarray]) -> dict[str, np.ndarray]:
+        """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN
+        for the steps a shorter candidate (a diverged run) does not have."""
+        curves = {name: np.full(len(ref), np.nan) for name in METRICS}
+        for i in range(min(len(ref), len(cand))):
+            for name, value in self.evaluate(ref[i], cand[i]).items():
+                curves[name][i] = value
+        return curves

@@ -1,0 +1,756 @@
+"""The measurements of `tissuebench bench`: the worker processes, the driver that runs them, the
+budget model, the capacity search and the timing of `tissuebench paper`.
+
+Each measurement runs in a fresh worker process (`python -m tissuebench.workflows.bench.measure
+--worker ...`, under `mpiexec -n 2` for the 2-rank column) with BLAS/OpenMP threads pinned to
+one per rank (THREAD_VARS), so that peak memory is per process and nothing is shared between
+the sides. A case whose predicted cost (setup + steps, scaled from the size before) exceeds
+its budget is skipped from then on.
+
+A record is one (benchmark, size): {"benchmark", "size", "dofs", "ours1", "ours2", "peer",
+"diff_peer", "diff_2ranks", "wall_s"}, each side a worker's result with its "cases" keyed
+'algorithm/solver'; an algorithm with a nonlinear elastic model (SPEC 8) is named by its run
+label, 'explicit-lumped+neo-hookean/-'. Beside the sweep: the Newton iterations per implicit
+step of each nonlinear model at the paper's loads (newton_iterations). Units: seconds, bytes,
+degrees of freedom.
+"""
+
+import gc
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from tissuebench.workflows.output import PREFIX, make_temporary, remove_temporary, write_owned
+
+STEPS = 30  # steps of a timed run; the displacements after them are compared
+SHORT = 12  # steps of a run too costly for STEPS (no displacement check)
+WARMUP = {STEPS: 5, SHORT: 2}  # first steps left out of the per-step median (25 or 10 remain)
+TRIAD_SIZE = 2**24  # entries of each triad vector (128 MiB): far beyond the caches
+SAFETY = 0.9  # explicit schemes run at SAFETY x their critical step 2 / omega_max (<= 1/30 s)
+DIRECT_TOL = 1e-10  # relative displacement difference allowed between direct solvers
+THREAD_VARS = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
+ROD_SIZES = {"quick": [2, 6, 10], "full": [2, 4, 8, 12, 16, 24, 32, 48]}
+# Budgets (s) of one case (predicted setup + steps on one rank; "main" cases are the targets',
+# "iterative" the implicit step's CG cases, whose target is at 7e5 dofs) and of the peer's
+# assembly (the rod at 7e5 dofs takes about 4 minutes).
+BUDGET = {
+    "quick": {"main": 10.0, "iterative": 10.0, "other": 5.0, "assembly": 10.0},
+    "full": {"main": 30.0, "iterative": 200.0, "other": 8.0, "assembly": 300.0},
+}
+OURS_ITERATIVE = ("cg", "gamg")  # our iterative solvers; pyamg is their peer
+ITERATIVE = OURS_ITERATIVE + ("pyamg",)
+
+# (algorithm, solver): ours with tissuebench's solver names, the peer with its own.
+OURS_CASES = [
+    ("explicit-lumped", "-"),
+    ("implicit", "direct"),
+    ("implicit", "cg"),
+    ("implicit", "gamg"),
+    ("implicit-lumped", "direct"),
+    ("explicit", "direct"),
+    ("quasi-static", "direct"),
+]
+# SPEC 8: the explicit-lumped step with a nonlinear model, run in the sweep beside the linear
+# one (same worker, same h: the linear scheme's); the first has a real-time target
+MODEL_CASES = [
+    ("explicit-lumped+neo-hookean", "-"),
+    ("explicit-lumped+corotational", "-"),
+]
+MAIN_CASES = {
+    ("explicit-lumped", "-"),
+    ("implicit", "direct"),
+    ("implicit", "cg"),
+    ("implicit", "gamg"),
+    ("implicit", "pardiso"),
+    ("implicit", "superlu"),
+    ("implicit", "pyamg"),
+    *MODEL_CASES,
+}
+# the cases whose real-time capacity is bisected between two sizes of the sweep
+CAPACITY_CASES = (("explicit-lumped", "-"), ("implicit", "direct"), MODEL_CASES[0])
+# Newton iterations per implicit step at the paper's loads (SPEC 8: s = 1, h and T of the
+# benchmark, its default material and mesh size: block MP1 N = 20, rod MP3 n = 3)
+NEWTON_MODELS = ("svk", "neo-hookean", "corotational")
+NEWTON_BENCHMARKS = ("block", "rod")
+DIRECT = {"direct", "superlu", "pardiso"}
+EXPLICIT = ("explicit", "explicit-lumped")
+
+WORKER_MODULE = "tissuebench.workflows.bench.measure"  # run by `python -m` in every worker
+
+
+def peer_cases(pardiso: bool) -> list[tuple[str, str]]:
+    """The peer's (algorithm, solver) cases: PARDISO where pypardiso has MKL, else SuperLU."""
+    best = "pardiso" if pardiso else "superlu"
+    cases = [("explicit-lumped", "-"), ("implicit", "superlu"), ("implicit", "pyamg")]
+    if pardiso:
+        cases.insert(1, ("implicit", "pardiso"))
+    return cases + [(a, best) for a in ("implicit-lumped", "explicit", "quasi-static")]
+
+
+def key(case: tuple) -> str:
+    """'algorithm/solver' of a case (algorithm, solver[, steps])."""
+    return f"{case[0]}/{case[1]}"
+
+
+def split_case_label(label: str) -> tuple[str, str]:
+    """(algorithm, model) of a case's first entry, 'explicit-lumped+neo-hookean' or
+    'implicit' (the linear model): the run label of SPEC 8 (solvers/models.split_label,
+    without importing the solvers)."""
+    algorithm, _, model = label.partition("+")
+    return algorithm, model or "linear"
+
+
+def get(rec: dict, side: str, case: tuple, field: str):
+    """One field of one case of one side ("ours1", "ours2", "peer") of a record, or None."""
+    return rec.get(side, {}).get("cases", {}).get(key(case), {}).get(field)
+
+
+# --- measurements shared by the workers --------------------------------------------------------
+
+
+def reset_peak_memory() -> None:
+    """Start a new peak-resident-set measurement for this process (Linux: clear_refs 5)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
+def peak_memory() -> int:
+    """This process's peak resident set since the last reset, bytes."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def median_step(times: list[float]) -> float:
+    """Median time per step (s) of the steps after the warm-up (that of STEPS for a run of
+    another length)."""
+    return float(np.median(times[WARMUP.get(len(times), WARMUP[STEPS]) :]))
+
+
+# --- the worker for tissuebench (ours), 1 or 2 ranks ------------------------------------------
+
+
+def triad_bandwidth(comm, size: int = TRIAD_SIZE, repeats: int = 10) -> float:
+    """Best STREAM-like triad bandwidth w = 3 x + y over all ranks at once, bytes/s (24 bytes
+    per entry: two reads, one write)."""
+    from petsc4py import PETSc
+
+    x = PETSc.Vec().createMPI((PETSc.DECIDE, size), comm=comm)
+    y, w = x.duplicate(), x.duplicate()
+    x.set(1.0)
+    y.set(2.0)
+    w.set(0.0)
+    best = math.inf
+    for _ in range(repeats):
+        comm.Barrier()
+        start = time.perf_counter()
+        w.waxpy(3.0, x, y)
+        comm.Barrier()
+        best = min(best, time.perf_counter() - start)
+    for v in (x, y, w):
+        v.destroy()
+    return 24 * size / best
+
+
+def explicit_lumped_bytes(matrix_bytes: int, n: int) -> int:
+    """Bytes one explicit-lumped step must move at least: the matrix once (as stored), and the
+    vectors u, v, a read and written once, f and M_L read once (8 vectors of n doubles)."""
+    return matrix_bytes + 8 * 8 * n
+
+
+def stable_steps(system, names: Iterable[str]) -> tuple[dict, dict, float]:
+    """{scheme: SAFETY x 2 / omega_max} (s) for the explicit schemes in `names` (for gamma = 1/2,
+    beta_N = 0 the critical step is 2 / omega_max whatever the damping), omega_max from SLEPc
+    as solvers/stability.py computes it (relative tolerance 1e-4), {scheme: "SLEPc"}, and the
+    time this took (s)."""
+    from tissuebench.solvers.stability import extreme_eigenvalue, reduced_matrices
+
+    start = time.perf_counter()
+    h, how = {}, {}
+    for name in names:
+        K, M = reduced_matrices(system, lumped=name == "explicit-lumped")
+        omega_max, how[name] = math.sqrt(extreme_eigenvalue(K, M, tol=1e-4)), "SLEPc"
+        K.destroy()
+        M.destroy()
+        h[name] = SAFETY * 2.0 / omega_max
+    return h, how, time.perf_counter() - start
+
+
+def ours_worker(spec: dict) -> dict:
+    """Assembly, triad (unless spec["triad"] is false) and every case of `spec` with
+    tissuebench, on this process's ranks. A case (label, solver, steps) runs the label's
+    algorithm with its model (split_case_label); a nonlinear model's implicit step records its
+    Newton iterations per step, even up to a divergence."""
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    import dolfinx.fem.petsc
+
+    from tissuebench.meshes import get_benchmark
+    from tissuebench.solvers import get_integrator
+    from tissuebench.solvers.system import System, gather_by_coordinates
+
+    comm = MPI.COMM_WORLD
+    out = {"ranks": comm.size, "cases": {}}
+    if spec.get("triad", True):
+        out["triad_Bps"] = triad_bandwidth(comm)
+    bench = get_benchmark(spec["benchmark"], mesh_size=spec["size"], comm=comm)
+    system = System(bench)  # the defaults of `tissuebench run`
+    K = system.K
+    out["dofs"] = system.num_dofs()
+    out["matrix_type"] = K.getType()
+    kind = "baij" if "baij" in K.getType() else None
+    out["assembly_s"] = {}
+    for name, form in (("K", system.k_form), ("M", system.m_form)):
+        comm.Barrier()
+        start = time.perf_counter()
+        A = dolfinx.fem.petsc.assemble_matrix(form, kind=kind)
+        A.assemble()
+        comm.Barrier()
+        out["assembly_s"][name] = time.perf_counter() - start
+        A.destroy()
+    comm.Barrier()
+    start = time.perf_counter()
+    system.K_csr, system.M_csr  # the compiled products' copies (solvers/blockcsr.py)
+    comm.Barrier()
+    out["assembly_s"]["block CSR"] = time.perf_counter() - start
+
+    # h per case label; a model case runs at its algorithm's (linear) stable step
+    h = {label: bench.dt for label, _, _ in spec["cases"]}
+    explicit = sorted({split_case_label(a)[0] for a, _, _ in spec["cases"]} & set(EXPLICIT))
+    if spec.get("h"):
+        h.update(spec["h"])
+    elif explicit:
+        stable, out["omega_from"], out["eigen_s"] = stable_steps(system, explicit)
+        for label in h:
+            if split_case_label(label)[0] in stable:
+                h[label] = min(bench.dt, stable[split_case_label(label)[0]])
+    out["h"] = h
+
+    if comm.rank == 0 and spec.get("mesh_out"):
+        n = system.V.dofmap.index_map.size_local
+        np.savez(
+            spec["mesh_out"],
+            points=system.V.tabulate_dof_coordinates()[:n, : system.gdim],
+            cells=system.V.dofmap.list,
+            mu=float(system.mu.value),
+            lmbda=float(system.lmbda.value),
+            rho=system.material.rho,
+            alpha=system.material.alpha,
+            beta=system.material.beta,
+        )
+
+    displacements = {}
+    for label, solver, steps in spec["cases"]:
+        algorithm, model = split_case_label(label)
+        newton = model != "linear" and algorithm not in EXPLICIT
+        record = {"h": h[label], "steps": steps}
+        times, iterations = [], []
+        gc.collect()
+        reset_peak_memory()
+        try:
+            comm.Barrier()
+            start = time.perf_counter()
+            integrator = get_integrator(
+                algorithm,
+                system,
+                h[label],
+                solver="direct" if solver == "-" else solver,
+                model=model,
+            )
+            state = integrator.start()
+            comm.Barrier()
+            record["setup_s"] = time.perf_counter() - start
+            if label == "explicit-lumped":  # the matrix its one product per step reads
+                A = system.K_csr  # solvers/blockcsr.py: blocks, block columns, row starts
+                record["matrix_type"] = "block CSR"
+                record["bytes"] = explicit_lumped_bytes(comm.allreduce(A.nbytes), system.num_dofs())
+            for _ in range(steps):
+                comm.Barrier()
+                start = time.perf_counter()
+                state = integrator.step(state)
+                comm.Barrier()
+                times.append(time.perf_counter() - start)
+                if solver in OURS_ITERATIVE or newton:
+                    iterations.append(integrator.iterations())
+            record["step_s"] = median_step(times)
+            record["steps_s"] = times
+            finite = bool(np.isfinite(state.u.array_r).all())
+            record["finite"] = bool(comm.allreduce(finite, op=MPI.LAND))
+            gathered = gather_by_coordinates(system.V, state.u.array_r, comm)
+            if comm.rank == 0:
+                displacements[key((label, solver))] = gathered[1]
+                displacements["x"] = gathered[0][:, : system.gdim]
+            integrator.destroy()
+            del integrator, state
+        except (PETSc.Error, RuntimeError, np.linalg.LinAlgError) as err:
+            record["error"] = str(err)[:200]
+            if "setup_s" in record:  # the step that failed
+                record["steps_done"] = len(times)
+                record["diverged_t"] = (len(times) + 1) * h[label]
+        if iterations:
+            record["iterations"] = float(np.mean(iterations))
+        if newton:  # Newton iterations of each step that converged
+            record["newton_iterations"] = iterations
+        record["peak_bytes"] = comm.allreduce(peak_memory())
+        out["cases"][key((label, solver))] = record
+    if comm.rank == 0 and spec.get("u_out"):
+        np.savez(spec["u_out"], **displacements)
+    return out
+
+
+# --- the worker for the peer (serial) ---------------------------------------------------------
+
+
+def peer_worker(spec: dict) -> dict:
+    """Assembly and every case of `spec` with the scikit-fem + SciPy peer, on the saved mesh."""
+    from tissuebench.workflows.bench import peer_skfem as peer
+
+    data = np.load(spec["mesh_in"])
+    material = peer.Material(*(float(data[k]) for k in ("mu", "lmbda", "rho", "alpha", "beta")))
+    out = {"ranks": 1, "cases": {}, "pardiso": peer.pardiso_available()}
+    system = peer.PeerSystem(spec["benchmark"], data["points"], data["cells"], material)
+    out["dofs"] = system.num_dofs()
+    out["assembly_s"] = system.assembly_s
+    K = system.K
+    out["matrix_bytes"] = K.data.nbytes + K.indices.nbytes + K.indptr.nbytes
+    out["explicit_lumped_bytes"] = explicit_lumped_bytes(out["matrix_bytes"], system.num_dofs())
+    displacements = {}
+    for algorithm, solver, steps in spec["cases"]:
+        h = spec["h"][algorithm]
+        record = {"h": h, "steps": steps}
+        gc.collect()
+        reset_peak_memory()
+        try:
+            start = time.perf_counter()
+            integrator = peer.get_peer_integrator(algorithm, system, h, solver)
+            state = integrator.start()
+            record["setup_s"] = time.perf_counter() - start
+            times = []
+            for _ in range(steps):
+                start = time.perf_counter()
+                state = integrator.step(state)
+                times.append(time.perf_counter() - start)
+            record["step_s"] = median_step(times)
+            record["steps_s"] = times
+            if isinstance(integrator.solve, peer.PyamgCG):
+                record["iterations"] = float(np.mean(integrator.solve.iterations))
+            if isinstance(integrator.solve, peer.Pardiso):
+                integrator.solve.free()
+            u = state[1]
+            record["finite"] = bool(np.isfinite(u).all())
+            x, values = peer.sort_by_coordinates(system.points, u.reshape(-1, system.gdim))
+            displacements[key((algorithm, solver))] = values
+            displacements["x"] = x
+            del integrator, state
+        except (RuntimeError, MemoryError, ValueError) as err:
+            record["error"] = str(err)[:200]
+        record["peak_bytes"] = peak_memory()
+        out["cases"][key((algorithm, solver))] = record
+    np.savez(spec["u_out"], **displacements)
+    return out
+
+
+def worker_main(argv: list[str]) -> None:
+    """`python -m tissuebench.workflows.bench.measure --worker ours|peer SPEC.json RESULT.json`."""
+    kind, spec_path, result_path = argv
+    spec = json.loads(Path(spec_path).read_text())
+    result = ours_worker(spec) if kind == "ours" else peer_worker(spec)
+    if kind == "peer":
+        Path(result_path).write_text(json.dumps(result))
+    else:
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.rank == 0:
+            Path(result_path).write_text(json.dumps(result))
+
+
+# --- the driver --------------------------------------------------------------------------------
+
+
+def worker_env() -> dict[str, str]:
+    """This process's environment with one BLAS/OpenMP thread (THREAD_VARS = 1)."""
+    env = dict(os.environ)
+    env.update({name: "1" for name in THREAD_VARS})
+    return env
+
+
+def run_worker(kind: str, ranks: int, spec: dict, tmp: Path, tag: str, timeout: float) -> dict:
+    """Run one worker process (under mpiexec for ranks > 1); its result dict, or
+    {"error": ...} if it failed."""
+    spec_path, result_path = tmp / f"{tag}.spec.json", tmp / f"{tag}.result.json"
+    spec_path.write_text(json.dumps(spec))
+    result_path.unlink(missing_ok=True)
+    command = [
+        sys.executable,
+        "-m",
+        WORKER_MODULE,
+        "--worker",
+        kind,
+        str(spec_path),
+        str(result_path),
+    ]
+    if ranks > 1:
+        mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
+        command = [mpiexec, "-n", str(ranks)] + command
+    try:
+        proc = subprocess.run(
+            command, env=worker_env(), capture_output=True, text=True, timeout=timeout
+        )
+    except subprocess.TimeoutExpired:
+        return {"error": f"timed out after {timeout:.0f} s", "cases": {}}
+    if proc.returncode != 0 or not result_path.exists():
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+        return {"error": f"exit {proc.returncode}: {' | '.join(tail)}", "cases": {}}
+    return json.loads(result_path.read_text())
+
+
+def block_size_for(dofs: int) -> int:
+    """The even block N whose 2 (N + 1)^2 dofs come closest to `dofs`."""
+    return max(2, 2 * round((math.sqrt(dofs / 2) - 1) / 2))
+
+
+def rod_dofs(n: int) -> int:
+    """Degrees of freedom of the rod at mesh size n."""
+    return 3 * (2 * n + 1) * (n + 1) ** 2
+
+
+class Budget:
+    """How many steps a case runs at the next size: STEPS, SHORT, or 0 (skipped from then on),
+    from its setup and step times at the size before scaled by (dofs ratio)^p: p = 2 (setup)
+    and 1.4 (step) for direct solvers on the rod (3D), 1.5 and 1.2 on the block, 1.2 and 1.5
+    for the iterative solvers, 1.2 and 1.1 otherwise. The peer is skipped when its assembly
+    (scaled by ratio^1.1) would exceed its budget."""
+
+    def __init__(self, mode: str):
+        self.limits = BUDGET[mode]
+        self.last = {}
+        self.stopped = set()
+
+    def steps(self, side: str, benchmark: str, case: tuple[str, str], dofs: int) -> int:
+        k = (side, benchmark, case)
+        if k in self.stopped:
+            return 0
+        if k not in self.last:
+            return STEPS
+        last_dofs, setup, step = self.last[k]
+        r = dofs / last_dofs
+        if case[1] in DIRECT:
+            p_setup, p_step = (2.0, 1.4) if benchmark == "rod" else (1.5, 1.2)
+        else:
+            p_setup, p_step = (1.2, 1.5) if case[1] in ITERATIVE else (1.2, 1.1)
+        if case[1] in ITERATIVE:
+            limit = self.limits["iterative"]
+        else:
+            limit = self.limits["main" if case in MAIN_CASES else "other"]
+        for n in (STEPS, SHORT):
+            if setup * r**p_setup + n * step * r**p_step <= limit:
+                return n
+        self.stopped.add(k)
+        return 0
+
+    def record(
+        self, side: str, benchmark: str, case: tuple[str, str], dofs: int, record: dict
+    ) -> None:
+        if "step_s" in record:
+            self.last[(side, benchmark, case)] = (dofs, record["setup_s"], record["step_s"])
+        else:
+            self.stopped.add((side, benchmark, case))
+
+    def peer_assembly(self, benchmark: str, dofs: int, result: dict | None = None) -> bool:
+        """Whether the peer runs at `dofs`; with `result`, record its assembly time."""
+        k = ("peer-assembly", benchmark)
+        if result is not None:
+            if "assembly_s" in result:
+                self.last[k] = (dofs, sum(result["assembly_s"].values()))
+            return True
+        if k in self.stopped:
+            return False
+        if k in self.last and (
+            self.last[k][1] * (dofs / self.last[k][0]) ** 1.1 > self.limits["assembly"]
+        ):
+            self.stopped.add(k)
+            return False
+        return True
+
+
+def relative_difference(
+    u_ref: np.ndarray, x_ref: np.ndarray, u: np.ndarray, x: np.ndarray
+) -> float:
+    """||u - u_ref|| / ||u_ref|| over all nodal components, nodes matched by coordinates."""
+    if u_ref.shape != u.shape or np.abs(x_ref - x).max() > 1e-9:
+        return math.nan
+    norm = np.linalg.norm(u_ref)
+    return float(np.linalg.norm(u - u_ref) / norm) if norm > 0 else math.nan
+
+
+def compare_displacements(
+    path_ref: Path, path: Path, pairs: list[tuple[str, str]]
+) -> dict[str, float]:
+    """{peer key: rel. difference} for (ref key, key) pairs of two saved displacement files."""
+    if not (Path(path_ref).exists() and Path(path).exists()):
+        return {}
+    a, b = np.load(path_ref), np.load(path)
+    return {
+        k: relative_difference(a[r], a["x"], b[k], b["x"]) for r, k in pairs if r in a and k in b
+    }
+
+
+def measure(
+    mode: str, out: Path, log: Callable[[str], None]
+) -> tuple[list[dict], list[dict], dict, list[dict]]:
+    """Run every worker: the records (one per (benchmark, size)), the capacity probes, the
+    paper's wall times (full mode only) and the Newton iterations of the nonlinear models
+    (newton_iterations). Writes a partial DIR/performance.json after each size and works in
+    DIR/.tissuebench-bench-tmp, removed at the end."""
+    tmp = make_temporary(out / f"{PREFIX}bench-tmp")
+    budget = Budget(mode)
+    from tissuebench.workflows.bench.peer_skfem import pardiso_available
+
+    all_peer_cases = peer_cases(pardiso_available())
+    timeout = 2 * sum(BUDGET[mode].values()) + 300  # a worker that hangs, not one that is slow
+    records = []
+    sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
+    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
+    for benchmark, size, dofs in sizes:
+        tag = f"{benchmark}-{size}"
+        rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
+        start = time.perf_counter()
+        ocases = [(*c, budget.steps("ours", benchmark, c, dofs)) for c in OURS_CASES + MODEL_CASES]
+        ocases = [c for c in ocases if c[2]]
+        spec = {
+            "benchmark": benchmark,
+            "size": size,
+            "cases": ocases,
+            "mesh_out": str(tmp / f"{tag}.mesh.npz"),
+            "u_out": str(tmp / f"{tag}.ours1.npz"),
+        }
+        rec["ours1"] = run_worker("ours", 1, spec, tmp, tag + "-ours1", timeout)
+        for c in ocases:
+            budget.record("ours", benchmark, c[:2], dofs, rec["ours1"]["cases"].get(key(c), {}))
+        h = rec["ours1"].get("h", {})
+        spec.update(h=h, mesh_out=None, u_out=str(tmp / f"{tag}.ours2.npz"))
+        rec["ours2"] = run_worker("ours", 2, spec, tmp, tag + "-ours2", timeout)
+        pcases = []
+        if budget.peer_assembly(benchmark, dofs):
+            pcases = [(*c, budget.steps("peer", benchmark, c, dofs)) for c in all_peer_cases]
+            # pyamg is the reference of our iterative solvers: it runs wherever one of them ran
+            ran_iterative = any(
+                get(rec, "ours1", ("implicit", s), "step_s") for s in OURS_ITERATIVE
+            )
+            pcases = [
+                (a, s, SHORT)
+                if (a, s) == ("implicit", "pyamg") and not n and ran_iterative
+                else (a, s, n)
+                for a, s, n in pcases
+            ]
+            pcases = [c for c in pcases if c[2]]
+        if pcases and Path(tmp / f"{tag}.mesh.npz").exists() and h:
+            pspec = {
+                "benchmark": benchmark,
+                "cases": pcases,
+                "h": h,
+                "mesh_in": str(tmp / f"{tag}.mesh.npz"),
+                "u_out": str(tmp / f"{tag}.peer.npz"),
+            }
+            rec["peer"] = run_worker("peer", 1, pspec, tmp, tag + "-peer", timeout)
+            budget.peer_assembly(benchmark, dofs, rec["peer"])
+        else:
+            why = "over budget" if not pcases else "no mesh from the 1-rank run"
+            rec["peer"] = {"skipped": why, "cases": {}}
+        for c in pcases:
+            budget.record("peer", benchmark, c[:2], dofs, rec["peer"]["cases"].get(key(c), {}))
+        # same displacement after STEPS steps: the peer against ours (1 rank), 2 ranks against 1
+        pairs = []
+        for a, s, n in pcases:
+            ref = (a, "cg") if s == "pyamg" else (a, "-" if s == "-" else "direct")
+            if n == STEPS and get(rec, "ours1", ref, "steps") == STEPS:
+                pairs.append((key(ref), key((a, s))))
+        rec["diff_peer"] = compare_displacements(
+            tmp / f"{tag}.ours1.npz", tmp / f"{tag}.peer.npz", pairs
+        )
+        rec["diff_2ranks"] = compare_displacements(
+            tmp / f"{tag}.ours1.npz", tmp / f"{tag}.ours2.npz", [(key(c), key(c)) for c in ocases]
+        )
+        for path in tmp.glob(f"{tag}.*.npz"):
+            path.unlink()
+        rec["wall_s"] = time.perf_counter() - start
+        records.append(rec)
+        partial = json.dumps({"mode": mode, "partial": True, "records": records})
+        write_owned(out / "performance.json", lambda tmp: tmp.write_text(partial))
+        errors = [
+            f"{side}: {rec[side]['error']}"
+            for side in ("ours1", "ours2", "peer")
+            if "error" in rec[side]
+        ]
+        log(
+            f"{benchmark:5s} size {size:4d}  {dofs:7d} dofs  {rec['wall_s']:6.1f} s  "
+            f"ours {len(ocases)} cases, peer {len(pcases)}"
+            + (f"  ({'; '.join(errors)})" if errors else "")
+        )
+    probes = refine_capacity(records, tmp, timeout, log)
+    newton = newton_iterations(tmp, timeout, log)
+    paper = time_paper(tmp, log) if mode == "full" else {}
+    remove_temporary(tmp)
+    return records, probes, paper, newton
+
+
+def newton_iterations(tmp: Path, timeout: float, log: Callable[[str], None]) -> list[dict]:
+    """`implicit` with each nonlinear model (NEWTON_MODELS) at the paper's loads, in both modes:
+    each benchmark of NEWTON_BENCHMARKS at its default material and mesh size, s = 1, h and T
+    its defaults (block MP1 N = 20 and rod MP3 n = 3: 300 steps), one 1-rank worker per
+    benchmark. [{"benchmark", "size", "material", "h", "steps", "result"}], the result being
+    the worker's, its cases keyed 'implicit+MODEL/direct' with the Newton iterations of every
+    step that converged (a divergence, such as an inverted element, ends the run there)."""
+    from tissuebench.meshes import get_entry
+
+    runs = []
+    for benchmark in NEWTON_BENCHMARKS:
+        entry = get_entry(benchmark)
+        steps = round(entry.end_time / entry.dt)
+        cases = [(f"implicit+{m}", "direct", steps) for m in NEWTON_MODELS]
+        spec = {"benchmark": benchmark, "size": entry.mesh_size, "cases": cases, "triad": False}
+        start = time.perf_counter()
+        result = run_worker("ours", 1, spec, tmp, f"newton-{benchmark}", timeout)
+        runs.append(
+            {
+                "benchmark": benchmark,
+                "size": entry.mesh_size,
+                "material": entry.material,
+                "h": entry.dt,
+                "steps": steps,
+                "result": result,
+            }
+        )
+        summary = []
+        for c in cases:
+            its = result.get("cases", {}).get(key(c), {}).get("newton_iterations")
+            summary.append(f"{c[0]} " + (f"mean {np.mean(its):.2f} max {max(its)}" if its else "-"))
+        log(
+            f"Newton {benchmark} {entry.material} size {entry.mesh_size}, {steps} steps: "
+            + "; ".join(summary)
+            + f"  ({time.perf_counter() - start:.1f} s)"
+            + (f"  ({result['error']})" if "error" in result else "")
+        )
+    return runs
+
+
+def time_paper(tmp: Path, log: Callable[[str], None]) -> dict[str, float | None]:
+    """Wall times (s) of the whole `tissuebench paper` study into scratch directories: serial
+    twice (the first also warms the form cache; the second is the one reported) and under
+    `mpiexec -n 2` with the cache warm."""
+    command = [sys.executable, "-m", "tissuebench.workflows.cli", "paper"]
+    mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
+    times = {}
+    for name, prefix in (("serial, cold", []), ("serial", []), ("2 ranks", [mpiexec, "-n", "2"])):
+        out = tmp / f"paper-{len(times)}"
+        shutil.rmtree(out, ignore_errors=True)
+        start = time.perf_counter()
+        proc = subprocess.run(
+            prefix + command + ["--out", str(out)],
+            env=worker_env(),
+            capture_output=True,
+            text=True,
+            timeout=1800,
+        )
+        times[name] = time.perf_counter() - start if proc.returncode == 0 else None
+        log(
+            f"tissuebench paper, {name}: "
+            + (
+                f"{times[name]:.1f} s"
+                if proc.returncode == 0
+                else f"failed (exit {proc.returncode})"
+            )
+        )
+        shutil.rmtree(out, ignore_errors=True)
+    return times
+
+
+# --- the real-time capacity search -------------------------------------------------------------
+
+
+def rod_points(
+    records: list[dict], probes: Iterable[dict], case: tuple[str, str], side: str
+) -> list[tuple]:
+    """[(n, dofs, step_s, h)] of `case` on the rod from the sweep and the capacity probes,
+    sorted by n."""
+    ranks = 1 if side == "ours1" else 2
+    points = {}
+    for rec in records:
+        if rec["benchmark"] == "rod" and get(rec, side, case, "step_s") is not None:
+            points[rec["size"]] = (
+                rec["size"],
+                rec["dofs"],
+                get(rec, side, case, "step_s"),
+                get(rec, side, case, "h"),
+            )
+    for p in probes:
+        if p["case"] == key(case) and p["ranks"] == ranks and p.get("step_s") is not None:
+            points[p["n"]] = (p["n"], p["dofs"], p["step_s"], p["h"])
+    return [points[n] for n in sorted(points)]
+
+
+def refine_capacity(
+    records: list[dict], tmp: Path, timeout: float, log: Callable[[str], None]
+) -> list[dict]:
+    """For the cases with a real-time target, on 1 and 2 ranks: bisect the rod size n between
+    the largest size of the sweep that runs in real time (step time <= h) and the next size,
+    with runs of SHORT steps. The probes: [{case, ranks, n, dofs, step_s, h}]."""
+    probes = []
+    for case in CAPACITY_CASES:
+        for ranks, side in ((1, "ours1"), (2, "ours2")):
+            points = rod_points(records, [], case, side)
+            passing = [n for n, _, step, h in points if step <= h]
+            sizes = sorted(r["size"] for r in records if r["benchmark"] == "rod")
+            if not passing or max(passing) == sizes[-1]:
+                continue
+            lo = max(passing)
+            hi = min(n for n in sizes if n > lo)
+            while hi - lo > 1:
+                n = (lo + hi) // 2
+                spec = {"benchmark": "rod", "size": n, "cases": [(*case, SHORT)]}
+                result = run_worker("ours", ranks, spec, tmp, f"capacity-{n}-{ranks}", timeout)
+                r = result.get("cases", {}).get(key(case), {})
+                probes.append(
+                    {
+                        "case": key(case),
+                        "ranks": ranks,
+                        "n": n,
+                        "dofs": result.get("dofs"),
+                        "step_s": r.get("step_s"),
+                        "h": r.get("h"),
+                    }
+                )
+                ok = r.get("step_s") is not None and r["step_s"] <= r["h"]
+                outcome = (
+                    f"step/h = {r['step_s'] / r['h']:.3g}"
+                    if r.get("step_s")
+                    else f"failed: {result.get('error', r.get('error'))}"
+                )
+                log(f"capacity {key(case)} {ranks} rank(s): rod n={n} " + outcome)
+                lo, hi = (n, hi) if ok else (lo, n)
+    return probes
+
+
+if __name__ == "__main__" and len(sys.argv) == 5 and sys.argv[1] == "--worker":
+    worker_main(sys.argv[2:])

@@ -1,0 +1,115 @@
+"""`tissuebench bench [--quick] [--out DIR]`: how fast the algorithms run, against a scikit-fem +
+SciPy peer, the memory-bandwidth limit and 2 MPI ranks.
+
+For the rod (n = 2 .. 48) and the block on matching numbers of degrees of freedom, one run
+measures, side by side: the assembly time of K and M; the setup time (everything before the
+first step: step matrix, factorisation or preconditioner, initial acceleration) and the time
+per step (median after a warm-up) of every algorithm; the peak memory (resident set, summed
+over ranks) during each; the same on 2 ranks; the peer (workflows/bench/peer_skfem.py) doing the same
+steps on the same mesh; whether both give the same displacement; a STREAM-like triad and the
+bytes an explicit-lumped step must move, giving measured / limit. With the elastic models of
+SPEC 8: the explicit-lumped step with neo-hookean and with corotational beside the linear one
+(ratios), its real-time capacity, and the Newton iterations per implicit step of svk,
+neo-hookean and corotational at the paper's loads.
+
+A quick run never replaces a full one: without --out it writes into a folder of the system's
+temporary directory, and it refuses an --out whose performance.json holds a full run.
+
+The measurements (worker processes, budgets, capacity search) are workflows/bench/measure.py;
+the tables, figure and report are workflows/bench/report.py. Writes DIR/performance.md,
+DIR/performance.png and DIR/performance.json. Only the driver (one process, not under mpiexec)
+prints.
+"""
+
+import argparse
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from tissuebench.workflows.bench.measure import measure
+from tissuebench.workflows.bench.report import plot, summary_tables, text_table, write_report
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.output import check_writable, write_owned
+
+FILES = ("performance.json", "performance.png", "performance.md")
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "bench",
+        help="speed against a scikit-fem + SciPy peer, the bandwidth limit and 2 ranks",
+        description="Measure assembly, setup and step times of every algorithm against a "
+        "scikit-fem + SciPy peer, the memory-bandwidth limit and 2 MPI ranks; write "
+        "DIR/performance.md, .png and .json. Needs the 'bench' extra.",
+    )
+    p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
+    p.add_argument(
+        "--out",
+        default=None,
+        type=Path,
+        help="output directory (default results; with --quick, "
+        f"{quick_out()}, so that a quick run never replaces the full results)",
+    )
+    p.set_defaults(func=main)
+
+
+def quick_out() -> Path:
+    """Where `bench --quick` writes without --out."""
+    return Path(tempfile.gettempdir()) / "tissuebench-bench-quick"
+
+
+def holds_full_run(out: Path) -> bool:
+    """Whether out/performance.json is the result of a finished full run."""
+    try:
+        data = json.loads((out / "performance.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("mode") == "full" and not data.get("partial")
+
+
+def main(args: argparse.Namespace) -> int:
+    if int(os.environ.get("PMI_SIZE", os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))) > 1:
+        raise UserError("run `tissuebench bench` without mpiexec: it starts its own 2-rank runs")
+    try:
+        import pyamg  # noqa: F401
+        import scipy  # noqa: F401
+        import skfem  # noqa: F401
+    except ImportError as err:
+        raise UserError(
+            f"the bench needs the 'bench' extra (pip install -e '.[bench]'): {err}"
+        ) from None
+    mode = "quick" if args.quick else "full"
+    if args.out is None:
+        out = quick_out() if args.quick else Path("results")
+    else:
+        out = Path(args.out)
+    if args.quick and holds_full_run(out):
+        raise UserError(
+            f"{out / 'performance.json'} holds a full run, which a quick run does not replace: "
+            "give another --out"
+        )
+    check_writable(out, owned=FILES)
+    out.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    print(
+        f"tissuebench bench ({mode}): workers pinned to 1 BLAS/OpenMP thread per rank", flush=True
+    )
+    records, probes, paper, newton = measure(mode, out, lambda line: print(line, flush=True))
+    wall = time.perf_counter() - start
+    result = {
+        "mode": mode,
+        "wall_s": wall,
+        "records": records,
+        "capacity_probes": probes,
+        "paper_s": paper,
+        "newton": newton,
+    }
+    write_owned(out / "performance.json", lambda tmp: tmp.write_text(json.dumps(result)))
+    write_owned(out / "performance.png", lambda tmp: plot(records, tmp))
+    write_report(records, probes, paper, mode, wall, out, newton)
+    for title, table in summary_tables(records, probes, paper, newton):
+        print(f"\n{title}\n{text_table(*table)}")
+    print(f"\nwall {wall:.0f} s; wrote {out / 'performance.md'} and {out / 'performance.png'}")
+    return 0

@@ -1,0 +1,107 @@
+"""`tissuebench export BENCHMARK --format json|inp|vtu|msh --out FILE`: a benchmark posed for
+another simulator, with our reference's history beside it (workflows/io/exported.py)."""
+
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.meshes import BENCHMARKS, get_entry
+from tissuebench.workflows.commands.arguments import (
+    add_common,
+    add_posed_options,
+    check_common,
+    posed,
+)
+from tissuebench.workflows.io.calculix import ELEMENTS
+from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
+from tissuebench.workflows.io.exported import ExportError
+from tissuebench.workflows.limits import check as check_limits, estimate
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "export",
+        help="write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
+        description="Write a benchmark for another simulator: json (mesh, node sets, the "
+        "prescribed motion at every t_i, body force, material, model, h, T; schema "
+        "tissuebench.benchmark version 1), inp (a CalculiX deck ready for `ccx -i NAME`), or "
+        "the mesh alone (vtu, msh). Beside a json or inp, our reference's displacement history "
+        "(NAME.reference.xdmf + .h5: implicit, or quasi-static with --procedure static), so "
+        "that `tissuebench compare NAME.reference.xdmf NAME.frd --out DIR` grades the result.",
+    )
+    p.add_argument("benchmark", help=f"{', '.join(BENCHMARKS)}")
+    p.add_argument("--format", choices=FORMATS, help="default: the suffix of --out")
+    p.add_argument("--out", required=True, type=Path, help="the file to write (.json, .inp, ...)")
+    add_posed_options(p, BENCHMARKS)
+    p.add_argument(
+        "--procedure",
+        choices=list(PROCEDURES),
+        default="dynamic",
+        help="dynamic (default: *DYNAMIC, against implicit) or static (*STATIC at every t_i, "
+        "against quasi-static)",
+    )
+    p.add_argument(
+        "--element",
+        help=f"inp only: the CalculiX element, {', '.join(ELEMENTS)} (default C3D8 in 3D, "
+        "CPE4 in plane strain, CPS4 in plane stress)",
+    )
+    p.add_argument(
+        "--no-reference",
+        action="store_true",
+        help="json and inp: do not run and write our reference beside it",
+    )
+    add_common(p)
+    p.set_defaults(func=main)
+
+
+def main(args):
+    comm = MPI.COMM_WORLD
+    fmt = args.format or args.out.suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise ExportError(
+            f"output {args.out}: cannot tell the format from its suffix; give --format "
+            f"{'|'.join(FORMATS)}"
+        )
+    bench = posed(args, BENCHMARKS)
+    entry = get_entry(bench.benchmark)
+    steps = bench.steps
+    check_common(args)
+    reference = not args.no_reference and fmt in ("json", "inp")
+    runs = 1 if reference else 0
+    check_limits(
+        estimate(
+            entry.gdim, entry.nodes(bench.mesh_size), steps if reference else 0, runs, comm.size
+        ),
+        args.out.absolute().parent,
+        comm,
+    )
+    note = step_note(bench.h, bench.end_time, steps)
+    if note and comm.rank == 0:
+        print(note)
+    written = export(
+        args.benchmark,
+        fmt,
+        args.out,
+        mesh_size=bench.mesh_size,
+        options=bench.options,
+        material=bench.material,
+        model=bench.model,
+        h=bench.h,
+        steps=steps,
+        plane=bench.plane,
+        procedure=args.procedure,
+        element=args.element,
+        reference=reference,
+        solver=args.solver,
+        force=args.force,
+        comm=comm,
+    )
+    if comm.rank == 0:
+        print(f"wrote {', '.join(str(p) for p in written)}")
+        if fmt == "inp" and reference:
+            job = args.out.with_suffix("")
+            print(
+                f"next: ccx -i {job}; tissuebench compare {reference_path(args.out)} "
+                f"{job}.frd --out {job.name}-graded"
+            )
+    return 0

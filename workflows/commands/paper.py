@@ -1,0 +1,215 @@
+"""`tissuebench paper --out results/`: the paper's study (SPEC sections 4, 5 and 7) and its report.
+
+Cases: block-MP1, block-MP2 and rod-MP3 (all five algorithms against implicit on the same
+material) and block-MP2-vs-MP1 (the paper's Figure 11: every MP1 run and quasi-static MP2
+against implicit MP2); then block-MP1-40s and rod-MP3-30s, the same runs as block-MP1 and
+rod-MP3 taken on to 40 s and 30 s, on which the report checks claims 3 (every scheme settles
+on the quasi-static solution) and 6 (the rod oscillates about its static shape). A case whose
+directory is complete is skipped unless --force.
+
+The paper against the truth (SPEC section 10, workflows/paper_truth.py): truth-rod-MP3 and
+truth-block-w0.2 (N = 20, needle width w = 0.2 m), each run graded against the cached truth
+of its case; a truth not cached is named with the command that computes it.
+
+Part 2, beyond the paper (SPEC section 8): the four large-deformation cases, every algorithm
+with every elastic model against implicit+neo-hookean, in OUT/large-deformation/: the block
+(MP1) at the paper's load (s = 1, the point needle) and at s = 2 with a 0.2 m needle, the rod
+(MP3) at s = 1 and s = 3. The report also gives the linear critical step of the explicit
+schemes on each of their meshes (solvers/stability.py), which says why explicit runs diverge.
+"""
+
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers import interrupt
+from tissuebench.solvers.models import REFERENCE_MODEL, run_label
+from tissuebench.workflows import paper_truth
+from tissuebench.workflows.reports import paper_report as report
+from tissuebench.workflows.output import (
+    check_owned,
+    check_writable,
+    collective,
+    write_owned,
+)
+from tissuebench.workflows.commands.arguments import add_common, check_common
+from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
+
+LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
+
+
+def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
+    names = list(ALGORITHMS)
+    vs = [
+        ("implicit-MP2", "implicit", "MP2"),
+        *((f"{a}-MP1", a, "MP1") for a in names),
+        ("quasi-static-MP2", "quasi-static", "MP2"),
+    ]
+    return [
+        algorithm_case(
+            "block-MP1",
+            "block",
+            "MP1",
+            names,
+            solver=solver,
+            petsc=petsc,
+            description="Block and needle, MP1: the five algorithms against implicit MP1 (paper Figs. 5-7)",
+        ),
+        algorithm_case(
+            "block-MP2",
+            "block",
+            "MP2",
+            names,
+            solver=solver,
+            petsc=petsc,
+            description="Block and needle, MP2 (human prostate): the five algorithms against implicit MP2",
+        ),
+        algorithm_case(
+            "rod-MP3",
+            "rod",
+            "MP3",
+            names,
+            solver=solver,
+            petsc=petsc,
+            description="Bending rod, MP3: the five algorithms against implicit MP3 (paper Figs. 8-10)",
+        ),
+        Case(
+            "block-MP2-vs-MP1",
+            "block",
+            vs,
+            "implicit-MP2",
+            solver=solver,
+            petsc=petsc,
+            description="Block: every MP1 run and quasi-static MP2 against implicit MP2 (paper Fig. 11)",
+        ),
+        # Beyond the paper's 10 s, on the same meshes: the checks of claims 3 and 6 (SPEC section 7)
+        algorithm_case(
+            "block-MP1-40s",
+            "block",
+            "MP1",
+            names,
+            end_time=40.0,
+            solver=solver,
+            petsc=petsc,
+            description="Block and needle, MP1, as block-MP1 but run to 40 s: do all schemes settle "
+            "on the quasi-static solution? (claim 3)",
+        ),
+        # the reference and its static deflection only: the rod's surface error costs ~10 ms a step
+        algorithm_case(
+            "rod-MP3-30s",
+            "rod",
+            "MP3",
+            ["quasi-static"],
+            end_time=30.0,
+            solver=solver,
+            petsc=petsc,
+            description="Bending rod, MP3, implicit and quasi-static as in rod-MP3 but run to 30 s: "
+            "the oscillation about the static shape (claim 6)",
+        ),
+    ]
+
+
+# SPEC section 8's named cases: (name, benchmark, material, load scale s, needle width w)
+LARGE_CASES = [
+    ("block-MP1-s1", "block", "MP1", 1.0, 0.0),
+    ("block-MP1-s2-w0.2", "block", "MP1", 2.0, 0.2),
+    ("rod-MP3-s1", "rod", "MP3", 1.0, None),
+    ("rod-MP3-s3", "rod", "MP3", 3.0, None),
+]
+
+
+def model_cases(solver: str = "direct", petsc: str = "") -> list[Case]:
+    """Part 2 (SPEC section 8): the five algorithms times the four models on each named case,
+    against implicit with the neo-Hookean model."""
+    reference = run_label("implicit", REFERENCE_MODEL)
+    result = []
+    for name, benchmark, material, scale, width in LARGE_CASES:
+        options = {"load_scale": scale}
+        load = f"s = {scale:g}"
+        if width is not None:
+            options["needle_width"] = width
+            load += f", needle width w = {width:g} m" if width else ", point needle (w = 0)"
+        what = "Block and needle" if benchmark == "block" else "Bending rod"
+        result.append(
+            model_case(
+                name,
+                benchmark,
+                material,
+                list(ALGORITHMS),
+                list(MODELS),
+                reference,
+                options=options,
+                solver=solver,
+                petsc=petsc,
+                description=f"{what}, {material}, load scale {load}: the five algorithms with the "
+                f"four elastic models against {reference} (SPEC section 8)",
+            )
+        )
+    return result
+
+
+def explicit_limits(case: Case, comm) -> dict:
+    """{algorithm: critical step in s} of the explicit schemes with the linear model on the
+    case's mesh, material and constraints (SPEC section 3's Newmark analysis, as in
+    stability.md): the step above which central differences diverge. Collective."""
+    from tissuebench.meshes import get_benchmark, get_entry
+    from tissuebench.solvers.stability import explicit_schemes, stability_limits
+    from tissuebench.solvers.system import System
+
+    entry = get_entry(case.benchmark)
+    size = entry.mesh_size if case.mesh_size is None else case.mesh_size
+    bench = get_benchmark(case.benchmark, mesh_size=size, comm=comm, **case.options)
+    material = case.runs[0].material
+    limits = stability_limits(System(bench, material), list(explicit_schemes()))
+    return {name: limit.critical_dt for name, limit in limits.items()}
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "paper",
+        help="the paper's study, its figures and report",
+        description="Run the paper's study into OUT (default results/) and write OUT/README.md.",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results"),
+        help="output folder (default results): one case folder each, and README.md",
+    )
+    add_common(p)
+    p.set_defaults(func=main)
+
+
+def main(args):
+    check_common(args)
+    comm = MPI.COMM_WORLD
+    out = args.out
+    check_writable(out, comm)
+    collective(comm, lambda: check_owned(out / "README.md"))
+    summaries, large, limits = {}, {}, {}
+    first, second = cases(args.solver, args.petsc), model_cases(args.solver, args.petsc)
+    truth_cases = paper_truth.cases(args.solver, args.petsc)
+    parts = [out / c.name for c in first + truth_cases] + [out / LARGE / c.name for c in second]
+    interrupt.will_write([*parts, out / "README.md"])  # named on a signal if not written
+    for case in first:
+        summaries[case.name] = run_case(case, out / case.name, comm, force=args.force)
+        interrupt.written(out / case.name)
+    # the paper against the truth (SPEC 10): its runs, graded against the cached truths
+    truth = paper_truth.compute(out, comm, args.solver, args.petsc, force=args.force)
+    for case in truth_cases:
+        interrupt.written(out / case.name)
+    for case in second:
+        large[case.name] = run_case(case, out / LARGE / case.name, comm, force=args.force)
+        limits[case.name] = explicit_limits(case, comm)
+        interrupt.written(out / LARGE / case.name)
+
+    def write():
+        text = report.paper_report(out, summaries, large, limits, truth)
+        write_owned(out / "README.md", lambda tmp: tmp.write_text(text))
+
+    collective(comm, write, out)
+    interrupt.written(out / "README.md")
+    if comm.rank == 0:
+        print(f"report: {out / 'README.md'}")
+    return 0

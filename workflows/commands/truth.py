@@ -1,0 +1,342 @@
+"""`tissuebench truth CASE|all [--quick] --out DIR`: the converged reference of SPEC 10.
+
+Computes each named case once (Q2, Taylor-Hood Q2-Q1 where nu >= 0.45 or neo-Hookean; the
+trapezoidal rule; three uniformly refined levels and h, h/2 on the finest), estimates its own
+error from them and caches it outside git ($TISSUEBENCH_CACHE/truth/, default
+~/.cache/tissuebench/truth/, keyed by the fingerprint of its inputs); a second call reads the
+cache. `compare truth:CASE` and the leaderboard fetch the same cache on demand.
+
+Writes DIR/truth.md (per case: levels, dofs, wall time, observed order, the estimated own
+E_i max in space and time and whether it meets SPEC 10's target, 1e-5 m^3 rod and 2e-5 m^2
+block) and DIR/truth.csv (case,level,dofs,time,u_x,u_y,u_z: the rod cases' tip at t = 1, 2,
+..., 10 s on every level, the finest labelled `truth`). Cases not named are reported from the
+cache when they are there, else as not yet computed with their expected cost. --quick:
+rod n = 1, 2, 4 and block N = 10, 20, 40 to T = 1 s (30 steps), a check of the workflow,
+cached under its own key; it never replaces a full truth.md (--force does).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+from tissuebench.solvers import interrupt
+from tissuebench.solvers.truth.cases import CASES
+from tissuebench.solvers.truth.estimate import estimate_error
+from tissuebench.solvers.truth.store import (
+    LEVELS,
+    MEASURED_STEP_SECONDS,
+    QUICK_LEVELS,
+    QUICK_STEPS,
+    TARGET,
+    cache_dir,
+    check_case,
+    expected_seconds,
+    load_cached,
+    truth_samples,
+)
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
+
+NAME = "truth"
+MARKER = "# The truth (SPEC 10)"
+QUICK_NOTE = " (quick check, not the truth)"
+COLUMNS = ["case", "level", "dofs", "time", "u_x", "u_y", "u_z"]
+TIP_TIMES = (1.0, 5.0, 10.0)  # s: the tip times shown in truth.md
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "truth",
+        help="the converged reference of SPEC 10: compute (once, cached) and summarise",
+        description=__doc__.split("\n\n")[1] + " " + __doc__.split("\n\n")[2],
+    )
+    p.add_argument(
+        "cases",
+        nargs="+",
+        metavar="CASE",
+        help=f"one or more of {', '.join(CASES)}, or all",
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("results"), help="output folder (default results)"
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"rod n = {', '.join(map(str, QUICK_LEVELS['rod']))}, block N = "
+        f"{', '.join(map(str, QUICK_LEVELS['block']))}, {QUICK_STEPS} steps (T = 1 s): checks "
+        "the workflow; never replaces a full truth.md",
+    )
+    p.add_argument("--force", action="store_true", help="let a --quick run replace a full truth.md")
+    p.set_defaults(func=main)
+
+
+def requested(names: list[str]) -> list[str]:
+    """The cases named (all: every case), in CASES' order; UserError for any other name."""
+    for name in names:
+        if name != "all":
+            check_case(name)
+    return [c for c in CASES if "all" in names or c in names]
+
+
+def check_target(out: Path, quick: bool, force: bool) -> None:
+    """Refuse, without force, to replace a full truth.md by a quick one."""
+    md = out / f"{NAME}.md"
+    if not md.is_file():
+        return
+    first = md.read_text(errors="replace").split("\n", 1)[0]
+    if quick and not force and first == MARKER:
+        raise OutputError(
+            f"{md}: holds the full truth; a --quick run does not replace it (--force does)"
+        )
+
+
+# --- summaries (rank 0) ---------------------------------------------------------------------------
+
+
+def summary(samples) -> dict:
+    """What the report needs of a TruthSamples (its arrays left behind)."""
+    return {
+        "inputs": samples.inputs,
+        "hierarchy": samples.hierarchy,
+        "own_error": samples.own_error,
+        "vertices": len(samples.vertices),
+        "cells": len(samples.cells),
+        "points": len(samples.points),
+    }
+
+
+def fmt(x, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "n/a"
+    return f"{x:.{digits}g}"
+
+
+def tip_band(h: dict, i: int, component: int = 1) -> tuple[float, float]:
+    """(the finest level's tip component at step i, its estimated error): from the last two
+    level differences (observed order) and h against h/2 (estimate.estimate_error), m."""
+    tips = [np.asarray(t) for t in h["tip"]]
+    values = [t[i, component] for t in tips]
+    half = np.asarray(h["half_tip"])[2 * i, component] if "half_tip" in h else None
+    diffs = [values[k + 1] - values[k] for k in range(len(values) - 1)]
+    est = estimate_error(diffs, None if half is None else values[-1] - half)
+    return values[-1], est.total
+
+
+def static_band(h: dict, component: int = 1) -> tuple[float, float]:
+    values = [s[component] for s in h["static_tip"]]
+    diffs = [values[k + 1] - values[k] for k in range(len(values) - 1)]
+    return values[-1], estimate_error(diffs).total
+
+
+def case_line(case: str) -> str:
+    benchmark, material, model, scale, width = CASES[case]
+    needle = f", needle width w = {width} m" if width is not None else ""
+    return f"{benchmark}, {material}, {model}, load scale s = {scale}{needle}"
+
+
+def section(case: str, s: dict | None, quick: bool) -> list[str]:
+    lines = [f"## {case}", "", case_line(case) + ".", ""]
+    if s is None:
+        if quick:
+            return lines + ["Not computed in this quick check.", ""]
+        sizes = LEVELS[CASES[case][0]]
+        per = MEASURED_STEP_SECONDS.get(case)
+        measured = ""
+        if per:
+            measured = (
+                " Measured time per step of h (one rank, this machine): "
+                + ", ".join(f"{fmt(t, 2)} s at {sizes[k]}" for k, t in enumerate(per) if t)
+                + " (the first steps, on a machine shared with other jobs: an upper bound)."
+            )
+        minutes = expected_seconds(case) / 60
+        return lines + [
+            f"Not yet computed: `tissuebench truth {case}` takes about {minutes:.0f} min on "
+            f"one core here (levels {', '.join(map(str, sizes))}, 300 steps each and 600 at "
+            f"h/2 on the finest).{measured}",
+            "",
+        ]
+    inp, h, own = s["inputs"], s["hierarchy"], s["own_error"]
+    levels = h["levels"]
+    units = own["units"]
+    probe = "tip" in h
+    steps, dt = h["steps"], h["h"]
+    shown = [t for t in TIP_TIMES if round(t / dt) <= steps]
+    head = "| level | dofs | wall (s) | E_i max to the next level (" + units + ") |"
+    rule = "|---|---:|---:|---:|"
+    if probe:
+        head += " static tip u_y (m) |" + "".join(f" tip u_y at {t:g} s (m) |" for t in shown)
+        rule += "---:|" * (1 + len(shown))
+    lines += [
+        f"Element: {inp['element']}; {inp['time']}; h = {dt:.6g} s, {steps} steps "
+        f"(T = {inp['end_time']:.6g} s). Sampled for grading on the finest level: "
+        f"{s['vertices']:,} vertices, {s['cells']:,} cells, {s['points']:,} quadrature points.",
+        "",
+        head,
+        rule,
+    ]
+    diffs = [max(d) for d in h["level_differences"]]
+    for k, n in enumerate(levels):
+        label = f"{n}" + (" (truth)" if k == len(levels) - 1 else "")
+        row = f"| {label} | {h['dofs'][k]:,} | {h['wall'][k]:.1f} | "
+        row += (fmt(diffs[k]) if k < len(diffs) else "") + " |"
+        if probe:
+            row += f" {h['static_tip'][k][1]:.6g} |"
+            row += "".join(f" {np.asarray(h['tip'][k])[round(t / dt), 1]:.6g} |" for t in shown)
+        lines.append(row)
+    half_row = (
+        f"| {levels[-1]}, h/2 | {h['dofs'][-1]:,} | {h['half_wall']:.1f} | "
+        f"{fmt(max(h['time_difference']))} (h against h/2) |"
+    )
+    if probe:
+        half_row += " |" + "".join(
+            f" {np.asarray(h['half_tip'])[2 * round(t / dt), 1]:.6g} |" for t in shown
+        )
+    lines += [half_row, ""]
+    meets = "meets" if own["meets_target"] else "does not meet"
+    lines += [
+        f"Observed order p = {fmt(own['order'])}; own E_i max: space {fmt(own['space'])}, "
+        f"time {fmt(own['time'])}, total **{fmt(own['interior_error_max'])} {units}**: "
+        f"{meets} SPEC 10's target {own['target']:g} {units}. Wall time in all "
+        f"{h.get('total_wall', float('nan')):.0f} s.",
+        "",
+    ]
+    space, step = own["space"], own["time"]
+    if not own["meets_target"] and all(math.isfinite(x) for x in (space, step)):
+        larger = "space (the levels)" if space >= step else "time (h against h/2)"
+        lines += [
+            f"The larger part of the own error is in {larger}: {fmt(max(space, step))} "
+            f"{units}, {max(space, step) / own['target']:.2g} x the target alone.",
+            "",
+        ]
+    if probe:
+        v, band = static_band(h)
+        tips = [f"static {v:.6g} ± {fmt(band, 2)}"]
+        for t in shown:
+            v, band = tip_band(h, round(t / dt))
+            tips.append(f"t = {t:g} s {v:.6g} ± {fmt(band, 2)}")
+        lines += [f"Tip u_y (m) of the truth with its band: {'; '.join(tips)}.", ""]
+    return lines
+
+
+def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session: str) -> str:
+    command = f"tissuebench truth {' '.join(names)}" + (" --quick" if quick else "")
+    lines = [
+        MARKER + (QUICK_NOTE if quick else ""),
+        "",
+        f"Written by `{command}` ({session}, {ranks} rank{'s' if ranks > 1 else ''}).",
+        "",
+        "The converged reference of each SPEC 10 case: Q2 displacement (Taylor-Hood Q2-Q1 "
+        "for nu >= 0.45 and neo-Hookean), the trapezoidal rule with consistent mass, "
+        "continuum Rayleigh damping, the needle on its segment; three uniformly refined "
+        "levels (rod n = 2, 4, 8; block N = 20, 40, 80) and h, h/2 on the finest. Its own "
+        "error is E_i (SPEC 6) estimated from them: space, the last two levels' E_i max "
+        "difference d2 / (2^p - 1) with the observed order p = log2(d1 / d2); time, "
+        "E_i max(h, h/2) 4/3 (the rule's order 2). Target (SPEC 10): own E_i max <= "
+        f"{TARGET[3]:g} m^3 (rod), <= {TARGET[2]:g} m^2 (block). The point-needle block "
+        "(w = 0) has no truth.",
+        "",
+        f"Cached outside git in `{cache_dir()}` (or $TISSUEBENCH_CACHE/truth), keyed by "
+        "the fingerprint of every input (case, material, levels, h, steps, element, "
+        "software versions, the truth's sources). A run is graded against it by "
+        "`tissuebench compare truth:CASE CANDIDATE --out DIR` (the paper reference's own "
+        "error against the truth included) and in the leaderboard.",
+        "",
+        "| case | finest level | dofs | wall (s) | order p | own E_i max: space | time | "
+        "total | target | meets |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for case in CASES:
+        s = summaries.get(case)
+        if s is None:
+            state = "not in this quick check" if quick else "not yet computed"
+            lines.append(f"| {case} | {state} | | | | | | | | |")
+            continue
+        h, own = s["hierarchy"], s["own_error"]
+        lines.append(
+            f"| {case} | {h['levels'][-1]} | {h['dofs'][-1]:,} | "
+            f"{h.get('total_wall', float('nan')):.0f} | {fmt(own['order'])} | "
+            f"{fmt(own['space'])} | {fmt(own['time'])} | {fmt(own['interior_error_max'])} "
+            f"{own['units']} | {own['target']:g} | {'yes' if own['meets_target'] else 'no'} |"
+        )
+    lines.append("")
+    for case in CASES:
+        lines += section(case, summaries.get(case), quick)
+    return "\n".join(lines)
+
+
+def csv_rows(summaries: dict) -> list[list]:
+    """case,level,dofs,time,u_x,u_y,u_z: the tip at whole seconds on every level of the cases
+    with a probe, the finest labelled `truth`."""
+    rows = []
+    for case in CASES:
+        s = summaries.get(case)
+        if s is None or "tip" not in s["hierarchy"]:
+            continue
+        h = s["hierarchy"]
+        dt, steps = h["h"], h["steps"]
+        for k, n in enumerate(h["levels"]):
+            label = "truth" if k == len(h["levels"]) - 1 else str(n)
+            tip = np.asarray(h["tip"][k])
+            for t in range(1, int(math.floor(steps * dt + 1e-9)) + 1):
+                u = tip[round(t / dt)]
+                rows.append([case, label, h["dofs"][k], t, *(f"{x:.10g}" for x in u)])
+    return rows
+
+
+def write_csv(path: Path, rows: list[list]) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(COLUMNS)
+        w.writerows(rows)
+
+
+def main(args) -> int:
+    comm = MPI.COMM_WORLD
+    names = list(args.cases)
+    cases = requested(names)
+    out = args.out
+    check_writable(out, comm, owned=[f"{NAME}.md", f"{NAME}.csv"])
+    collective(comm, lambda: check_target(out, args.quick, args.force))
+    session = comm.bcast(time.strftime("%Y-%m-%d %H:%M %Z"))
+    interrupt.will_write([out / f"{NAME}.md", out / f"{NAME}.csv"])
+
+    def say(line: str) -> None:
+        if comm.rank == 0:
+            print(line, flush=True)
+
+    summaries = {}
+    for case in CASES:
+        if case in cases:
+            samples = truth_samples(case, args.quick, comm, log=say)
+        else:  # reported if it is in the cache already
+            samples = load_cached(case, args.quick, comm)
+        if samples is not None:
+            summaries[case] = summary(samples)
+            if case in cases:
+                own = samples.own_error
+                say(
+                    f"truth {case}: own E_i max {fmt(own['interior_error_max'])} "
+                    f"{own['units']} (target {own['target']:g})"
+                )
+        samples = None
+        interrupt.checkpoint(comm)
+
+    def write():
+        text = markdown(summaries, args.quick, names, comm.size, session)
+        write_owned(out / f"{NAME}.csv", lambda tmp: write_csv(tmp, csv_rows(summaries)))
+        write_owned(out / f"{NAME}.md", lambda tmp: tmp.write_text(text + "\n"))
+
+    collective(comm, write, out)
+    interrupt.will_write([])
+    say(f"wrote {out / NAME}.md and {out / NAME}.csv")
+    return 0
+
+
+__all__ = ["main", "add_parser", "requested", "UserError"]

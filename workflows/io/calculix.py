@@ -1,0 +1,676 @@
+"""CalculiX output read as it comes: the ASCII .frd (mesh and nodal results at every increment)
+and the .dat of *NODE PRINT (nodal values, no mesh: the mesh is read from the deck, the .inp
+of the same name beside it).
+
+The .frd is CalculiX GraphiX's fixed-width format (cgx manual, "Result Format"): records
+begin with a key (`    2C` nodes, `    3C` elements, `  100C` a result block, ` -1` a record,
+` -2` its continuation, ` -3` the end of a block, ` 9999` the end of the file); numbers
+are E12.5 fields that run together when negative (` -1         1-1.23456E-01-2.34567E-02`),
+so they are cut by column, never split on spaces. Short (I5 node numbers) and long (I10)
+formats are read; the binary one is refused. Six significant digits are printed, of the
+times too (`3.33333E-02`).
+
+No maintained package reads .frd results into arrays: meshio reads neither .frd nor .dat;
+ccx2paraview converts .frd into VTK files through module-global state and needs VTK; so
+this module is small and tested on CalculiX's own output (tests/test_export.py).
+
+Every reader raises InputError with one line naming the file (and the line) on anything it
+cannot take; a file that ends inside a block or without its closing record is truncated.
+
+The CalculiX deck
+-----------------
+*NODE and *ELEMENT (C3D8, C3D8I, C3D8R in 3D; CPE4, CPE4R in plane strain, CPS4, CPS4R in
+plane stress, thickness 1 m), one *NSET per set, *MATERIAL with *ELASTIC (linear; with
+NLGEOM it is St Venant-Kirchhoff: `svk`) or *HYPERELASTIC, NEO HOOKE with C10 = mu/2,
+D1 = 2/kappa (`neo-hookean`, NLGEOM), *DENSITY, *DAMPING ALPHA, BETA (Rayleigh, whole model);
+`corotational` has no CalculiX counterpart and is refused. Dynamic: one *STEP of fixed
+increments h up to T, *DYNAMIC, DIRECT, ALPHA=0 (the trapezoidal rule); static: one
+*STATIC step of length h per t_i (a linear static step is solved once, at its end). The
+constrained nodes by *BOUNDARY (a moving component with an *AMPLITUDE in total time through
+the kinks of its sampled motion, exact at every t_i) and *INITIAL CONDITIONS, TYPE=VELOCITY
+for the needle's initial speed; gravity by *DLOAD GRAV with a constant amplitude from t = 0;
+U at every increment to the .frd (*NODE FILE) and the .dat (*NODE PRINT). CalculiX writes no
+result at t = 0: `compare` takes such a series to start from the zero initial state.
+
+Measured against CalculiX 2.20 (tests/test_export.py): the rod, C3D8, linear, dynamic: E_n
+below 1e-5 after the first 5 steps (CalculiX's initial acceleration solves
+(M + (h/10)^2 K / 4) a_0 = f, not M a_0 = f: up to 4e-5 before); static: 2e-7. Known
+departures, said in the deck as comments: with NLGEOM CalculiX damps with the current
+stiffness, not beta K_0 (the rod: 0.8 % at t = 2 s; without damping 1e-6); a prescribed
+motion in *DYNAMIC is followed otherwise than the SPEC (the block in CPE4: E_n up to 0.3 in
+the first steps, E_i time-mean 7e-4; a one-layer C3D8 slab of it with u_z = 0 departs alike,
+E_i time-mean 1.7e-4, with or without the initial velocity; the static block: 1e-7).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from tissuebench.metrics.series import InputError
+from tissuebench.workflows.io.exported import ZERO, ExportError, Exported
+
+# .frd element types -> (nodes per element, our cell type or None when not supported)
+FRD_ELEMENTS = {
+    1: (8, "hexahedron"),  # he8
+    2: (6, None),  # pe6
+    3: (4, None),  # te4
+    4: (20, None),  # he20
+    5: (15, None),  # pe15
+    6: (10, None),  # te10
+    7: (3, None),  # tr3
+    8: (6, None),  # tr6
+    9: (4, "quadrilateral"),  # qu4
+    10: (8, None),  # qu8
+    11: (2, None),  # be2
+    12: (3, None),  # be3
+}
+FRD_NAMES = {2: "pe6", 3: "te4", 4: "he20", 5: "pe15", 6: "te10", 7: "tr3", 8: "tr6", 10: "qu8"}
+FRD_NAMES.update({11: "be2", 12: "be3"})
+# the names of nodal results as *NODE FILE requests them -> as the .frd stores them
+FRD_ALIASES = {"U": "DISP", "V": "VELO", "RF": "FORC", "NT": "NDTEMP"}
+WIDTH = 12  # an E12.5 field
+# CalculiX deck elements -> nodes per element, our cell type
+INP_ELEMENTS = {
+    **{e: (8, "hexahedron") for e in ("C3D8", "C3D8R", "C3D8I", "C3D8H", "C3D8RH")},
+    **{
+        e: (4, "quadrilateral")
+        for e in ("CPE4", "CPE4R", "CPE4I", "CPS4", "CPS4R", "CPS4I", "CAX4", "CAX4R")
+    },
+}
+DAT_FIELD = "U"  # the .dat's displacements, named by the *NODE PRINT key that requests them
+STATIC_KEYWORD = "*STATIC, DIRECT"
+# CalculiX element -> (dimension, plane: None in 3D)
+ELEMENTS = {
+    "C3D8": (3, None),
+    "C3D8I": (3, None),
+    "C3D8R": (3, None),
+    "CPE4": (2, "strain"),
+    "CPE4R": (2, "strain"),
+    "CPS4": (2, "stress"),
+    "CPS4R": (2, "stress"),
+}
+
+
+def to_float(text: str) -> float:
+    """A Fortran E field; one too large for its exponent is printed without the E
+    (`1.23456-100`), NaN and Infinity as words. ValueError if it is none of these."""
+    try:
+        return float(text)
+    except ValueError:
+        match = re.fullmatch(r"\s*([+-]?\d*\.\d*)([+-]\d+)\s*", text)
+        if match is None:
+            raise
+        return float(f"{match.group(1)}e{match.group(2)}")
+
+
+class _Lines:
+    """The lines of a text file with their numbers, for messages."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
+        if b"\0" in raw[:4096]:
+            raise InputError(
+                f"{path}: a binary file; write the ASCII form (CalculiX's default for .frd)"
+            )
+        self.lines = raw.decode("latin-1").splitlines()
+        self.k = 0
+
+    def next(self, inside: str) -> str:
+        if self.k >= len(self.lines):
+            raise InputError(
+                f"{self.path}: truncated: the file ends inside {inside} (line {self.k})"
+            )
+        line = self.lines[self.k]
+        self.k += 1
+        return line
+
+    def error(self, what: str) -> InputError:
+        return InputError(f"{self.path}: line {self.k}: {what}")
+
+
+def _fields(src: _Lines, line: str, start: int, count: int, what: str) -> list[float]:
+    """`count` E12.5 numbers of `line` from column `start`."""
+    end = start + count * WIDTH
+    if len(line.rstrip("\r\n")) < end:
+        raise src.error(f"{what}: the record is cut short (truncated file?)")
+    values = []
+    for j in range(start, end, WIDTH):
+        try:
+            values.append(to_float(line[j : j + WIDTH]))
+        except ValueError:
+            text = line[j : j + WIDTH].strip()
+            raise src.error(
+                f"{what}: {text!r} (columns {j + 1}-{j + WIDTH}) is not a number"
+            ) from None
+    return values
+
+
+def _integer(src: _Lines, text: str, what: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise src.error(f"{what}: {text.strip()!r} is not a whole number") from None
+
+
+def _block_format(src: _Lines, line: str) -> int:
+    """The format indicator that ends a 2C, 3C or 100C line: 0 short, 1 long, 2 binary."""
+    token = line.split()[-1] if line.split() else ""
+    value = int(token) if token.isdigit() else 1
+    if value == 2:
+        raise src.error("a binary block; write the ASCII .frd (CalculiX's default)")
+    if value not in (0, 1):
+        raise src.error(f"unknown format indicator {token!r}")
+    return value
+
+
+def read_frd(path: str | Path, names=("DISP",)):
+    """(points, cells, cell_type, times, values, field) of an ASCII .frd: its nodes (n, 3),
+    first-order cells (one type: hexahedra or quadrilaterals, VTK node order, which is
+    CalculiX's), the times of the result blocks of the first of `names` that the file holds
+    (U names DISP, as in *NODE FILE), the (n, components) values of each, and that name.
+    Nodes that no cell uses are left out."""
+    path = Path(path)
+    src = _Lines(path)
+    nodes: dict[int, list[float]] = {}
+    elements: list[tuple[int, list[int]]] = []
+    blocks: dict[str, list] = {}  # name -> [(time, {node: values})]
+    ended = False
+    while src.k < len(src.lines):
+        line = src.next("the file")
+        key = line[:5].strip()
+        if key == "9999":
+            ended = True
+            break
+        if key == "2" and line[5:6] == "C":
+            _read_nodes(src, line, nodes)
+        elif key == "3" and line[5:6] == "C":
+            _read_elements(src, line, elements)
+        elif key == "100" and line[5:6] == "C":
+            name, t, values = _read_results(src, line)
+            blocks.setdefault(name, []).append((t, values))
+    if not ended:
+        raise InputError(
+            f"{path}: truncated: no closing 9999 record (cut short, or CalculiX has not "
+            "finished writing it)"
+        )
+    if not nodes or not elements:
+        raise InputError(f"{path}: no {'nodes' if not nodes else 'elements'} in the file")
+    wanted = [FRD_ALIASES.get(n, n) if FRD_ALIASES.get(n, n) in blocks else n for n in names]
+    found = next((n for n in wanted if n in blocks), None)
+    if found is None:
+        asked = f"{names[0]!r}" + (f" (nor {', '.join(names[1:])})" if len(names) > 1 else "")
+        raise InputError(
+            f"{path}: no nodal result {asked}; results: {', '.join(blocks) or 'none'}"
+            + ("" if blocks else " (request U with *NODE FILE)")
+        )
+    kinds = {FRD_ELEMENTS[t][1] for t, _ in elements}
+    if len(kinds) != 1:
+        raise InputError(f"{path}: cells of several types; expected one of he8 or qu4")
+    cell_type = kinds.pop()
+    used = sorted({n for _, conn in elements for n in conn})
+    missing = [n for n in used if n not in nodes]
+    if missing:
+        raise InputError(f"{path}: cells use node {missing[0]}, which has no coordinates")
+    index = {n: i for i, n in enumerate(used)}
+    points = np.array([nodes[n] for n in used])
+    cells = np.array([[index[n] for n in conn] for _, conn in elements], dtype=np.int64)
+    times, values = [], []
+    for t, result in blocks[found]:
+        lacking = [n for n in used if n not in result]
+        if lacking:
+            raise InputError(
+                f"{path}: {found} at t = {t:g} has no value for node {lacking[0]} "
+                f"({len(lacking)} node(s) of the cells lack one)"
+            )
+        times.append(t)
+        values.append(np.array([result[n] for n in used]))
+    return points, cells, cell_type, times, values, found
+
+
+def _read_nodes(src: _Lines, header: str, nodes: dict) -> None:
+    long = _block_format(src, header) == 1
+    start = 13 if long else 8
+    while True:
+        line = src.next("the node block")
+        key = line[:3].strip()
+        if key == "-3":
+            return
+        if key != "-1":
+            raise src.error("expected a node record (-1) or the end of the block (-3)")
+        node = _integer(src, line[3:start], "node number")
+        nodes[node] = _fields(src, line, start, 3, f"node {node}")
+
+
+def _read_elements(src: _Lines, header: str, elements: list) -> None:
+    long = _block_format(src, header) == 1
+    start, width = (13, 10) if long else (8, 5)
+    while True:
+        line = src.next("the element block")
+        key = line[:3].strip()
+        if key == "-3":
+            return
+        if key != "-1":
+            raise src.error("expected an element record (-1) or the end of the block (-3)")
+        element = _integer(src, line[3:start], "element number")
+        kind = _integer(src, line[start : start + 5], f"type of element {element}")
+        if kind not in FRD_ELEMENTS or FRD_ELEMENTS[kind][1] is None:
+            name = FRD_NAMES.get(kind, f"type {kind}")
+            raise InputError(
+                f"{src.path}: element {element} is a {name}; only first-order hexahedra (he8: "
+                "C3D8, C3D8R, C3D8I) and quadrilaterals (qu4: CPE4, CPS4, ...) are graded"
+            )
+        count = FRD_ELEMENTS[kind][0]
+        connectivity: list[int] = []
+        while len(connectivity) < count:
+            row = src.next(f"element {element}")
+            if row[:3].strip() != "-2":
+                raise src.error(f"element {element}: expected its nodes (-2)")
+            text = row[3:].rstrip()
+            cut = [text[j : j + width] for j in range(0, len(text), width)]
+            connectivity += [_integer(src, c, f"element {element}") for c in cut if c.strip()]
+        elements.append((kind, connectivity[:count]))
+
+
+def _read_results(src: _Lines, header: str) -> tuple[str, float, dict]:
+    """A nodal result block: (name, time, {node: values})."""
+    long = _block_format(src, header) == 1
+    start = 13 if long else 8
+    try:
+        t = to_float(header[12:24])
+    except ValueError:
+        raise src.error(f"the time {header[12:24].strip()!r} is not a number") from None
+    line = src.next("a result block")
+    if line[:3].strip() != "-4":
+        raise src.error("expected the result's name (-4)")
+    name = line[5:13].strip()
+    components = _integer(src, line[13:18], f"components of {name}")
+    stored = 0
+    for _ in range(components):
+        line = src.next(f"the components of {name}")
+        if line[:3].strip() != "-5":
+            raise src.error(f"{name}: expected a component (-5)")
+        exists = line[33:38].strip()
+        stored += exists in ("", "0")  # 1: computed by the viewer (ALL), not stored
+    values = {}
+    what = f"{name} at t = {t:g}"
+    while True:
+        line = src.next(what)
+        key = line[:3].strip()
+        if key == "-3":
+            return name, t, values
+        if key != "-1":
+            raise src.error(f"{what}: expected a node record (-1) or the end of the block (-3)")
+        node = _integer(src, line[3:start], f"{what}: node number")
+        row = _fields(src, line, start, min(stored, 6), f"{what}, node {node}")
+        while len(row) < stored:
+            more = src.next(what)
+            if more[:3].strip() != "-2":
+                raise src.error(f"{what}, node {node}: expected its continuation (-2)")
+            row += _fields(src, more, start, min(stored - len(row), 6), f"{what}, node {node}")
+        values[node] = row
+
+
+# --- .dat ---------------------------------------------------------------------------------------
+
+DAT_HEADER = re.compile(r"^\s*(\w[\w ]*?)\s*\(([^)]*)\)\s*for set\s+(\S+)\s+and time\s+(\S+)\s*$")
+
+
+def read_dat(path: str | Path, names=(DAT_FIELD,)):
+    """(points, cells, cell_type, times, values, field) of a CalculiX .dat with the
+    displacements that *NODE PRINT writes (`U`), on the mesh of the deck beside it (the .inp
+    of the same name)."""
+    path = Path(path)
+    if not any(n in (DAT_FIELD, "DISP") for n in names):
+        raise InputError(
+            f"{path}: no nodal result {names[0]!r}; a .dat's displacements are {DAT_FIELD}"
+        )
+    deck = path.with_suffix(".inp")
+    if not deck.is_file():
+        raise InputError(f"{path}: a .dat holds no mesh: its deck {deck.name} must be beside it")
+    points, cells, cell_type, ids = read_inp_mesh(deck)
+    src = _Lines(path)
+    steps: dict[str, dict[int, list[float]]] = {}
+    order: list[str] = []
+    lines = src.lines
+    while src.k < len(lines):
+        line = src.next("the file")
+        match = DAT_HEADER.match(line)
+        if not match or not match.group(1).startswith("displacements"):
+            continue
+        stamp = match.group(4)
+        if stamp not in steps:
+            steps[stamp] = {}
+            order.append(stamp)
+        values = steps[stamp]
+        while src.k < len(lines) and not lines[src.k].strip():
+            src.k += 1
+        while src.k < len(lines) and lines[src.k].strip():
+            row = src.next("a displacement block")
+            if DAT_HEADER.match(row):
+                src.k -= 1
+                break
+            node = _integer(src, row[:10], "node number")
+            values[node] = _dat_fields(src, row, f"node {node} at t = {stamp}")
+    if not order:
+        raise InputError(
+            f"{path}: no displacements (request U with *NODE PRINT, NSET=Nall, every increment)"
+        )
+    times, series = [], []
+    for stamp in order:
+        try:
+            t = to_float(stamp)
+        except ValueError:
+            raise InputError(f"{path}: the time {stamp!r} is not a number") from None
+        values = steps[stamp]
+        lacking = [n for n in ids if n not in values]
+        if lacking:
+            raise InputError(
+                f"{path}: the displacements at t = {stamp} lack node {lacking[0]} "
+                f"({len(lacking)} of the {len(ids)} nodes of {deck.name}): print every node "
+                "(*NODE PRINT, NSET=Nall)"
+            )
+        times.append(t)
+        series.append(np.array([values[n] for n in ids]))
+    return points, cells, cell_type, times, series, DAT_FIELD
+
+
+def _dat_fields(src: _Lines, row: str, what: str) -> list[float]:
+    """The values after the node number: 1X,E13.6 fields of 14 columns."""
+    text = row[10:].rstrip()
+    if not text or len(text) % 14:
+        raise src.error(f"{what}: the record is cut short or not in 14-column fields")
+    try:
+        return [to_float(text[j : j + 14]) for j in range(0, len(text), 14)]
+    except ValueError:
+        raise src.error(f"{what}: {text.strip()!r} are not numbers") from None
+
+
+# --- .inp (the mesh only) -------------------------------------------------------------------------
+
+
+def _keyword(line: str) -> tuple[str, dict]:
+    parts = [p.strip() for p in line[1:].split(",")]
+    params = {}
+    for p in parts[1:]:
+        if p:
+            key, _, value = p.partition("=")
+            params[key.strip().upper()] = value.strip()
+    return parts[0].upper(), params
+
+
+def read_inp_mesh(path: str | Path, depth: int = 0):
+    """(points (n, 3), cells (VTK order), cell_type, node ids) of a CalculiX deck: its *NODE
+    and *ELEMENT cards (following *INCLUDE), first-order hexahedra or quadrilaterals of one
+    type; the nodes that no element uses are left out."""
+    path = Path(path)
+    nodes: dict[int, list[float]] = {}
+    elements: list[list[int]] = []
+    kinds: set[str] = set()
+    _scan_inp(path, nodes, elements, kinds, depth)
+    if not elements:
+        raise InputError(f"{path}: no *ELEMENT card of first-order hexahedra or quadrilaterals")
+    types = {INP_ELEMENTS[k][1] for k in kinds}
+    if len(types) != 1:
+        raise InputError(f"{path}: elements of several shapes ({', '.join(sorted(kinds))})")
+    used = sorted({n for conn in elements for n in conn})
+    missing = [n for n in used if n not in nodes]
+    if missing:
+        raise InputError(f"{path}: elements use node {missing[0]}, which no *NODE card defines")
+    index = {n: i for i, n in enumerate(used)}
+    points = np.array([nodes[n] + [0.0] * (3 - len(nodes[n])) for n in used])
+    cells = np.array([[index[n] for n in conn] for conn in elements], dtype=np.int64)
+    return points, cells, types.pop(), used
+
+
+def _scan_inp(path: Path, nodes: dict, elements: list, kinds: set, depth: int) -> None:
+    if depth > 8:
+        raise InputError(f"{path}: *INCLUDE nested more than 8 deep")
+    src = _Lines(path)
+    card, count, pending = None, 0, []
+    for number, raw in enumerate(src.lines, start=1):
+        line = raw.strip()
+        if not line or line.startswith("**"):
+            continue
+        if line.startswith("*"):
+            card, params = _keyword(line)
+            if card == "INCLUDE":
+                target = path.parent / params.get("INPUT", "")
+                if not target.is_file():
+                    raise InputError(
+                        f"{path}: line {number}: *INCLUDE names {target}, no such file"
+                    )
+                _scan_inp(target, nodes, elements, kinds, depth + 1)
+                card = None
+            elif card == "ELEMENT":
+                kind = params.get("TYPE", "").upper()
+                if kind not in INP_ELEMENTS:
+                    raise InputError(
+                        f"{path}: line {number}: elements of type {kind or '(none)'}; only "
+                        f"first-order hexahedra and quadrilaterals ({', '.join(INP_ELEMENTS)}) "
+                        "are graded"
+                    )
+                kinds.add(kind)
+                count, pending = INP_ELEMENTS[kind][0], []
+            continue
+        values = [v.strip() for v in line.split(",")]
+        try:
+            if card == "NODE":
+                nodes[int(values[0])] = [float(v) for v in values[1:4] if v]
+            elif card == "ELEMENT":
+                pending += [int(v) for v in values if v]
+                if len(pending) >= count + 1:
+                    elements.append(pending[1 : count + 1])
+                    pending = []
+        except ValueError:
+            raise InputError(f"{path}: line {number}: cannot read {line[:60]!r}") from None
+
+
+# --- writing the deck ---------------------------------------------------------------------
+
+
+MAX_FIELD = 20  # characters CalculiX reads of a number (f20.0)
+
+
+def number(x: float) -> str:
+    """A float as CalculiX reads it in full: the shortest repr when it fits 20 characters,
+    else 14 significant digits."""
+    text = repr(float(x))
+    if len(text) <= MAX_FIELD:
+        return text
+    return f"{x:.13e}" if len(f"{x:.13e}") <= MAX_FIELD else f"{x:.11e}"
+
+
+def ccx_name(name: str) -> str:
+    """A set or material name as CalculiX takes it: letters, digits and _, at most 80."""
+    return (re.sub(r"[^A-Za-z0-9_]", "_", name) or "X")[:80]
+
+
+def kinks(times: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The indices of the samples that a piecewise linear function through them needs: the
+    first, the last, and every one where the slope changes (beyond round-off). Linear
+    interpolation between the kept samples gives every sample back."""
+    n = len(times)
+    if n <= 2:
+        return np.arange(n)
+    scale = max(float(np.abs(values).max()), ZERO)
+    slopes = np.diff(values) / np.diff(times)
+    change = np.abs(np.diff(slopes)) * np.diff(times)[1:] > 1e-12 * scale
+    return np.flatnonzero(np.r_[True, change, True])
+
+
+def check_element(element: str, dim: int, plane: str | None) -> None:
+    if element not in ELEMENTS:
+        raise ExportError(f"unknown element {element!r}: use one of {', '.join(ELEMENTS)}")
+    edim, eplane = ELEMENTS[element]
+    if edim != dim:
+        raise ExportError(
+            f"element {element} is {edim}D and the benchmark is {dim}D: use "
+            f"{', '.join(e for e, (d, _) in ELEMENTS.items() if d == dim)}"
+        )
+    if dim == 2 and eplane != (plane or "strain"):
+        raise ExportError(
+            f"element {element} is plane {eplane} and the export is plane {plane or 'strain'}: use "
+            f"{', '.join(e for e, (d, p) in ELEMENTS.items() if d == 2 and p == (plane or 'strain'))}"
+        )
+
+
+def default_element(dim: int, plane: str | None) -> str:
+    return "C3D8" if dim == 3 else ("CPE4" if (plane or "strain") == "strain" else "CPS4")
+
+
+def check_inp_model(model: str) -> None:
+    if model == "corotational":
+        raise ExportError(
+            "the corotational model has no CalculiX material: export it as json, or use "
+            "linear, svk (*ELASTIC with NLGEOM) or neo-hookean (*HYPERELASTIC, NEO HOOKE)"
+        )
+
+
+def lines_of(values: list[str], per_line: int) -> list[str]:
+    return [", ".join(values[k : k + per_line]) for k in range(0, len(values), per_line)]
+
+
+def dynamic_keyword(alpha: float = 0.0) -> str:
+    """CalculiX's *DYNAMIC line with fixed increments h: implicit HHT-alpha, alpha in
+    [-1/3, 0] (alpha = 0 is the trapezoidal rule, the SPEC's `implicit`; CalculiX's own
+    default is -0.05, which damps high frequencies)."""
+    if not -1 / 3 <= alpha <= 0:
+        raise ExportError(f"CalculiX's HHT alpha must lie in [-1/3, 0], got {alpha!r}")
+    return f"*DYNAMIC, DIRECT, ALPHA={number(alpha)}"
+
+
+def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> str:
+    """The CalculiX deck of the export (see the module docstring); `alpha` is the HHT
+    parameter of the dynamic procedure (dynamic_keyword)."""
+    element = element or default_element(data.dim, data.plane)
+    check_element(element, data.dim, data.plane)
+    check_inp_model(data.model)
+    m = data.material
+    nlgeom = data.model != "linear"
+    times, end = data.times, data.end_time
+    out = [
+        f"** tissuebench export: benchmark {data.benchmark} (SPEC sections 4-5, 8), mesh size "
+        f"{data.mesh_size}, options {json.dumps(dict(sorted(data.options.items())))}",
+        f"** material {m.name}, model {data.model}, {data.procedure}: h = {data.h!r} s, "
+        f"T = {end!r} s, {data.steps} steps; SI units (m, s, kg, N, Pa)",
+        "** node i + 1 is node i of the JSON export; the zero initial state is at t = 0",
+        "*HEADING",
+        f"tissuebench {data.benchmark} {m.name} {data.model} {data.procedure}",
+        "*NODE, NSET=Nall",
+    ]
+    for i, x in enumerate(data.nodes):
+        out.append(", ".join([str(i + 1), *(number(c) for c in x)]))
+    out.append(f"*ELEMENT, TYPE={element}, ELSET=Eall")
+    for c, nodes in enumerate(data.cells):
+        out.append(", ".join([str(c + 1), *(str(int(n) + 1) for n in nodes)]))
+    names = {name: ccx_name(name) for name in data.node_sets}
+    for name, nodes in data.node_sets.items():
+        out.append(f"*NSET, NSET={names[name]}")
+        out += lines_of([str(int(n) + 1) for n in nodes], 16)
+    effective = data.effective_sets()
+    bc_sets = {}
+    for name, nodes in effective.items():
+        if len(nodes) == len(data.node_sets[name]):
+            bc_sets[name] = names[name]
+        elif len(nodes):
+            bc_sets[name] = f"{names[name]}_BC"[:80]
+            out.append(f"*NSET, NSET={bc_sets[name]}")
+            out += lines_of([str(int(n) + 1) for n in nodes], 16)
+
+    material = ccx_name(m.name)
+    out.append(f"** material {m.name!r}: E = {m.E!r} Pa, nu = {m.nu!r}, rho = {m.rho!r} kg/m^3")
+    out.append(f"*MATERIAL, NAME={material}")
+    if data.model == "neo-hookean":
+        kappa = m.lmbda + 2 * m.mu / 3
+        out.append(f"** NEO HOOKE: C10 = mu/2 = {m.mu / 2!r} Pa, D1 = 2/kappa = {2 / kappa!r} 1/Pa")
+        out += ["*HYPERELASTIC, NEO HOOKE", f"{number(m.mu / 2)}, {number(2 / kappa)}"]
+    else:
+        out += ["*ELASTIC", f"{number(m.E)}, {number(m.nu)}"]
+    out += ["*DENSITY", number(m.rho)]
+    if data.procedure == "dynamic":
+        if nlgeom and m.beta > 0:
+            out.append(
+                "** NLGEOM: CalculiX's stiffness damping follows the current stiffness, the "
+                "SPEC's is beta K_0 (section 8): measured 0.8 % apart on the rod at t = 2 s"
+            )
+        out.append(f"*DAMPING, ALPHA={number(m.alpha)}, BETA={number(m.beta)}")
+    out.append(f"*SOLID SECTION, ELSET=Eall, MATERIAL={material}")
+    if data.dim == 2:
+        out.append("1.")  # thickness, m
+
+    amplitudes, boundaries, velocities = [], [], []
+    for name, (u, v, _) in data.motions.items():
+        if name not in bc_sets:
+            continue
+        scales = np.abs(u).max(axis=0)
+        if np.all(scales <= ZERO):
+            boundaries.append(("", f"{bc_sets[name]}, 1, {data.dim}"))
+            continue
+        for k in range(data.dim):
+            scale = float(scales[k])
+            if scale <= ZERO:
+                boundaries.append(("", f"{bc_sets[name]}, {k + 1}, {k + 1}"))
+                continue
+            amp = f"A_{bc_sets[name]}_{k + 1}"[:80]
+            keep = kinks(times, u[:, k])
+            pairs = [f"{number(times[i])}, {number(u[i, k] / scale)}" for i in keep]
+            amplitudes += [f"*AMPLITUDE, NAME={amp}, TIME=TOTAL TIME", *lines_of(pairs, 4)]
+            boundaries.append((amp, f"{bc_sets[name]}, {k + 1}, {k + 1}, {number(scale)}"))
+            if abs(v[0, k]) > ZERO:
+                velocities.append(f"{bc_sets[name]}, {k + 1}, {number(v[0, k])}")
+    gravity = float(np.linalg.norm(data.gravity))
+    if gravity > 0:
+        amplitudes += ["*AMPLITUDE, NAME=A_ON, TIME=TOTAL TIME", f"0., 1., {number(end)}, 1."]
+    out += amplitudes
+    if data.procedure == "dynamic" and len(amplitudes):
+        out.append(
+            "** CalculiX 2.20 follows a prescribed motion in *DYNAMIC otherwise than the SPEC "
+            "(measured: the block at E_n up to 0.3 in CPE4 and in a C3D8 slab; static: 1e-7)"
+        )
+    if velocities and data.procedure == "dynamic":
+        out += ["** the prescribed velocity at t = 0 (SPEC: the right derivative)"]
+        out += ["*INITIAL CONDITIONS, TYPE=VELOCITY", *velocities]
+
+    flags = ", NLGEOM" if nlgeom else ""
+    output = ["*NODE FILE, FREQUENCY=1", "U", "*NODE PRINT, NSET=Nall, FREQUENCY=1", "U"]
+    if data.procedure == "dynamic":  # one step of fixed increments h
+        out += [f"*STEP{flags}, INC={data.steps + 10}", dynamic_keyword(alpha)]
+        out.append(f"{number(data.h)}, {number(end)}")
+    else:
+        # one *STATIC step per t_i: a linear static step is solved once, at its end, whatever
+        # its increments; the loads and boundaries carry over from step to step
+        out += ["** quasi-static: one *STATIC step of length h per t_i (amplitudes in total time)"]
+        out += [f"*STEP{flags}", STATIC_KEYWORD, f"{number(data.h)}, {number(data.h)}"]
+    fixed = [line for amp, line in boundaries if not amp]
+    if fixed:
+        out += ["*BOUNDARY", *fixed]
+    for amp, line in boundaries:
+        if amp:
+            out += [f"*BOUNDARY, AMPLITUDE={amp}", line]
+    if gravity > 0:
+        direction = [number(g / gravity) for g in data.gravity] + ["0."] * (3 - data.dim)
+        out += ["*DLOAD, AMPLITUDE=A_ON", f"Eall, GRAV, {number(gravity)}, {', '.join(direction)}"]
+    out += [*output, "*END STEP"]
+    if data.procedure == "static":
+        for _ in range(data.steps - 1):
+            out += [f"*STEP{flags}", STATIC_KEYWORD, f"{number(data.h)}, {number(data.h)}"]
+            out += [*output, "*END STEP"]
+    out.append("")
+    return "\n".join(out)
+
+
+def write_inp(
+    data: Exported,
+    path: Path,
+    element: str | None = None,
+    alpha: float = 0.0,
+) -> None:
+    Path(path).write_text(inp_text(data, element, alpha))

@@ -1,0 +1,24 @@
+"""The point field a displacement series is read from: a name given, or the first of
+DEFAULT_FIELDS that the file holds."""
+
+from tissuebench.metrics.series import InputError
+
+DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
+
+
+def field_names(field: str | None) -> tuple[str, ...]:
+    """The names to look for: the one given, or DEFAULT_FIELDS in order."""
+    return (field,) if field else DEFAULT_FIELDS
+
+
+def missing_field(path, names, fields) -> InputError:
+    """One line: none of `names` is among the file's `fields`."""
+    nor = f" (nor {', '.join(names[1:])})" if len(names) > 1 else ""
+    hint = (
+        "; name the displacement field with --candidate-field or --reference-field (or --field)"
+        if fields
+        else ""
+    )
+    return InputError(
+        f"{path}: no point field {names[0]!r}{nor}; fields: {', '.join(fields) or 'none'}{hint}"
+    )

@@ -1,0 +1,55 @@
+"""The CSV files of a run or a comparison: metrics.csv (one row per run and step: the time in
+s, every metric of METRICS, the step's status) and tip.csv (the probe point's displacement in
+m)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from tissuebench.metrics.compare import columns
+from tissuebench.metrics.table import METRICS
+
+
+def write_metrics_csv(
+    path: Path,
+    times: np.ndarray,
+    curves: dict[str, dict[str, np.ndarray]],
+    status: dict[str, list[str]],
+) -> None:
+    """metrics.csv: for each run label, one row per step; `status` says ok, diverged,
+    reference diverged or missing."""
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns())
+        for label, curve in curves.items():
+            for i, t in enumerate(times):
+                writer.writerow(
+                    [
+                        label,
+                        i,
+                        repr(float(t)),
+                        *(repr(float(curve[n][i])) for n in METRICS),
+                        status[label][i],
+                    ]
+                )
+
+
+def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) -> None:
+    """tip.csv: for each run label, the probe point's displacement (m) at every step it has."""
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        d = next(iter(tips.values())).shape[1]
+        writer.writerow(["algorithm", "step", "time", *("u_" + "xyz"[k] for k in range(d))])
+        for label, tip in tips.items():
+            for i, t in enumerate(times[: len(tip)]):
+                writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in tip[i])])
+
+
+def spans_decades(values) -> bool:
+    """True if the positive finite values span a factor 10 or more (a log axis then reads better)."""
+    values = np.asarray(values)
+    positive = values[np.isfinite(values) & (values > 0)]
+    return len(positive) > 1 and positive.max() >= 10 * positive.min()

@@ -1,0 +1,272 @@
+"""A benchmark posed for another simulator: its mesh, node sets, prescribed motion, body force,
+material and time stepping, written as JSON (for any code), as a CalculiX deck (.inp, ready
+for `ccx`) or as the mesh alone (.vtu, .msh); beside the JSON and the deck, our reference's
+displacement history (XDMF), so that the other simulator's output can be graded with
+`tissuebench compare` at once. `tissuebench export` (workflows/commands/export.py) is the command.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+from tissuebench.metrics.series import cell_measures
+from tissuebench.solvers.materials import Material
+from tissuebench.workflows.io.calculix import (
+    check_element,
+    check_inp_model,
+    default_element,
+    write_inp,
+)
+from tissuebench.workflows.io.exported import ExportError, Exported, write_json, write_mesh
+
+FORMATS = ("json", "inp", "vtu", "msh")
+# procedure -> our reference algorithm (the CalculiX step: dynamic_keyword, STATIC_KEYWORD)
+PROCEDURES = {"dynamic": "implicit", "static": "quasi-static"}
+REFERENCE_FIELD = "displacement"
+
+
+def oriented(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Cells (VTK order) with a positive area or volume: a quadrilateral taken clockwise, or a
+    hexahedron whose bottom face is, is reversed (CalculiX refuses negative Jacobians)."""
+    cells = np.array(cells, dtype=np.int64)
+    negative = cell_measures(points, cells) < 0
+    flip = [0, 3, 2, 1] if cells.shape[1] == 4 else [0, 3, 2, 1, 4, 7, 6, 5]
+    cells[negative] = cells[negative][:, flip]
+    return cells
+
+
+def constrained_sets(bench, V) -> dict[str, np.ndarray]:
+    """On rank 0: {constraint name: sorted global node indices of V} (None elsewhere)."""
+    from dolfinx import fem
+
+    mesh, imap = V.mesh, V.dofmap.index_map
+    tdim = mesh.topology.dim
+    local = {}
+    for c in bench.constraints:
+        mesh.topology.create_connectivity(c.dim, tdim)
+        nodes = fem.locate_dofs_topological(V, c.dim, c.entities)
+        nodes = nodes[nodes < imap.size_local]
+        local[c.name] = imap.local_to_global(nodes.astype(np.int32)).astype(np.int64)
+    parts = mesh.comm.gather(local, root=0)
+    if mesh.comm.rank != 0:
+        return None
+    return {
+        c.name: np.unique(np.concatenate([p[c.name] for p in parts])) for c in bench.constraints
+    }
+
+
+def sample_motion(motion, times: np.ndarray, dim: int) -> tuple[np.ndarray, ...]:
+    """(u, v, a), each (len(times), dim), of a constraint's motion(t) at every time."""
+    values = np.zeros((3, len(times), dim))
+    for i, t in enumerate(times):
+        for j, x in enumerate(motion(float(t))):
+            values[j, i] = np.asarray(x, dtype=np.float64)[:dim]
+    return values[0], values[1], values[2]
+
+
+def build(
+    benchmark: str,
+    mesh_size: int,
+    options: dict,
+    material: Material,
+    model: str,
+    h: float,
+    steps: int,
+    plane: str,
+    procedure: str,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+):
+    """Build the benchmark's mesh over comm and collect what an export holds. Collective;
+    returns (Exported on rank 0 and None elsewhere, the Benchmark, its vector Q1 space)."""
+    from dolfinx import fem
+
+    from tissuebench.meshes import get_benchmark
+    from tissuebench.workflows.io.xdmf import gather_mesh
+
+    bench = get_benchmark(benchmark, mesh_size=mesh_size, comm=comm, **options)
+    dim = bench.gdim
+    V = fem.functionspace(bench.mesh, ("Lagrange", 1, (dim,)))
+    mesh_data, _ = gather_mesh(V)
+    sets = constrained_sets(bench, V)
+    if comm.rank != 0:
+        return None, bench, V
+    points, cells, cell_type = mesh_data
+    points = np.ascontiguousarray(points[:, :dim])
+    times = np.arange(steps + 1) * h
+    data = Exported(
+        benchmark=benchmark,
+        mesh_size=mesh_size,
+        options={**bench.options},
+        plane=plane if dim == 2 else None,
+        material=material,
+        model=model,
+        procedure=procedure,
+        h=h,
+        steps=steps,
+        nodes=points,
+        cell_type=cell_type,
+        cells=oriented(points, cells),
+        node_sets=sets,
+        motions={c.name: sample_motion(c.motion, times, dim) for c in bench.constraints},
+        gravity=np.asarray(bench.gravity, dtype=np.float64)[:dim],
+        probe=tuple(bench.probe) if bench.probe is not None else None,
+    )
+    return data, bench, V
+
+
+def run_reference(
+    data: Exported | None,
+    bench,
+    material: Material,
+    path: Path,
+    solver: str = "direct",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log=print,
+) -> dict:
+    """Run our reference for the export (`implicit`, or `quasi-static` for the static
+    procedure, with the export's model) as `tissuebench run` runs it, and write its
+    displacement history to path (.xdmf, with its .h5). Collective; returns what the JSON's
+    `reference` records."""
+    from tissuebench.solvers import get_integrator
+    from tissuebench.solvers.models import run_label
+    from tissuebench.solvers.simulate import simulate
+    from tissuebench.solvers.system import System
+    from tissuebench.workflows.output import collective
+    from tissuebench.workflows.io.xdmf import gather_series, write_series
+
+    model, procedure, h, steps, plane = comm.bcast(
+        (data.model, data.procedure, data.h, data.steps, data.plane or "strain")
+        if comm.rank == 0
+        else None,
+        root=0,
+    )
+    algorithm = PROCEDURES[procedure]
+    label = run_label(algorithm, model)
+    system = System(bench, material, plane=plane)
+    integrator = get_integrator(algorithm, system, h, solver=solver, model=model)
+    try:
+        run = simulate(integrator, steps, bench.extent, label)
+    finally:
+        integrator.destroy()
+    series = gather_series(system.V, {REFERENCE_FIELD: run.u})
+    collective(comm, lambda: write_series(path, series, np.arange(run.steps + 1) * h), path)
+    info = {
+        "file": path.name,
+        "field": REFERENCE_FIELD,
+        "run": label,
+        "status": run.status,
+        "steps": run.steps,
+        "wall_time_s": run.wall_time_s,
+    }
+    if run.status != "ok":
+        info["diverged_step"], info["reason"] = run.diverged_step, run.reason
+    if comm.rank == 0:
+        state = (
+            "ok" if run.status == "ok" else f"DIVERGED at step {run.diverged_step}: {run.reason}"
+        )
+        log(f"reference {label}: {state}, {run.steps} steps in {run.wall_time_s:.2f} s")
+    return info
+
+
+# --- JSON -------------------------------------------------------------------------------------
+
+
+def reference_path(out: Path) -> Path:
+    """Where the reference's history goes beside an export: OUT-stem.reference.xdmf (+ .h5)."""
+    return out.with_name(f"{out.stem}.reference.xdmf")
+
+
+def export(
+    benchmark: str,
+    fmt: str,
+    out: Path,
+    *,
+    mesh_size: int,
+    options: dict,
+    material: Material,
+    model: str,
+    h: float,
+    steps: int,
+    plane: str = "strain",
+    procedure: str = "dynamic",
+    element: str | None = None,
+    reference: bool = True,
+    solver: str = "direct",
+    force: bool = False,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log=print,
+) -> list[Path]:
+    """Write the export of format fmt to out and, for json and inp unless reference is False,
+    our reference's history beside it (reference_path). Every check comes before the heavy
+    work; every file is written under a temporary name and renamed into place. Collective;
+    returns the files written."""
+    from tissuebench.meshes import get_entry
+    from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
+
+    if fmt not in FORMATS:
+        raise ExportError(f"unknown format {fmt!r}: use one of {', '.join(FORMATS)}")
+    if procedure not in PROCEDURES:
+        raise ExportError(f"unknown procedure {procedure!r}: use {' or '.join(PROCEDURES)}")
+    dim = get_entry(benchmark).gdim
+    if fmt == "inp":
+        element = element or default_element(dim, plane)
+        check_element(element, dim, plane)
+        check_inp_model(model)
+    elif element is not None:
+        raise ExportError(f"--element applies to --format inp only, not to {fmt}")
+    with_reference = reference and fmt in ("json", "inp")
+    ref_path = reference_path(out)
+    also = [ref_path, ref_path.with_suffix(".h5")] if with_reference else []
+    collective(comm, lambda: check_file_target(out, fmt, force, also))
+
+    data, bench, _ = build(
+        benchmark, mesh_size, options, material, model, h, steps, plane, procedure, comm
+    )
+    written = [out]
+    if with_reference:
+        staging = out.with_name(f"{PREFIX}export-{out.name}-{os.getpid()}")
+        collective(comm, lambda: staging.mkdir(parents=True, exist_ok=True), staging)
+        try:
+            info = run_reference(data, bench, material, staging / ref_path.name, solver, comm, log)
+
+            def place():
+                for path in also[::-1]:  # the .h5 first: the .xdmf names it
+                    write_owned(path, lambda tmp, name=path.name: os.replace(staging / name, tmp))
+
+            collective(comm, place, ref_path)
+        finally:
+            if comm.rank == 0:
+                for path in also:
+                    (staging / path.name).unlink(missing_ok=True)
+                if staging.is_dir():
+                    staging.rmdir()
+        if comm.rank == 0:
+            data.reference = info
+        written += also
+
+    def write():
+        if fmt == "json":
+            write_owned(out, lambda p: write_json(data, p))
+        elif fmt == "inp":
+            write_owned(out, lambda p: write_inp(data, p, element))
+        else:
+            write_owned(out, lambda p: write_mesh(data, p, fmt))
+
+    collective(comm, write, out)
+    return written
+
+
+def step_note(h: float, end_time: float, steps: int) -> str | None:
+    """The line saying that h does not divide the end time, or None."""
+    if math.isclose(steps * h, end_time, rel_tol=1e-9):
+        return None
+    return (
+        f"end time {end_time:g} s is not a multiple of h = {h:g} s; exporting {steps} steps to "
+        f"t = {steps * h:.6g} s"
+    )

@@ -1,0 +1,67 @@
+"""Outside simulators that tissuebench drives end to end (`tissuebench external`,
+`tissuebench leaderboard`): each poses an exported benchmark (workflows/io/exported.py,
+`Exported`) in its own terms, runs it, and leaves a displacement series that
+`tissuebench compare` grades against our reference.
+
+One module per simulator, with a small fixed interface (as benchopt's solvers):
+
+- `NAME`: its name on the command line; `TITLE`: how tables name it ("CalculiX 2.20").
+- `available() -> str | None`: None when it can run here, else one line saying what is
+  missing and how to install it.
+- `variants(data: Exported) -> dict[str, str]`: the variants that pose this export
+  faithfully, name -> one line of what the variant is (scheme, element, parameters).
+- `skipped(data: Exported) -> dict[str, str]`: what it cannot pose of this export and why
+  (name -> one line; {} when nothing is left out).
+- `run(data: Exported, variant: str, workdir: Path) -> ExternalRun`: run one variant in
+  workdir (an empty folder of its own), serially, and return what it produced. A run that
+  fails or blows up is not an exception: it comes back with status "failed" and the reason,
+  and the leaderboard records it as a divergence.
+
+Adding a simulator: one file here and one line in SIMULATORS.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+# name -> module (imported on first use: a simulator's package may be absent)
+SIMULATORS = {
+    "calculix": "tissuebench.workflows.simulators.calculix",
+    "sfepy": "tissuebench.workflows.simulators.sfepy",
+    "newton": "tissuebench.workflows.simulators.newton",
+}
+
+
+@dataclass
+class ExternalRun:
+    """What one variant of an outside simulator produced.
+
+    `series`: the displacement series file (.xdmf, .pvd, .frd or .dat: what compare reads),
+    or None when the run failed before writing one; `field`: its point field (None: compare
+    tries its default names); `wall_time_s`: s, the simulator's solve measured around it,
+    from the posed problem to the last step (assembly and factorisations included,
+    interpreter start and file conversion not), as `timing` says; `dofs`: displacement
+    unknowns of its mesh (nodes x dimension); `mesh`: "reference" when it runs on the
+    exported nodes and cells, else a few words on its own mesh ("tetrahedra, 6 per hex");
+    `status`: "ok" or "failed"; `reason`: why it failed, one line; `version`: the
+    simulator's version."""
+
+    series: Path | None
+    wall_time_s: float | None
+    dofs: int
+    field: str | None = None
+    mesh: str = "reference"
+    status: str = "ok"
+    reason: str | None = None
+    timing: str = ""
+    version: str = ""
+
+
+def get_simulator(name: str) -> ModuleType:
+    """The simulator module registered under name (ValueError for an unknown name)."""
+    if name not in SIMULATORS:
+        raise ValueError(f"unknown simulator {name!r}: use one of {', '.join(SIMULATORS)}")
+    return importlib.import_module(SIMULATORS[name])

@@ -1,0 +1,242 @@
+"""Outside simulators run end to end and graded (`tissuebench external`, the leaderboard):
+the benchmark is exported (workflows/io/exported.py), our reference runs beside it, each
+variant of each simulator (workflows/simulators/) runs in a folder of its own, and its output
+is graded by `compare`'s code (workflows/grading.py) against the reference.
+
+A simulator folder (one per `external` run; one per simulator and case in the leaderboard):
+- `benchmark.json`: the export that every variant poses (schema tissuebench.benchmark);
+- `reference.xdmf` (+ .h5): our reference's history (implicit, with the export's model);
+- `VARIANT/`: compare's metrics.csv, metrics.png and summary.json of that variant, its
+  simulator's own files in `VARIANT/work/`;
+- `summary.json`: `kind` "external", the simulator, the case's inputs and `runs` {label:
+  entry}, each entry a compare entry (status, steps, wall_time_s, metric max and mean) with
+  the simulator, its version, the variant and its description, the mesh, dofs and timing.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.solvers import interrupt
+from tissuebench.workflows.simulators import ExternalRun, get_simulator
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.posing import REFERENCE_FIELD, build, run_reference
+from tissuebench.workflows.io.exported import Exported
+from tissuebench.workflows.grading import compare
+from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint
+from tissuebench.workflows.study import versions
+
+
+class SimulatorError(UserError):
+    """A simulator or variant that cannot run here or does not pose the benchmark."""
+
+
+def label_of(simulator: str, variant: str) -> str:
+    """How tables name a variant: SIMULATOR:VARIANT."""
+    return f"{simulator}:{variant}"
+
+
+def choose_variants(simulator: str, data: Exported, wanted: list[str] | None) -> dict[str, str]:
+    """The variants to run (all that pose the export when wanted is None); refuses a variant
+    that the simulator does not have for this export, with the ones it has."""
+    sim = get_simulator(simulator)
+    offered = sim.variants(data)
+    if wanted is None:
+        return offered
+    unknown = [v for v in wanted if v not in offered]
+    if unknown:
+        why = sim.skipped(data)
+        said = "; ".join(f"{k}: {v}" for k, v in why.items())
+        raise SimulatorError(
+            f"{simulator} has no variant {', '.join(unknown)} for this benchmark: use "
+            f"{', '.join(offered) or '(none)'}" + (f" (not posed: {said})" if said else "")
+        )
+    return {v: offered[v] for v in wanted}
+
+
+def run_variant(
+    simulator: str,
+    data: Exported | None,
+    variant: str,
+    description: str,
+    reference: Path,
+    folder: Path,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log=print,
+) -> dict:
+    """Run one variant in folder/work (rank 0; outside simulators run serially), grade its
+    output against reference into folder, and return its entry (see the module docstring).
+    A failed run or an output that compare refuses is an entry with status "failed"."""
+    sim = get_simulator(simulator)
+
+    def run():
+        work = folder / "work"
+        work.mkdir(parents=True)
+        try:
+            return sim.run(data, variant, work)
+        except Exception as exc:  # a simulator's own crash is a result, not ours
+            return ExternalRun(
+                None,
+                None,
+                data.nodes.size,
+                status="failed",
+                reason=f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}",
+            )
+
+    result = collective(comm, run, folder)  # rank 0; a fault of ours is raised on every rank
+    interrupt.checkpoint(comm)  # a signal stopped the simulator: the job ends, not the variant
+    label = label_of(simulator, variant)
+    entry = {
+        "simulator": simulator,
+        "title": sim.TITLE,
+        "version": result.version,
+        "variant": variant,
+        "description": description,
+        "mesh": result.mesh,
+        "dofs": result.dofs,
+        "timing": result.timing,
+        "status": result.status,
+        "reason": result.reason,
+        "wall_time_s": result.wall_time_s,
+    }
+    graded = None
+    if result.series is not None:
+        try:
+            compare(
+                reference,
+                result.series,
+                folder,
+                comm=comm,
+                reference_field=REFERENCE_FIELD,
+                candidate_field=result.field,
+                label=label,
+                wall_time=result.wall_time_s,
+                folder_of_ours=True,
+            )
+            graded = json.loads((folder / SUMMARY).read_text()) if comm.rank == 0 else None
+            graded = comm.bcast(graded, root=0)
+        except UserError as exc:
+            entry["status"] = "failed"
+            entry["reason"] = entry["reason"] or f"not graded: {exc}"
+    if graded is not None:
+        run = graded["runs"][label]
+        entry.update({k: v for k, v in run.items() if k not in ("status", "wall_time_s")})
+        if run["status"] != "ok" and entry["status"] == "ok":
+            entry["status"] = "diverged" if run["diverged_step"] is not None else run["status"]
+    if comm.rank == 0:
+        state = entry["status"] + (f" ({entry['reason']})" if entry["reason"] else "")
+        wall = "" if entry["wall_time_s"] is None else f", {entry['wall_time_s']:.2f} s"
+        log(f"{label:<34} {state}{wall}")
+    return entry
+
+
+def external_inputs(simulator: str, data_inputs: dict, variants: dict[str, str]) -> dict:
+    """Every input that changes an external folder's numbers."""
+    return {
+        "simulator": simulator,
+        "variants": sorted(variants),
+        **data_inputs,
+        "versions": versions(),
+    }
+
+
+def run_external(
+    simulator: str,
+    out: Path,
+    *,
+    benchmark: str,
+    mesh_size: int,
+    options: dict,
+    material,
+    model: str,
+    h: float,
+    steps: int,
+    plane: str = "strain",
+    variants: list[str] | None = None,
+    solver: str = "direct",
+    petsc: str = "",
+    force: bool = False,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log=print,
+) -> dict:
+    """Export the benchmark, run our reference and every chosen variant of the simulator, grade
+    them, and write the simulator folder `out` (see the module docstring; the output-folder
+    rules of workflows/output.py). Collective; returns the folder's summary. Complete
+    results of the same inputs are kept unless force. `petsc` is the --petsc text, already in
+    PETSc's options database (it changes our reference, so it is one of the inputs)."""
+    from dataclasses import asdict
+
+    sim = get_simulator(simulator)
+    missing = sim.available() if comm.rank == 0 else None
+    missing = comm.bcast(missing, root=0)
+    if missing:
+        raise SimulatorError(f"{simulator}: {missing}")
+    data, bench, _ = build(
+        benchmark, mesh_size, options, material, model, h, steps, plane, "dynamic", comm
+    )
+    chosen = comm.bcast(
+        choose_variants(simulator, data, variants) if comm.rank == 0 else None, root=0
+    )
+    if not chosen:
+        why = comm.bcast(sim.skipped(data) if comm.rank == 0 else None)
+        raise SimulatorError(
+            f"{simulator} poses no variant of this benchmark"
+            + (f": {'; '.join(f'{k}: {v}' for k, v in why.items())}" if why else "")
+        )
+    posed = {
+        "benchmark": benchmark,
+        "mesh_size": mesh_size,
+        "options": options,
+        "material": asdict(material),
+        "model": model,
+        "h": h,
+        "steps": steps,
+        "plane": plane,
+    }
+    # no --petsc stays out, so that results written before it counted keep their fingerprint
+    petsc = {"petsc": " ".join(petsc.split())} if petsc.strip() else {}
+    inputs = external_inputs(simulator, {**posed, "solver": solver, **petsc}, chosen)
+    with RunFolder(out, comm) as folder:
+        if folder.prepare(inputs, force) == "complete":
+            if comm.rank == 0:
+                log(f"{out}: complete results for the same inputs exist, skipped (--force reruns)")
+            summary = comm.bcast(
+                json.loads((folder.path / SUMMARY).read_text()) if comm.rank == 0 else None, root=0
+            )
+            return {**summary, "skipped": True}
+        with folder.writing() as tmp:
+            reference = tmp / "reference.xdmf"
+            info = run_reference(data, bench, material, reference, solver, comm, log)
+            if comm.rank == 0:
+                from tissuebench.workflows.io.exported import write_json
+
+                data.reference = {**info, "file": "reference.xdmf"}
+                write_json(data, tmp / "benchmark.json")
+            runs = {}
+            for variant, description in chosen.items():
+                runs[label_of(simulator, variant)] = run_variant(
+                    simulator, data, variant, description, reference, tmp / variant, comm, log
+                )
+            summary = {
+                "kind": "external",
+                "simulator": simulator,
+                "title": sim.TITLE,
+                **posed,
+                "num_dofs": int(data.nodes.size) if comm.rank == 0 else None,
+                "end_time": steps * h,
+                "reference": {**info, "file": "reference.xdmf"},
+                "skipped_variants": sim.skipped(data) if comm.rank == 0 else None,
+                "runs": runs,
+                "files": ["benchmark.json", "reference.xdmf", "reference.h5", SUMMARY],
+                "inputs": inputs,
+                "fingerprint": fingerprint(inputs),
+            }
+
+            def write():
+                (tmp / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
+
+            collective(comm, write, folder.path)
+    return comm.bcast(summary if comm.rank == 0 else None, root=0)
