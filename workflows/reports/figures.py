@@ -14,24 +14,11 @@ from tissuebench.meshes import BENCHMARKS
 from tissuebench.solvers import interrupt
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.workflows.io.tables import spans_decades
+from tissuebench.workflows.reports import model_figures
+from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, plot_curve
 
 # Plain log tick labels: matplotlib's mathtext parser takes seconds to load. One panel per
 # metric of the table that is no variant, labelled as the table says.
-# One line style per run, widest first: a run drawn later lies on top of the earlier ones with
-# a narrower, differently dashed line, so curves that coincide all stay visible.
-STYLES = [
-    ("-", 3.4),
-    ("--", 2.5),
-    ("-.", 1.9),
-    (":", 2.2),
-    ("-", 1.1),
-    ("--", 1.1),
-    ("-.", 1.1),
-    (":", 1.1),
-]
-MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
-CMAP = "viridis"
-OUTLINE = "#737373"  # the undeformed outline, drawn behind the deformed shape
 LONG_RUN = 10.0  # s: deformed.png shows (0, 1, 2, 10) s within the run, and its end time
 
 
@@ -40,10 +27,8 @@ def case_figures(out, case, summary, times, curves, tips):
     """Write the case's figures into out; return their file names. A case with elastic models
     other than linear (SPEC section 8) has its own figures (workflows/reports/model_figures.py).
     Drawn in a critical section (solvers/interrupt.py)."""
-    from tissuebench.workflows.reports import model_figures as figures_models
-
-    if figures_models.is_model_case(case):
-        return figures_models.case_figures(out, case, summary, times, curves, tips)
+    if model_figures.is_model_case(case):
+        return model_figures.case_figures(out, case, summary, times, curves, tips)
     files = [error_curves(out / "errors.png", case, summary, times, curves)]
     if tips:
         files.append(tip_history(out / "tip.png", case, summary, times, tips))
@@ -88,28 +73,6 @@ def static_label(summary, reference):
 
 
 # --- error curves --------------------------------------------------------------------------
-
-
-def plot_curve(ax, times, y, k, n, every, label=None, small=False) -> str:
-    """Curve k of n from step 1 on: its colour, dash pattern, width and markers differ from
-    curve to curve, the markers (one per `every` steps) staggered so that they do not cover
-    each other. Returns the colour."""
-    color, (dash, width) = f"C{k % 10}", STYLES[k % len(STYLES)]
-    ax.plot(
-        times[1:],
-        y[1:],
-        dash,
-        color=color,
-        lw=width,
-        label=label,
-        zorder=2 + k,
-        marker=MARKERS[k % len(MARKERS)],
-        ms=4 if small else 5,
-        mfc="white",
-        mew=1.0 if small else 1.2,
-        markevery=(k * every // max(1, n), every),
-    )
-    return color
 
 
 def error_figure(case, summary, times, curves):

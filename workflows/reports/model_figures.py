@@ -29,25 +29,19 @@ from matplotlib.ticker import LogFormatter, NullLocator
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import LINEAR, split_label
-from tissuebench.workflows.reports.figures import MARKERS, STYLES, plot_curve
+from tissuebench.workflows.reports.style import (
+    DIVERGED_FILL,
+    HEAT_CMAP,
+    MARKERS,
+    STYLES,
+    model_style,
+    plot_curve,
+)
 from tissuebench.workflows.io.tables import spans_decades
 
 DEFORMATION = "deformation.json"
 SHAPE_MODELS = ("linear", "corotational", "neo-hookean")  # shapes.png: the implicit runs of these
 SHAPE_ALGORITHM = "implicit"
-# one colour and dash per model (shapes.png, tip_path.png); the neo-Hookean reference in black
-MODEL_STYLE = {
-    "linear": ("C0", "-"),
-    "svk": ("C3", "-."),
-    "neo-hookean": ("C2", "-"),
-    "corotational": ("C1", "--"),
-}
-HEAT_CMAP = "magma_r"  # light: close to the reference; dark: far from it
-DIVERGED_FILL = "#d9d9d9"
-
-
-def model_style(model, k=0):
-    return MODEL_STYLE.get(model, (f"C{4 + k}", ":"))
 
 
 def is_model_case(case) -> bool:

@@ -1,0 +1,66 @@
+"""The look shared by the figures of part 1 (figures.py) and part 2 (model_figures.py): one
+line style and marker per run, one colour and dash per elastic model, the colour maps."""
+
+import numpy as np
+from matplotlib.axes import Axes
+
+# One line style per run, widest first: a run drawn later lies on top of the earlier ones with
+# a narrower, differently dashed line, so curves that coincide all stay visible.
+STYLES = [
+    ("-", 3.4),
+    ("--", 2.5),
+    ("-.", 1.9),
+    (":", 2.2),
+    ("-", 1.1),
+    ("--", 1.1),
+    ("-.", 1.1),
+    (":", 1.1),
+]
+MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
+CMAP = "viridis"
+OUTLINE = "#737373"  # the undeformed outline, drawn behind the deformed shape
+# one colour and dash per model (shapes.png, tip_path.png); the neo-Hookean reference in black
+MODEL_STYLE = {
+    "linear": ("C0", "-"),
+    "svk": ("C3", "-."),
+    "neo-hookean": ("C2", "-"),
+    "corotational": ("C1", "--"),
+}
+HEAT_CMAP = "magma_r"  # light: close to the reference; dark: far from it
+DIVERGED_FILL = "#d9d9d9"
+
+
+def model_style(model: str, k: int = 0) -> tuple[str, str]:
+    """(colour, dash) of an elastic model's lines; an unknown model takes colour k past the four."""
+    return MODEL_STYLE.get(model, (f"C{4 + k}", ":"))
+
+
+def plot_curve(
+    ax: Axes,
+    times: np.ndarray,
+    y: np.ndarray,
+    k: int,
+    n: int,
+    every: int,
+    label: str | None = None,
+    small: bool = False,
+) -> str:
+    """Curve k of n from step 1 on (times in s): its colour, dash pattern, width and markers
+    differ from curve to curve, the markers (one per `every` steps) staggered so that they do
+    not cover each other. Returns the colour."""
+    color, (dash, width) = f"C{k % 10}", STYLES[k % len(STYLES)]
+    ax.plot(
+        times[1:],
+        y[1:],
+        dash,
+        color=color,
+        lw=width,
+        label=label,
+        zorder=2 + k,
+        marker=MARKERS[k % len(MARKERS)],
+        ms=4 if small else 5,
+        mfc="white",
+        mew=1.0 if small else 1.2,
+        markevery=(k * every // max(1, n), every),
+    )
+    return color
