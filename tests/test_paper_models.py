@@ -18,7 +18,7 @@ from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.reports import model_figures as figures_models
-from tissuebench.workflows.reports import paper_report as report
+from tissuebench.workflows.reports import large_deformation as part2
 from tissuebench.workflows.commands.paper import cases, model_cases
 from tissuebench.workflows.study import RunSpec
 
@@ -249,7 +249,7 @@ def write_metrics(folder, s, growth=None):
 
 def test_linearisation_is_compared_with_lumping_and_explicit_stepping(tmp_path):
     large = four_cases()
-    text = "\n".join(report.large_deformation(tmp_path, large))
+    text = "\n".join(part2.large_deformation(tmp_path, large))
     block = next(line for line in text.splitlines() if line.startswith("- **block-s1**"))
     assert "linearisation loses E_i = 0.003 m" in block
     assert "60 times the loss from lumping (`implicit-lumped+neo-hookean`, 5e-05 m)" in block
@@ -273,19 +273,19 @@ def test_linearisation_is_compared_with_lumping_and_explicit_stepping(tmp_path):
 def test_linearisation_not_the_largest_loss_is_said_so(tmp_path):
     large = four_cases()
     large["rod-s1"]["runs"]["implicit-lumped+neo-hookean"]["interior_error_mean"] = 8e-4
-    text = "\n".join(report.large_deformation(tmp_path, large))
+    text = "\n".join(part2.large_deformation(tmp_path, large))
     assert "linearisation is not the largest of these losses on every case" in text
     assert "The paper's question" not in text
 
 
 def test_divergences_give_reasons_times_and_what_the_data_say(tmp_path):
     large = four_cases()
-    folder = tmp_path / report.LARGE_DEFORMATION
+    folder = tmp_path / part2.LARGE_DEFORMATION
     growth = {"explicit+neo-hookean": 1.5, "implicit+svk": 1.02, "explicit+svk": 1.03}
     for name, s in large.items():
         write_metrics(folder / name, s, growth)
     limits = {n: {"explicit": 0.0353, "explicit-lumped": 0.0647} for n in large}
-    lines = report.large_deformation(tmp_path, large, limits)
+    lines = part2.large_deformation(tmp_path, large, limits)
     text = "\n".join(lines)
     start = lines.index("### Which combinations diverge, and why")
     rows = [line for line in lines[start:] if line.startswith("| block-s1 |")]
@@ -317,18 +317,18 @@ def test_divergences_give_reasons_times_and_what_the_data_say(tmp_path):
 
 def test_explicit_without_geometric_growth_is_not_called_an_instability(tmp_path):
     large = four_cases()
-    folder = tmp_path / report.LARGE_DEFORMATION
+    folder = tmp_path / part2.LARGE_DEFORMATION
     for name, s in large.items():
         write_metrics(folder / name, s)  # flat curves: no growth
     limits = {n: {"explicit": 0.0353, "explicit-lumped": 0.0647} for n in large}
-    text = "\n".join(report.large_deformation(tmp_path, large, limits))
+    text = "\n".join(part2.large_deformation(tmp_path, large, limits))
     assert "grew 1 times on block-s1" in text
     assert "instability" not in text
 
 
 def test_deformation_json_gives_the_place_of_the_smallest_j(tmp_path):
     large = four_cases()
-    folder = tmp_path / report.LARGE_DEFORMATION / "block-s1"
+    folder = tmp_path / part2.LARGE_DEFORMATION / "block-s1"
     folder.mkdir(parents=True)
     smallest = {
         label: {
@@ -353,7 +353,7 @@ def test_deformation_json_gives_the_place_of_the_smallest_j(tmp_path):
             }
         )
     )
-    text = "\n".join(report.large_deformation(tmp_path, large))
+    text = "\n".join(part2.large_deformation(tmp_path, large))
     row = next(line for line in text.splitlines() if "| explicit+neo-hookean |" in line)
     assert "0.02 at t = 1.87 s, in the cell at (0.975, 0.475) m, beside the needle" in row
     # the jump of J in the last step: from the last kept step to the reason's J
@@ -367,7 +367,7 @@ def test_deformation_json_gives_the_place_of_the_smallest_j(tmp_path):
 
 
 def test_ratios_keep_two_significant_digits():
-    assert [report.ratio_text(r) for r in (1.234, 7.5, 64.2, 115.0, 1332.0)] == [
+    assert [part2.ratio_text(r) for r in (1.234, 7.5, 64.2, 115.0, 1332.0)] == [
         "1.2",
         "7.5",
         "64",
@@ -378,12 +378,12 @@ def test_ratios_keep_two_significant_digits():
 
 def test_place_names_the_needle_and_the_clamp():
     block = summary("b", width=0.2)
-    assert report.place(block, [0.975, 0.575]).endswith("beside the needle")
-    assert "needle" not in report.place(block, [0.475, 0.575])
+    assert part2.place(block, [0.975, 0.575]).endswith("beside the needle")
+    assert "needle" not in part2.place(block, [0.475, 0.575])
     rod = summary("r", "rod")
-    words = report.place(rod, [0.0417, 0.0417, 0.125])
+    words = part2.place(rod, [0.0417, 0.0417, 0.125])
     assert "clamped face x = 0" in words and "lower edge" in words
-    assert "clamped" not in report.place(rod, [0.458, 0.0417, 0.125])
+    assert "clamped" not in part2.place(rod, [0.458, 0.0417, 0.125])
 
 
 def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
@@ -395,9 +395,9 @@ def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
     for model, tip in tips.items():
         s["runs"][run_label("quasi-static", model)]["tip_displacement_final"] = [*tip, 0.0]
     s["runs"]["quasi-static+svk"].update(status="diverged", diverged_step=1, diverged_time=H)
-    lines = report.large_deformation(tmp_path, large)
+    lines = part2.large_deformation(tmp_path, large)
     assert lines[0].startswith("## Part 2")
-    section = "\n".join(report.model_case_section(tmp_path, "rod-s1", s))
+    section = "\n".join(part2.model_case_section(tmp_path, "rod-s1", s))
     assert "![loss of realism](large-deformation/rod-s1/realism.png)" in section
     assert "![errors](large-deformation/rod-s1/errors.png)" in section
     assert "![tip path](large-deformation/rod-s1/tip_path.png)" in section

@@ -14,7 +14,7 @@ import pytest
 
 from tissuebench.metrics.surface import Solid, surface_error
 from tissuebench.workflows.reports import figures
-from tissuebench.workflows.reports import paper_report as report
+from tissuebench.workflows.reports import claims as report
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
 

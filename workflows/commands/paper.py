@@ -26,7 +26,7 @@ from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import paper_truth
-from tissuebench.workflows.reports import paper_report as report
+from tissuebench.workflows.reports import paper as report
 from tissuebench.workflows.output import (
     check_owned,
     check_writable,

@@ -1,6 +1,6 @@
-"""The CSV files of a run or a comparison: metrics.csv (one row per run and step: the time in
-s, every metric of METRICS, the step's status) and tip.csv (the probe point's displacement in
-m)."""
+"""The CSV files of a run or a comparison, written and read here: metrics.csv (one row per run
+and step: the time in s, every metric of METRICS, the step's status) and tip.csv (the probe
+point's displacement in m)."""
 
 from __future__ import annotations
 
@@ -46,6 +46,36 @@ def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) ->
         for label, tip in tips.items():
             for i, t in enumerate(times[: len(tip)]):
                 writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in tip[i])])
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    """A CSV file's rows as {column: text}, keyed by its header."""
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def read_curves(path: Path) -> tuple[np.ndarray, dict[str, dict[str, np.ndarray]]]:
+    """(times in s, {label: {"time" or metric: values per step}}) from a metrics.csv; the times
+    are those of its first run."""
+    curves: dict[str, dict[str, list[float]]] = {}
+    for r in read_rows(path):
+        c = curves.setdefault(r["algorithm"], {"time": [], **{m: [] for m in METRICS}})
+        c["time"].append(float(r["time"]))
+        for m in METRICS:
+            c[m].append(float(r[m]))
+    arrays = {label: {k: np.array(v) for k, v in c.items()} for label, c in curves.items()}
+    times = next(iter(arrays.values()))["time"]
+    return times, arrays
+
+
+def read_tips(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{label: (times in s, u_y in m)} from a tip.csv."""
+    tips: dict[str, tuple[list[float], list[float]]] = {}
+    for r in read_rows(path):
+        t, y = tips.setdefault(r["algorithm"], ([], []))
+        t.append(float(r["time"]))
+        y.append(float(r["u_y"]))
+    return {label: (np.array(t), np.array(y)) for label, (t, y) in tips.items()}
 
 
 def spans_decades(values) -> bool:

@@ -1,0 +1,172 @@
+"""What the documents of results/README.md share (reports/paper.py, claims.py,
+large_deformation.py, divergence.py, truth.py): the summaries' readings, the claims' margins,
+the metric table of a case, and the helpers of part 2 (what each run loses against the
+reference, where a cell lies).
+
+Every verdict says on which summary of the error curves it is judged. The summaries are those
+of summary.json (SPEC section 6): the time-mean and the maximum over steps 1..N."""
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tissuebench.metrics.table import METRICS as TABLE
+from tissuebench.solvers.models import run_label, split_label
+
+# the claims are read on the metrics of the table that are no variant (E_n, E_s, E_i)
+METRICS = tuple(name for name, m in TABLE.items() if m.variant_of is None)
+READINGS = {"mean": "time-mean", "max": "maximum"}
+FAR = 10  # 'far less' taken as ten times less
+ROUGHLY = 2  # 'roughly the sum' taken as within a factor 2
+SETTLED = 1e-6  # 'the same static solution' taken as agreeing to 1e-6, relative
+ABOUT = 0.05  # 'at about t = 4.2 s' taken as within 5 %
+PAPER_CROSSING = 4.2  # s, SPEC section 7
+LARGE_DEFORMATION = "large-deformation"  # the folder of part 2 (SPEC section 8) in the output
+LOSS_READING = "interior_error"  # the loss of realism: the time-mean E_i (m) against the reference
+
+
+@dataclass
+class Verdict:
+    """A claim judged on our numbers: one of SPEC section 7 or one that part 2 makes.
+
+    `claim`: SPEC 7's number, or the claim in words; `holds`: the verdict on the reading it rests on (None: not judged);
+    `checks`: each part of the judgement, {(metric, reading): bool} where the claim is judged
+    per metric and summary, {name: bool} otherwise; `numbers`: the values it rests on, by name
+    (E_n and E_s dimensionless, E_i in m^d, times in s, displacements in m)."""
+
+    claim: int | str
+    holds: bool | None
+    checks: dict[Any, bool] = field(default_factory=dict)
+    numbers: dict[str, Any] = field(default_factory=dict)
+
+
+def fmt(x: float | None) -> str:
+    """A number to three significant digits, or n/a."""
+    return "n/a" if x is None else f"{x:.3g}"
+
+
+def metric_table(summary: dict) -> str:
+    """A case's runs: status, and each metric of the table's max and time-mean, wall time (s)."""
+    names = [n for n in TABLE if f"{n}_max" in next(iter(summary["runs"].values()))]
+    head = "| run | status | " + " | ".join(
+        f"{TABLE[n].symbol} max | {TABLE[n].symbol} mean" for n in names
+    )
+    head += " | wall time (s) |"
+    lines = [head, "|" + "---|" * (3 + 2 * len(names))]
+    for label, run in summary["runs"].items():
+        status = (
+            run["status"]
+            if run["status"] == "ok"
+            else f"diverged at step {run['diverged_step']} (t = {run['diverged_time']:.3g} s)"
+        )
+        cells = " | ".join(f"{fmt(run[n + '_max'])} | {fmt(run[n + '_mean'])}" for n in names)
+        ref = " (reference)" if label == summary["reference"] else ""
+        lines.append(f"| {label}{ref} | {status} | {cells} | {run['wall_time_s']:.2f} |")
+    return "\n".join(lines)
+
+
+def value(
+    summary: dict, label: str, metric: str = "relative_error", reading: str = "mean"
+) -> float:
+    """A run's summary of a metric, as summary.json holds it (`<metric>_mean`, `<metric>_max`),
+    in the metric's unit; NaN where it holds none."""
+    v = summary["runs"][label][f"{metric}_{reading}"]
+    return np.nan if v is None else v
+
+
+def mean(summary: dict, label: str, metric: str = "relative_error") -> float:
+    """A run's time-mean of a metric (the metric's unit)."""
+    return value(summary, label, metric, "mean")
+
+
+def verdict(ok: bool | None) -> str:
+    """A verdict in bold."""
+    return "**holds**" if ok else "**does not hold**"
+
+
+def plain(ok: bool | None) -> str:
+    """A verdict in plain text."""
+    return "holds" if ok else "does not hold"
+
+
+def first_steps(k: int) -> str:
+    """'step 1' or 'steps 1..k'."""
+    return "step 1" if k == 1 else f"steps 1..{k}"
+
+
+def peak_from(curve: np.ndarray, start: int) -> tuple[float, int | None]:
+    """(max, step) of a curve over steps start..N, ignoring NaN."""
+    tail = curve[start:]
+    if not np.isfinite(tail).any():
+        return np.nan, None
+    k = int(np.nanargmax(tail))
+    return float(tail[k]), start + k
+
+
+# --- part 2's helpers ------------------------------------------------------------------------
+
+
+def read_deformation(folder: Path) -> dict | None:
+    """A case's deformation.json (workflows/reports/model_figures.py), or None."""
+    try:
+        return json.loads((Path(folder) / "deformation.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def loss_runs(summary: dict) -> dict[str, str]:
+    """{what is lost: run label} against the reference (ALGORITHM+MODEL): each run differs from
+    the reference in one respect (or two, for lumped explicit stepping)."""
+    algorithm, model = split_label(summary["reference"])
+    return {
+        "linearisation": run_label(algorithm, "linear"),
+        "svk": run_label(algorithm, "svk"),
+        "corotational": run_label(algorithm, "corotational"),
+        "lumping": run_label("implicit-lumped", model),
+        "explicit stepping": run_label("explicit", model),
+        "lumped explicit stepping": run_label("explicit-lumped", model),
+        "inertia (quasi-static)": run_label("quasi-static", model),
+    }
+
+
+def loss(summary: dict, label: str) -> tuple[float, str | None, float | None]:
+    """(time-mean E_i in m, status, divergence time in s) of a run; (nan, None, None) if it is
+    absent."""
+    run = summary["runs"].get(label)
+    if run is None:
+        return np.nan, None, None
+    v = run.get(f"{LOSS_READING}_mean")
+    return (np.nan if v is None else float(v)), run["status"], run.get("diverged_time")
+
+
+def ratio_text(r: float) -> str:
+    """A ratio to two significant digits, written out in full above 10."""
+    return f"{float(f'{r:.2g}'):.0f}" if r >= 10 else f"{r:.2g}"
+
+
+def cases_text(names) -> str:
+    """'a, b and c'."""
+    names = list(names)
+    return " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
+
+
+def place(summary: dict, centre) -> str:
+    """Where a cell centre (m) lies, in words, from the benchmark's geometry (SPEC sections 4,
+    5)."""
+    x = centre
+    text = "(" + ", ".join(f"{c:.3g}" for c in x) + ") m"
+    if summary["benchmark"] == "block":  # the needle: x = 1, |y - 0.5| <= w/2
+        w = summary.get("needle_width", 0) or 0
+        d = np.hypot(1 - x[0], max(abs(x[1] - 0.5) - w / 2, 0.0))
+        if d < 1.5 / summary["mesh_size"]:
+            text += ", beside the needle"
+    elif summary["benchmark"] == "rod":  # clamped at x = 0; height 0.25 m over n cells
+        cell = 0.25 / summary["mesh_size"]
+        if x[0] < cell:
+            text += ", in the first layer of cells at the clamped face x = 0"
+            if x[1] < cell:
+                text += ", at its lower edge (compressed as the rod bends down)"
+    return text
