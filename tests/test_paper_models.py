@@ -18,6 +18,7 @@ from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.reports import model_figures as figures_models
+from tissuebench.workflows.reports import divergence
 from tissuebench.workflows.reports import large_deformation as part2
 from tissuebench.workflows.commands.paper import cases, model_cases
 from tissuebench.workflows.study import RunSpec
@@ -260,6 +261,10 @@ def test_linearisation_is_compared_with_lumping_and_explicit_stepping(tmp_path):
     # at s = 1 the linear loss is the largest on both cases: 7.5 (block) and 5 (rod) times
     assert "linearisation is the largest of these losses on every case" in text
     assert "on block-s1 it is 7.5 times" in text and "on rod-s1 it is 5 times" in text
+    v = part2.judge_paper_loads(large)  # the same verdict as data: block-s2, rod-s3 not at s = 1
+    assert v.holds is True and v.checks == {"block-s1": True, "rod-s1": True}
+    assert v.numbers["block-s1"] == (pytest.approx(7.5), "lumped explicit stepping")
+    assert v.numbers["rod-s1"] == (pytest.approx(5.0), "lumped explicit stepping")
     # the linear loss grows as s^2 on both benchmarks (4 times for s = 2, 9 times for s = 3)
     assert "4 times for 2 times the load (the needle width changes too): as s^2" in text
     assert "9 times for 3 times the load: as s^2" in text
@@ -276,6 +281,9 @@ def test_linearisation_not_the_largest_loss_is_said_so(tmp_path):
     text = "\n".join(part2.large_deformation(tmp_path, large))
     assert "linearisation is not the largest of these losses on every case" in text
     assert "The paper's question" not in text
+    v = part2.judge_paper_loads(large)  # lumping now loses 8e-4 > 4e-4 on the rod
+    assert v.holds is False and v.checks == {"block-s1": True, "rod-s1": False}
+    assert v.numbers["rod-s1"] == (pytest.approx(0.5), "lumping")
 
 
 def test_divergences_give_reasons_times_and_what_the_data_say(tmp_path):
@@ -312,6 +320,11 @@ def test_divergences_give_reasons_times_and_what_the_data_say(tmp_path):
     # E_i grew 1.5 per step over the last 10 steps: 1.5^10 = 57.7; the svk runs 1.03^10 = 1.34
     assert "grew 57.7 times on block-s1" in explicit and "at most 1.3 times" in explicit
     assert "an instability of the step rather than a collapse" in explicit
+    items = [(n, label, r) for n, label, r in divergence.diverged_runs(large) if "neo" in label]
+    v = divergence.judge_instability(tmp_path, large, items)
+    assert v.holds is True and v.numbers["growth"] == {
+        ("block-s1", "explicit+neo-hookean"): pytest.approx(1.5**10)
+    }
     assert "- **linear**: no run diverged" in text
 
 
@@ -324,6 +337,10 @@ def test_explicit_without_geometric_growth_is_not_called_an_instability(tmp_path
     text = "\n".join(part2.large_deformation(tmp_path, large, limits))
     assert "grew 1 times on block-s1" in text
     assert "instability" not in text
+    items = [(n, label, r) for n, label, r in divergence.diverged_runs(large) if "neo" in label]
+    v = divergence.judge_instability(tmp_path, large, items)
+    assert v.holds is False and v.checks["the error grew geometrically"] is False
+    assert v.checks["the reference and explicit-lumped ran"] is True
 
 
 def test_deformation_json_gives_the_place_of_the_smallest_j(tmp_path):

@@ -14,6 +14,7 @@ import pytest
 
 from tissuebench.metrics.surface import Solid, surface_error
 from tissuebench.workflows.reports import figures
+from tissuebench.workflows.io.tables import write_tip_csv
 from tissuebench.workflows.reports import claims as report
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
@@ -285,3 +286,137 @@ def test_rod_reference_against_itself_has_surface_error_exactly_zero():
     metrics = Metrics(system.V)
     values = [metrics.surface(u, u.copy()) for u in run.u[1:]]
     assert values == [0.0] * 45
+
+
+# --- verdicts as data (issue 24) ----------------------------------------------------------------
+
+
+def test_claim_1_verdict_flips_when_quasi_static_is_not_the_worst(tmp_path):
+    """The verdict as data: holds on every (metric, reading) in the paper's order; with
+    quasi-static below explicit-lumped (0.05 < 0.1) no reading holds and the verdict flips."""
+    s = write_case(tmp_path / "a" / "block-MP1", block_curves(50, explicit_first=None))
+    v = report.judge_claims(tmp_path / "a", {"block-MP1": s})[0]
+    assert v.claim == 1 and v.holds is True and all(v.checks.values())
+    assert v.numbers["rows"]["relative_error", "mean"]["values"] == pytest.approx(
+        {"explicit": 0.001, "implicit-lumped": 0.05, "explicit-lumped": 0.1, "quasi-static": 0.5}
+    )
+    curves = block_curves(50, explicit_first=None)
+    curves["quasi-static"] = {m: flat(0.07, 50) for m in NAMES}
+    s = write_case(tmp_path / "b" / "block-MP1", curves)
+    v = report.judge_claims(tmp_path / "b", {"block-MP1": s})[0]
+    assert v.holds is False and not any(v.checks.values())
+
+
+def test_claim_2_is_the_ratio_to_the_sum_and_flips_past_a_factor_2(tmp_path):
+    """explicit-lumped 0.1 against explicit + implicit-lumped = 0.051: ratio 1.96, within a
+    factor 2; at 0.11 the ratio is 2.16 and the verdict flips."""
+    for level, ratio, holds in ((0.1, 0.1 / 0.051, True), (0.11, 0.11 / 0.051, False)):
+        curves = block_curves(50, explicit_first=None)
+        curves["explicit-lumped"] = {m: flat(level, 50) for m in NAMES}
+        s = write_case(tmp_path / str(level) / "block-MP1", curves)
+        v = report.judge_claims(tmp_path / str(level), {"block-MP1": s})[1]
+        assert v.claim == 2 and v.holds is holds
+        assert v.numbers["ratio"] == pytest.approx(ratio, rel=1e-12)
+
+
+def test_claim_4_verdict_is_the_statuses_of_the_four_schemes():
+    runs = {
+        "implicit": {"status": "ok"},
+        "explicit": {"status": "diverged", "diverged_step": 3, "diverged_time": 0.1},
+        "explicit-lumped": {"status": "diverged", "diverged_step": 9, "diverged_time": 0.3},
+        "quasi-static": {"status": "ok"},
+    }
+    v = report.judge_diverge({"runs": runs})
+    assert v.claim == 4 and v.holds is True
+    runs["explicit-lumped"] = {"status": "ok"}  # one explicit scheme runs: the claim fails
+    v = report.judge_diverge({"runs": runs})
+    assert v.holds is False and v.checks == {
+        "explicit": True,
+        "explicit-lumped": False,
+        "implicit": True,
+        "quasi-static": True,
+    }
+
+
+def write_rod(folder, crossing, end_time, h=0.1, level=-0.02, damping=0.05):
+    """A rod case whose implicit tip is the damped oscillation about the static deflection
+    y = L (1 - exp(-z w t) cos w t), crossing L first at t = pi / (2 w) = `crossing`, and whose
+    quasi-static run sits at L: its E_n against implicit is |L - y| / |y|, zero where y = L."""
+    n = int(round(end_time / h))
+    t = np.arange(n + 1) * h
+    w = np.pi / (2 * crossing)
+    y = level * (1 - np.exp(-damping * w * t) * np.cos(w * t))
+    qs = np.where(t > 0, level, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e_qs = np.abs(qs - y) / np.abs(y)
+    e_qs[0] = np.nan
+    curves = {
+        "implicit": {m: flat(0.0, n) for m in NAMES},
+        "quasi-static": {m: e_qs if m == "relative_error" else flat(0.1, n) for m in NAMES},
+    }
+    s = write_case(folder, curves, h=h)
+    tips = {"implicit": np.c_[0 * y, y], "quasi-static": np.c_[0 * qs, qs]}
+    write_tip_csv(folder / "tip.csv", t, tips)
+    return s
+
+
+def test_claim_6_verdict_on_a_damped_oscillation_and_its_flip(tmp_path):
+    """Independent of the code: the tip y = L (1 - e^(-z w t) cos w t) crosses L at
+    t = (2k + 1) pi / (2 w), alternately from above and below, each excursion smaller; the
+    quasi-static E_n is 0 there. Crossing first at 4.2 s the claim holds; at 5 s it is no
+    longer 'about 4.2 s' (5 % margin) and only that check fails."""
+    from tissuebench.workflows.reports.common import PAPER_CROSSING
+
+    for crossing, holds in ((PAPER_CROSSING, True), (5.0, False)):
+        out = tmp_path / str(crossing)
+        s = {
+            "rod-MP3": write_rod(out / "rod-MP3", crossing, 10.0),
+            "rod-MP3-30s": write_rod(out / "rod-MP3-30s", crossing, 30.0),
+        }
+        v = report.judge_claims(out, s)[0]
+        assert v.claim == 6 and v.holds is holds
+        assert v.numbers["first"] == pytest.approx(crossing, abs=0.01)
+        expected = [(2 * k + 1) * crossing for k in range(4) if (2 * k + 1) * crossing < 30]
+        assert v.numbers["long"]["crossings"] == pytest.approx(expected, abs=0.01)
+        assert v.numbers["long"]["decays"] is True
+        assert v.numbers["minimum_time"] == pytest.approx(crossing, abs=0.1)
+        assert v.checks == {
+            "overshoots": True,
+            "near 4.2 s": holds,
+            "at the minimum": True,
+            "oscillates": True,
+        }
+
+
+def test_verdicts_on_the_committed_results_are_those_of_the_committed_readme():
+    """The claims judged as data on results/ (the committed summaries and CSV files) agree
+    with the verdicts results/README.md states for them, and claim 2's ratio is the one of the
+    summaries' time-means."""
+    import json
+    from pathlib import Path
+
+    results = Path(__file__).parents[1] / "results"
+    readme = (results / "README.md").read_text()
+    names = ("block-MP1", "block-MP2", "block-MP2-vs-MP1", "rod-MP3", "rod-MP3-30s")
+    s = {n: json.loads((results / n / "summary.json").read_text()) for n in names}
+    verdicts = {v.claim: v for v in report.judge_claims(results, s)}
+    assert set(verdicts) == {1, 2, 3, 4, 5, 6}
+    assert verdicts[3].holds is None  # block-MP1-40s left out: not judged
+    for claim in (1, 2, 4, 5, 6):
+        start = readme.index(f"\n{claim}. *")
+        end = readme.index("\n## ", start)
+        nxt = readme.find(f"\n{claim + 1}. *", start, end)
+        text = readme[start : nxt if nxt > 0 else end]
+        stated = "**holds**" in text
+        assert stated != ("**does not hold**" in text)
+        assert verdicts[claim].holds is stated, claim
+    runs = s["block-MP1"]["runs"]
+    e, il, el = (
+        runs[a]["relative_error_mean"] for a in ("explicit", "implicit-lumped", "explicit-lumped")
+    )
+    assert verdicts[2].numbers["ratio"] == pytest.approx(el / (e + il), rel=1e-12)
+    statuses = {a: r["status"] for a, r in s["block-MP2"]["runs"].items()}
+    assert verdicts[4].holds is (
+        statuses["explicit"] == statuses["explicit-lumped"] == "diverged"
+        and statuses["implicit"] == statuses["quasi-static"] == "ok"
+    )
