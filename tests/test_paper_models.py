@@ -272,6 +272,8 @@ def test_linearisation_is_compared_with_lumping_and_explicit_stepping(tmp_path):
     assert "on block-s1 0.006 m, 2 times the linear model's 0.003 m" in text
     assert "on rod-s1 0.0001 m, 4 times less than the linear model's 0.0004 m" in text
     assert "removes much of the linear model's loss on rod-s1, rod-s3; but not on block-s1" in text
+    v = part2.judge_corotational(large)  # block-s2's corotational run diverged: not judged there
+    assert v.holds is False and v.checks == {"block-s1": False, "rod-s1": True, "rod-s3": True}
     assert "`implicit+corotational` diverged at t = 1.5 s" in text
 
 
@@ -326,6 +328,11 @@ def test_divergences_give_reasons_times_and_what_the_data_say(tmp_path):
         ("block-s1", "explicit+neo-hookean"): pytest.approx(1.5**10)
     }
     assert "- **linear**: no run diverged" in text
+    v = divergence.judge_linear(large, {})  # no deformation.json: J not judged
+    assert v.holds is True and v.checks == {"no run diverged": True} and v.numbers["J"] == {}
+    large["rod-s3"]["runs"]["implicit"].update(status="diverged", diverged_time=0.5)
+    assert divergence.judge_linear(large, {}).numbers["diverged"] == ["implicit"]
+    assert divergence.judge_linear(large, {}).holds is False
 
 
 def test_explicit_without_geometric_growth_is_not_called_an_instability(tmp_path):

@@ -23,15 +23,18 @@ from tissuebench.workflows.reports.common import (
     ROUGHLY,
     SETTLED,
     Verdict,
+    excursions,
     first_steps,
     fmt,
     mean,
     peak_from,
     plain,
+    settled,
+    tip_crossings,
     value,
     verdict,
 )
-from tissuebench.workflows.reports.figures import crossings, static_label
+from tissuebench.workflows.reports.figures import static_label
 
 ORDER = ("explicit", "implicit-lumped", "explicit-lumped", "quasi-static")
 READING_ORDER = ("mean", "max")
@@ -203,26 +206,6 @@ def render_sum(v: Verdict) -> list[str]:
 
 
 # --- claim 3 -------------------------------------------------------------------------------
-
-
-def settled(folder: Path, summary: dict, steps: list[int] | None = None) -> dict:
-    """{label: {step: ||u - u_qs|| / ||u_qs||}}: each run of the case against its quasi-static
-    run at the given steps (default: the last), Euclidean norms of all nodal displacement
-    components, from the runs' XDMF output. Runs that diverged are left out."""
-    from tissuebench.workflows.io.series import read_series
-
-    static = static_label(summary, summary["reference"])
-    steps = [summary["steps"]] if steps is None else steps
-    us = read_series(folder / f"{static}.xdmf").displacements
-    result = {}
-    for label, run in summary["runs"].items():
-        if label == static or run["status"] != "ok":
-            continue
-        u = read_series(folder / f"{label}.xdmf").displacements
-        result[label] = {
-            k: float(np.linalg.norm(u[k] - us[k]) / np.linalg.norm(us[k])) for k in steps
-        }
-    return result
 
 
 def judge_settle(out: Path, b1: dict, curves: dict, long: dict | None) -> Verdict:
@@ -452,30 +435,6 @@ def render_material(v: Verdict) -> list[str]:
 
 
 # --- claim 6 -------------------------------------------------------------------------------
-
-
-def tip_crossings(tips: dict, summary: dict) -> tuple[float, list[float]]:
-    """(static tip deflection in m, the reference tip's crossings of it in s, interpolated)."""
-    ref = summary["reference"]
-    static = static_label(summary, ref)
-    level = float(tips[static][1][-1])
-    t, y = tips[ref]
-    return level, crossings(t, y, level)
-
-
-def excursions(
-    t: np.ndarray, y: np.ndarray, level: float, times: list[float]
-) -> list[tuple[float, float]]:
-    """The extreme of y - level between consecutive crossing times (and after the last):
-    [(time, y - level)]."""
-    edges = [0.0, *times, t[-1] + 1]
-    result = []
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        inside = np.flatnonzero((t > a) & (t < b))
-        if len(inside) and a > 0:
-            k = inside[np.argmax(np.abs(y[inside] - level))]
-            result.append((float(t[k]), float(y[k] - level)))
-    return result
 
 
 def judge_rod(out: Path, rod: dict, long: dict | None) -> Verdict:

@@ -1,7 +1,8 @@
 """What the documents of results/README.md share (reports/paper.py, claims.py,
 large_deformation.py, divergence.py, truth.py): the summaries' readings, the claims' margins,
-the metric table of a case, and the helpers of part 2 (what each run loses against the
-reference, where a cell lies).
+the Verdict of a claim, the metric table of a case, what the claims read in the runs' files
+(the tip's crossings, the distance from the static solution) and the helpers of part 2 (what
+each run loses against the reference, where a cell lies).
 
 Every verdict says on which summary of the error curves it is judged. The summaries are those
 of summary.json (SPEC section 6): the time-mean and the maximum over steps 1..N."""
@@ -15,6 +16,7 @@ import numpy as np
 
 from tissuebench.metrics.table import METRICS as TABLE
 from tissuebench.solvers.models import run_label, split_label
+from tissuebench.workflows.reports.figures import crossings, static_label
 
 # the claims are read on the metrics of the table that are no variant (E_n, E_s, E_i)
 METRICS = tuple(name for name, m in TABLE.items() if m.variant_of is None)
@@ -104,6 +106,53 @@ def peak_from(curve: np.ndarray, start: int) -> tuple[float, int | None]:
         return np.nan, None
     k = int(np.nanargmax(tail))
     return float(tail[k]), start + k
+
+
+# --- the runs' files ------------------------------------------------------------------------
+
+
+def settled(folder: Path, summary: dict, steps: list[int] | None = None) -> dict:
+    """{label: {step: ||u - u_qs|| / ||u_qs||}}: each run of the case against its quasi-static
+    run at the given steps (default: the last), Euclidean norms of all nodal displacement
+    components, from the runs' XDMF output. Runs that diverged are left out."""
+    from tissuebench.workflows.io.series import read_series
+
+    static = static_label(summary, summary["reference"])
+    steps = [summary["steps"]] if steps is None else steps
+    us = read_series(folder / f"{static}.xdmf").displacements
+    result = {}
+    for label, run in summary["runs"].items():
+        if label == static or run["status"] != "ok":
+            continue
+        u = read_series(folder / f"{label}.xdmf").displacements
+        result[label] = {
+            k: float(np.linalg.norm(u[k] - us[k]) / np.linalg.norm(us[k])) for k in steps
+        }
+    return result
+
+
+def tip_crossings(tips: dict, summary: dict) -> tuple[float, list[float]]:
+    """(static tip deflection in m, the reference tip's crossings of it in s, interpolated)."""
+    ref = summary["reference"]
+    static = static_label(summary, ref)
+    level = float(tips[static][1][-1])
+    t, y = tips[ref]
+    return level, crossings(t, y, level)
+
+
+def excursions(
+    t: np.ndarray, y: np.ndarray, level: float, times: list[float]
+) -> list[tuple[float, float]]:
+    """The extreme of y - level between consecutive crossing times (and after the last):
+    [(time, y - level)]."""
+    edges = [0.0, *times, t[-1] + 1]
+    result = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        inside = np.flatnonzero((t > a) & (t < b))
+        if len(inside) and a > 0:
+            k = inside[np.argmax(np.abs(y[inside] - level))]
+            result.append((float(t[k]), float(y[k] - level)))
+    return result
 
 
 # --- part 2's helpers ------------------------------------------------------------------------

@@ -346,8 +346,13 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
     return text + "."
 
 
-def linear_never(large: dict, deformation: dict) -> str:
-    """The linear model: no run diverged, and its smallest J, which the solver does not check."""
+LINEAR_NEVER = "no linear run diverged or inverted a cell"
+
+
+def judge_linear(large: dict, deformation: dict) -> Verdict:
+    """The linear model: no run diverged, and none inverted a cell (its smallest J, from
+    deformation.json, which the solver does not check). `numbers`: the linear runs that
+    diverged, and {case: the smallest J of its linear runs}."""
     failed = [
         label
         for s in large.values()
@@ -366,6 +371,15 @@ def linear_never(large: dict, deformation: dict) -> str:
         ]
         if values:
             js[name] = min(values)
+    checks = {"no run diverged": not failed}
+    if js:
+        checks["no cell inverted"] = min(js.values()) > 0
+    return Verdict(LINEAR_NEVER, all(checks.values()), checks, {"diverged": failed, "J": js})
+
+
+def render_linear(v: Verdict) -> str:
+    """The linear model's bullet (markdown)."""
+    failed, js = v.numbers["diverged"], v.numbers["J"]
     text = (
         "- **linear**: "
         + ("no run diverged" if not failed else f"{', '.join(failed)} diverged")
@@ -373,8 +387,13 @@ def linear_never(large: dict, deformation: dict) -> str:
     )
     if js:
         text += (
-            (", and none had one" if min(js.values()) > 0 else ", but some had one")
+            (", and none had one" if v.checks["no cell inverted"] else ", but some had one")
             + ": the smallest J of the linear runs is "
-            + ", ".join(f"{v:.3g} on {n}" for n, v in js.items())
+            + ", ".join(f"{x:.3g} on {n}" for n, x in js.items())
         )
     return text + "."
+
+
+def linear_never(large: dict, deformation: dict) -> str:
+    """The linear model: no run diverged, and its smallest J, which the solver does not check."""
+    return render_linear(judge_linear(large, deformation))

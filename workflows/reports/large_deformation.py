@@ -268,6 +268,26 @@ def load_growth(large: dict) -> list[str]:
     return lines
 
 
+COROTATIONAL_BETTER = "the corotational model loses less than the linear one"
+
+
+def judge_corotational(large: dict) -> Verdict:
+    """On each case where the corotational run ran: does it lose less (time-mean E_i against
+    the reference) than the linear model? `checks` {case: bool}; `numbers` the cases where it
+    does (`better`) and where it does not (`worse`)."""
+    checks = {}
+    for n, s in large.items():
+        names = loss_runs(s)
+        corot = loss(s, names["corotational"])
+        if corot[1] == "ok":
+            checks[n] = bool(corot[0] < loss(s, names["linearisation"])[0])
+    better = [n for n, ok in checks.items() if ok]
+    worse = [n for n, ok in checks.items() if not ok]
+    return Verdict(
+        COROTATIONAL_BETTER, all(checks.values()), checks, {"better": better, "worse": worse}
+    )
+
+
 def corotational_bullets(large: dict, deformation: dict) -> list[str]:
     """The corotational model against the linear one, case by case."""
     parts = []
@@ -297,17 +317,8 @@ def corotational_bullets(large: dict, deformation: dict) -> list[str]:
         parts.append(text)
     if not parts:
         return []
-    better = [
-        n
-        for n, s in large.items()
-        if loss(s, loss_runs(s)["corotational"])[1] == "ok"
-        and loss(s, loss_runs(s)["corotational"])[0] < loss(s, loss_runs(s)["linearisation"])[0]
-    ]
-    worse = [
-        n
-        for n, s in large.items()
-        if loss(s, loss_runs(s)["corotational"])[1] == "ok" and n not in better
-    ]
+    v = judge_corotational(large)
+    better, worse = v.numbers["better"], v.numbers["worse"]
     summary = (
         "it removes much of the linear model's loss on "
         + (", ".join(better) or "no case")

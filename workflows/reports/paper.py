@@ -9,8 +9,13 @@ import numpy as np
 from tissuebench.metrics.table import METRICS as TABLE
 from tissuebench.workflows.io.tables import read_curves, read_tips
 from tissuebench.workflows.paper_truth import PaperTruth
-from tissuebench.workflows.reports.claims import claims, tip_crossings
-from tissuebench.workflows.reports.common import LARGE_DEFORMATION, METRICS, metric_table
+from tissuebench.workflows.reports.claims import claims
+from tissuebench.workflows.reports.common import (
+    LARGE_DEFORMATION,
+    METRICS,
+    metric_table,
+    tip_crossings,
+)
 from tissuebench.workflows.reports.figures import shape_rows, shown_steps, static_label
 from tissuebench.workflows.reports.large_deformation import large_deformation, model_case_section
 from tissuebench.workflows.reports.truth import truth_section
