@@ -175,7 +175,8 @@ def test_petsc_option_checks(solver, petsc, message):
     """Collective; the options refused are left out of PETSc's database."""
     from petsc4py import PETSc
 
-    from tissuebench.solvers.linear import OptionsError, check_petsc_options
+    from tissuebench.solvers.linear import OptionsError
+    from tissuebench.solvers.options import check_petsc_options
 
     with pytest.raises(OptionsError, match=re.escape(message)):
         check_petsc_options(petsc, solver)
@@ -187,7 +188,7 @@ def test_petsc_check_is_silent_and_reads_solve_time_options(capfd):
     solve prints nothing: only the run's solves do."""
     from petsc4py import PETSc
 
-    from tissuebench.solvers.linear import check_petsc_options
+    from tissuebench.solvers.options import check_petsc_options
 
     options = "-implicit_ksp_converged_reason -implicit_mass_ksp_view"
     try:

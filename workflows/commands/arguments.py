@@ -9,7 +9,8 @@ from typing import NamedTuple
 
 from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
 from tissuebench.solvers import ALGORITHMS, MODELS
-from tissuebench.solvers.linear import SOLVERS, check_petsc_options
+from tissuebench.solvers.linear import SOLVERS
+from tissuebench.solvers.options import check_petsc_options
 from tissuebench.meshes.errors import UserError
 
 
