@@ -1,0 +1,457 @@
+"""Kratos Multiphysics (StructuralMechanicsApplication) as an outside simulator: the rod posed
+as a Kratos user would, with its small-displacement solid elements and its implicit dynamic
+solver, run in a child Python process (its own OpenMP, logger and global state; one thread).
+
+The posed problem (SPEC sections 1-3, 5)
+----------------------------------------
+- Mesh: the exported nodes (Kratos node i + 1 is node i) and either the exported hexahedra as
+  `SmallDisplacementElement3D8N` (Q1, 2x2x2 Gauss: our own grid and element, compared node for
+  node with our `implicit`) or each hexahedron split into six tetrahedra exactly as newton.py
+  splits it (`split_hexahedra`, imported) as `SmallDisplacementElement3D4N` (P1).
+- Material: `LinearElastic3DLaw` with E, nu, rho: sigma = 2 mu eps + lambda tr(eps) I.
+- Mass: Kratos's consistent mass by default (checked on one tetrahedron: rho V / 20 (1 +
+  delta_ij), exactly P1's; the hexahedra's 2x2x2 Gauss is exact for Q1); the `-lumped`
+  variant sets COMPUTE_LUMPED_MASS_MATRIX on the properties, which gives V / 8 (V / 4) to each
+  corner: the SPEC's row-sum M_L on these cells. Kratos's element damping is then alpha M_L +
+  beta K: the SPEC's `implicit-lumped`.
+- Damping: the solver's `rayleigh_alpha` = alpha, `rayleigh_beta` = beta: C = alpha M + beta K
+  element by element, K the linear stiffness (K_0): the SPEC's form exactly.
+- Gravity: VOLUME_ACCELERATION on every node (the element's body force rho g, integrated with
+  its shape functions); the clamped face: DISPLACEMENT_X/Y/Z fixed at 0.
+- Solver: "Dynamic", `analysis_type` "linear" (ResidualBasedLinearStrategy: one solve per
+  step, the matrix built and factorised every step), LinearSolversApplication's sparse_lu
+  (Eigen's SparseLU: the fastest direct solver Kratos finds in these wheels, which have no
+  Pardiso, so its default too), `move_mesh_flag` false.
+- Schemes (StructuralMechanicsBossakScheme): `newmark` is alpha_m = 0, beta = 1/4, gamma = 1/2,
+  the trapezoidal rule of the SPEC's `implicit`; `bossak` is Kratos's default dynamic scheme,
+  alpha_m = -0.3, so beta = (1 - alpha_m)^2 / 4 = 0.4225, gamma = 1/2 - alpha_m = 0.8 (second
+  order, unconditionally stable, spectral radius (1 + alpha_m) / (1 - alpha_m) = 0.54 at
+  infinite frequency: it damps the high modes the trapezoidal rule keeps).
+- Time: the loop steps t by Kratos's AdvanceInTime (a running sum: 300 steps of 1/30 s end at
+  9.99999999999998 s; Kratos's AnalysisStage runs `while time < end_time`, so an end time of
+  T takes 301 steps, checked, and a project file must say T - h/2). Here the loop runs exactly
+  `steps` steps and the output is the displacement at every t_i = i h.
+
+Departures from the SPEC, measured (tests/test_external_kratos.py: rod MP3, n = 2, 1 s)
+--------------------------------------------------------------------------------------
+- Initial acceleration: Kratos alone starts from a_0 = 0, not from M a_0 = f as the SPEC
+  decides (checked: its u_1 is exactly half ours, h^2/4 S^-1 f against h^2/2 S^-1 f with
+  S = M + hC/2 + h^2 K/4). Posed here: before the first step the child solves M a_0 = f on the
+  free dofs with Kratos's own element mass matrices and right-hand sides (sparse LU) and sets
+  ACCELERATION. Left out (SPEC_INITIAL_ACCELERATION = False), the rod lacks the velocity
+  h a_0 / 2 throughout: 3.2 % of the largest displacement over the first second on n = 3,
+  0.62 % over 10 s, 6.7e-5 at t = 10 s (alpha = 1/s damps it).
+- With it, `hex8-newmark` is our `implicit` to round-off (E_n max 1.8e-14 on n = 3) and
+  `hex8-newmark-lumped` our `implicit-lumped` (6e-17 relative on n = 2): no departure left.
+- `bossak`: its dissipation and alpha_m-weighted inertia (checked against an independent
+  Bossak-Newmark solve to round-off): E_n max 0.018, E_i max 3.4e-7 against `implicit` on
+  n = 3 over 10 s.
+- `tet4`: the P1 element on the same nodes, stiffer in bending than Q1 (static tip 0.69 of
+  Q1's on n = 2, 0.80 on n = 3, newton.py): E_n max 0.215, E_i max 1.2e-3 against our Q1
+  `implicit` on n = 3; against a dense P1 trapezoidal (and Bossak) solve on the same
+  tetrahedra it is round-off.
+- `-lumped`: M_L for M, in the inertia and in alpha M: E_n max 0.072 against `implicit` on
+  n = 3 (what our `implicit-lumped` departs by).
+
+Not posed: the 2D block (Kratos derives a fixed degree of freedom's velocity and acceleration
+from its displacement by the scheme's Newmark formulas, so the needle's prescribed v and a,
+which the SPEC holds exactly, would alternate step by step), moving constrained sets, the
+static procedure, and the nonlinear models (Kratos's HyperElastic3DLaw is the ln J neo-Hookean
+psi = mu/2 (I_1 - 3) - mu ln J + lambda/2 (ln J)^2, not the SPEC's, and issue 27 asks for the
+linear model of Kratos only).
+
+A run diverges as SPEC section 3 says (a displacement not finite or beyond 100 x the largest
+extent, checked at every t_i): NaN from there on, status "failed". Kratos raising (a singular
+system, a refused setting) or its child process dying is "failed" with its last error line.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from tissuebench.workflows.simulators import ExternalRun
+
+if TYPE_CHECKING:
+    from tissuebench.workflows.io.exported import Exported
+
+NAME = "kratos"
+
+
+def _version() -> str:
+    """Kratos's installed version, without importing it ("" when absent)."""
+    try:
+        return metadata.version("KratosMultiphysics")
+    except metadata.PackageNotFoundError:
+        return ""
+
+
+TITLE = f"Kratos {_version()}".strip()
+FIELD = "displacement"
+SERIES = "kratos.xdmf"
+DIVERGED = 100.0  # SPEC section 3: a nodal displacement beyond 100 x the largest extent
+TIMEOUT = 3600.0  # s: a child run beyond this is stopped and recorded as failed
+BOSSAK_ALPHA_M = -0.3  # Kratos's default damp_factor_m
+# set the SPEC's a_0 (M a_0 = f) before the first step; False: Kratos's own a_0 = 0
+SPEC_INITIAL_ACCELERATION = True
+MESHES = {
+    "hex8": ("SmallDisplacementElement3D8N", "reference"),
+    "tet4": (
+        "SmallDisplacementElement3D4N",
+        "tetrahedra, 6 per hexahedron, on the reference's nodes",
+    ),
+}
+
+# name -> (element key, scheme_type, damp_factor_m, lumped mass, one-line description)
+VARIANTS = {
+    "hex8-newmark": (
+        "hex8",
+        "newmark",
+        0.0,
+        False,
+        "SmallDisplacementElement3D8N (Q1) on our hexahedra, consistent mass, newmark "
+        "beta = 1/4, gamma = 1/2 (trapezoidal): our implicit; the SPEC's a_0 set",
+    ),
+    "hex8-newmark-lumped": (
+        "hex8",
+        "newmark",
+        0.0,
+        True,
+        "SmallDisplacementElement3D8N (Q1), lumped mass (COMPUTE_LUMPED_MASS_MATRIX: V/8 a "
+        "corner, C = alpha M_L + beta K: our implicit-lumped), newmark 1/4, 1/2; the SPEC's a_0 set",
+    ),
+    "hex8-bossak": (
+        "hex8",
+        "bossak",
+        BOSSAK_ALPHA_M,
+        False,
+        "SmallDisplacementElement3D8N (Q1), consistent mass, bossak alpha_m = -0.3 (beta = "
+        "0.4225, gamma = 0.8: dissipative, rho_inf = 0.54); the SPEC's a_0 set",
+    ),
+    "tet4-newmark": (
+        "tet4",
+        "newmark",
+        0.0,
+        False,
+        "SmallDisplacementElement3D4N (P1) on 6 tetrahedra per hexahedron, consistent mass, "
+        "newmark beta = 1/4, gamma = 1/2 (trapezoidal); the SPEC's a_0 set",
+    ),
+    "tet4-bossak": (
+        "tet4",
+        "bossak",
+        BOSSAK_ALPHA_M,
+        False,
+        "SmallDisplacementElement3D4N (P1) on 6 tetrahedra per hexahedron, consistent mass, "
+        "bossak alpha_m = -0.3 (beta = 0.4225, gamma = 0.8, rho_inf = 0.54); the SPEC's a_0 set",
+    ),
+}
+
+
+def available() -> str | None:
+    """None when Kratos and its two applications are installed here, else what to install."""
+    for package in (
+        "KratosMultiphysics",
+        "KratosStructuralMechanicsApplication",
+        "KratosLinearSolversApplication",
+    ):
+        try:
+            metadata.version(package)
+        except metadata.PackageNotFoundError:
+            return (
+                f"{package} is not installed: pip install KratosMultiphysics "
+                "KratosStructuralMechanicsApplication KratosLinearSolversApplication"
+            )
+    return None
+
+
+def _moving(data: Exported) -> bool:
+    """Whether some constrained set moves."""
+    return any(
+        np.any(np.abs(np.asarray(x)) > 0) for motion in data.motions.values() for x in motion
+    )
+
+
+def variants(data: Exported) -> dict[str, str]:
+    """The variants that pose this export, name -> one line: every variant for the dynamic 3D
+    hexahedral export of the linear model with fixed constrained sets; else none."""
+    if (
+        data.procedure != "dynamic"
+        or data.dim != 3
+        or data.cell_type != "hexahedron"
+        or data.model != "linear"
+        or _moving(data)
+    ):
+        return {}
+    return {name: spec[4] for name, spec in VARIANTS.items()}
+
+
+def skipped(data: Exported) -> dict[str, str]:
+    """Why no variant poses this export, when none does (module docstring)."""
+    if data.procedure != "dynamic":
+        return {"all": "posed here with Kratos's dynamic solver only; the static procedure is not"}
+    if data.model != "linear":
+        return {"all": f"the {data.model} model is not posed in Kratos here (its hyperelastic "
+                "law is the ln J neo-Hookean, not the SPEC's): linear only"}  # fmt: skip
+    if data.dim != 3 or data.cell_type != "hexahedron" or _moving(data):
+        return {"all": "Kratos derives a fixed dof's v and a from its u by the Newmark formulas: "
+                "the needle's prescribed v and a would alternate step by step"}  # fmt: skip
+    return {}
+
+
+# --- the posed problem, handed to the child -----------------------------------------------------
+
+
+def posed_mesh(data: Exported, variant: str) -> tuple[np.ndarray, str]:
+    """(cells (C, 8) or (T, 4) as node indices, cell type) of variant: the exported hexahedra or
+    newton.py's six-tetrahedra split of them."""
+    from tissuebench.workflows.simulators.newton import split_hexahedra
+
+    if VARIANTS[variant][0] == "hex8":
+        return np.asarray(data.cells, dtype=np.int64), "hexahedron"
+    return split_hexahedra(np.asarray(data.nodes, dtype=np.float64), data.cells), "tetrahedron"
+
+
+def write_input(
+    data: Exported,
+    variant: str,
+    path: Path,
+    cells: np.ndarray,
+    initial_acceleration_set: bool = True,
+) -> None:
+    """The posed problem as an .npz for the child (SI units); initial_acceleration_set False
+    leaves Kratos's own a_0 = 0 (the measured departure)."""
+    element_key, scheme, damp, lumped, _ = VARIANTS[variant]
+    m = data.material
+    clamped = np.unique(np.concatenate([np.asarray(s) for s in data.effective_sets().values()]))
+    nodes = np.asarray(data.nodes, dtype=np.float64)
+    np.savez(
+        path,
+        nodes=nodes,
+        cells=cells,
+        element=MESHES[element_key][0],
+        clamped=clamped.astype(np.int64),
+        gravity=np.asarray(data.gravity, dtype=np.float64),
+        material=np.array([m.E, m.nu, m.rho, m.alpha, m.beta]),
+        h=data.h,
+        steps=data.steps,
+        scheme=scheme,
+        damp_factor_m=damp,
+        lumped=lumped,
+        initial_acceleration=initial_acceleration_set,
+        limit=DIVERGED * float(np.max(nodes.max(axis=0) - nodes.min(axis=0))),
+    )
+
+
+def initial_acceleration(part, n_nodes: int, clamped: np.ndarray) -> np.ndarray:
+    """The SPEC's a_0 (N, 3) m/s^2: M a_0 = f on the free dofs with u = v = 0, from Kratos's own
+    element mass matrices (consistent or lumped, as the properties say) and right-hand sides
+    (the body force at u = 0), a sparse LU solve; 0 on the clamped nodes. Kratos alone would
+    start from a_0 = 0."""
+    import KratosMultiphysics as KM
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla  # imported by simulate before its clock starts
+
+    info = part.ProcessInfo
+    rows, cols, values = [], [], []
+    f = np.zeros(3 * n_nodes)
+    M_e, f_e = KM.Matrix(), KM.Vector()
+    for element in part.Elements:
+        dofs = np.array([3 * (n.Id - 1) + k for n in element.GetNodes() for k in range(3)])
+        element.CalculateMassMatrix(M_e, info)
+        element.CalculateRightHandSide(f_e, info)
+        rows.append(np.repeat(dofs, len(dofs)))
+        cols.append(np.tile(dofs, len(dofs)))
+        values.append(np.array(M_e).ravel())
+        np.add.at(f, dofs, np.array(f_e))
+    M = sp.csc_matrix(
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(3 * n_nodes, 3 * n_nodes),
+    )
+    fixed = (3 * np.asarray(clamped, dtype=np.int64)[:, None] + np.arange(3)).ravel()
+    free = np.setdiff1d(np.arange(3 * n_nodes), fixed)
+    a0 = np.zeros(3 * n_nodes)
+    a0[free] = spla.spsolve(M[free][:, free].tocsc(), f[free])
+    return a0.reshape(-1, 3)
+
+
+def simulate(source: Path, target: Path) -> None:
+    """The child's work: read the posed problem (source .npz), run Kratos on one thread, write
+    target .npz with U (steps + 1, N, 3) m (NaN from a divergence on), diverged (step or -1),
+    reason, wall_time_s (s: from the model's creation to the last step)."""
+    os.environ["OMP_NUM_THREADS"] = "1"
+    import KratosMultiphysics as KM
+    import KratosMultiphysics.LinearSolversApplication  # noqa: F401 (sparse_lu)
+    import KratosMultiphysics.StructuralMechanicsApplication as SMA
+    from KratosMultiphysics.StructuralMechanicsApplication import (
+        python_solvers_wrapper_structural as wrapper,
+    )
+
+    import scipy.sparse.linalg  # noqa: F401 (initial_acceleration's, outside the clock)
+
+    KM.Logger.GetDefaultOutput().SetSeverity(KM.Logger.Severity.WARNING)
+    KM.ParallelUtilities.SetNumThreads(1)
+    p = np.load(source)
+    nodes, cells, clamped = p["nodes"], p["cells"], p["clamped"]
+    E, nu, rho, alpha, beta = (float(x) for x in p["material"])
+    h, steps, limit = float(p["h"]), int(p["steps"]), float(p["limit"])
+    settings = KM.Parameters(
+        """{
+        "solver_type": "Dynamic", "model_part_name": "Structure", "domain_size": 3,
+        "echo_level": 0, "analysis_type": "linear", "time_integration_method": "implicit",
+        "move_mesh_flag": false, "compute_reactions": false,
+        "model_import_settings": {"input_type": "use_input_model_part"},
+        "material_import_settings": {"materials_filename": ""},
+        "time_stepping": {"time_step": 1.0},
+        "linear_solver_settings": {"solver_type": "LinearSolversApplication.sparse_lu"}
+        }"""
+    )
+    settings["time_stepping"]["time_step"].SetDouble(h)
+    settings.AddEmptyValue("scheme_type").SetString(str(p["scheme"]))
+    settings.AddEmptyValue("damp_factor_m").SetDouble(float(p["damp_factor_m"]))
+    settings.AddEmptyValue("newmark_beta").SetDouble(0.25)
+    settings.AddEmptyValue("rayleigh_alpha").SetDouble(alpha)
+    settings.AddEmptyValue("rayleigh_beta").SetDouble(beta)
+
+    start = time.perf_counter()
+    model = KM.Model()
+    part = model.CreateModelPart("Structure")
+    part.ProcessInfo[KM.DOMAIN_SIZE] = 3
+    solver = wrapper.CreateSolverByParameters(model, settings, "OpenMP")
+    solver.AddVariables()
+    for i, x in enumerate(nodes):
+        part.CreateNewNode(i + 1, float(x[0]), float(x[1]), float(x[2]))
+    props = part.GetProperties()[1]
+    props.SetValue(KM.YOUNG_MODULUS, E)
+    props.SetValue(KM.POISSON_RATIO, nu)
+    props.SetValue(KM.DENSITY, rho)
+    props.SetValue(KM.COMPUTE_LUMPED_MASS_MATRIX, bool(p["lumped"]))
+    props.SetValue(KM.CONSTITUTIVE_LAW, SMA.LinearElastic3DLaw())
+    element = str(p["element"])
+    for c, cell in enumerate(cells):
+        part.CreateNewElement(element, c + 1, [int(k) + 1 for k in cell], props)
+    solver.ImportModelPart()
+    solver.PrepareModelPart()
+    solver.AddDofs()
+    gravity = [float(g) for g in p["gravity"]]
+    for node in part.Nodes:
+        node.SetSolutionStepValue(KM.VOLUME_ACCELERATION, gravity)
+    for i in clamped:
+        node = part.GetNode(int(i) + 1)
+        for var in (KM.DISPLACEMENT_X, KM.DISPLACEMENT_Y, KM.DISPLACEMENT_Z):
+            node.Fix(var)
+    solver.Initialize()
+    solver.Check()
+    if bool(p["initial_acceleration"]):
+        a0 = initial_acceleration(part, len(nodes), clamped)
+        for node in part.Nodes:
+            node.SetSolutionStepValue(KM.ACCELERATION, a0[node.Id - 1].tolist())
+
+    U = np.full((steps + 1, len(nodes), 3), np.nan)
+    U[0] = 0.0
+    diverged, reason = -1, ""
+    read = KM.VariableUtils()
+    t = 0.0
+    for i in range(1, steps + 1):
+        t = solver.AdvanceInTime(t)
+        solver.InitializeSolutionStep()
+        solver.Predict()
+        solver.SolveSolutionStep()
+        solver.FinalizeSolutionStep()
+        u = np.array(read.GetSolutionStepValuesVector(part.Nodes, KM.DISPLACEMENT, 0, 3))
+        u = u.reshape(-1, 3)
+        if not np.all(np.isfinite(u)):
+            diverged, reason = i, "a displacement is not finite"
+        elif np.linalg.norm(u, axis=1).max() > limit:
+            diverged, reason = i, f"a displacement exceeds {DIVERGED:g} x the domain's extent"
+        if diverged > 0:
+            break
+        U[i] = u
+    wall = time.perf_counter() - start
+    np.savez(target, U=U, diverged=diverged, reason=reason, wall_time_s=wall)
+
+
+def not_run(dofs: int, reason: str, mesh: str = "reference") -> ExternalRun:
+    """A variant that stopped before writing a series, with why."""
+    return ExternalRun(
+        None, None, dofs, mesh=mesh, status="failed", reason=reason, version=_version()
+    )
+
+
+def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
+    """Run one variant serially in a child process (OMP_NUM_THREADS=1) in workdir and write
+    kratos.xdmf there: the displacement (m) on the variant's cells at every t_i = i h, NaN
+    from a divergence on (status "failed")."""
+    from tissuebench.solvers import interrupt
+    from tissuebench.workflows.io.xdmf import write_series
+
+    workdir = Path(workdir)
+    nodes = np.asarray(data.nodes, dtype=np.float64)
+    dofs = 3 * len(nodes)
+    if variant not in variants(data):
+        return not_run(
+            dofs,
+            f"Kratos variant {variant!r} does not pose this export "
+            f"(posed: {', '.join(variants(data)) or 'none'})",
+        )
+    mesh = MESHES[VARIANTS[variant][0]][1]
+    cells, cell_type = posed_mesh(data, variant)
+    if cell_type == "tetrahedron":
+        from tissuebench.workflows.simulators.newton import conforming
+
+        if not conforming(cells, data.cells):
+            return not_run(
+                dofs, "the six-tetrahedra split of these hexahedra does not conform", mesh
+            )
+    source, target = workdir / "kratos_input.npz", workdir / "kratos_output.npz"
+    write_input(data, variant, source, cells, SPEC_INITIAL_ACCELERATION)
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    command = [
+        sys.executable,
+        "-m",
+        "tissuebench.workflows.simulators.kratos",
+        str(source),
+        str(target),
+    ]
+    done = interrupt.run_child(command, TIMEOUT, cwd=workdir, env=env)
+    if done is None:
+        return not_run(dofs, f"Kratos ran over {TIMEOUT:g} s", mesh)
+    (workdir / "kratos.log").write_text(done.stdout + done.stderr)
+    if done.returncode != 0 or not target.is_file():
+        lines = [line.strip() for line in (done.stderr or done.stdout).splitlines() if line.strip()]
+        errors = [line for line in lines if "Error" in line or "error" in line]
+        why = (errors or lines or [f"exit status {done.returncode}"])[0]
+        return not_run(dofs, f"Kratos failed: {why}"[:300], mesh)
+    result = np.load(target)
+    U, diverged = result["U"], int(result["diverged"])
+    path = workdir / SERIES
+    write_series(path, ((nodes, cells, cell_type), {FIELD: U}), data.times)
+    failed = diverged > 0
+    return ExternalRun(
+        series=path,
+        wall_time_s=float(result["wall_time_s"]),
+        dofs=dofs,
+        field=FIELD,
+        mesh=mesh,
+        status="failed" if failed else "ok",
+        reason=(
+            f"diverged at step {diverged} (t = {diverged * data.h:.6g} s): {result['reason']}"
+            if failed
+            else None
+        ),
+        timing=(
+            "time.perf_counter in a child process, 1 thread, from the Kratos model's creation "
+            "to the last step (assembly and a sparse LU at every step); interpreter start and "
+            "Kratos's import excluded"
+        ),
+        version=_version(),
+    )
+
+
+if __name__ == "__main__":
+    simulate(Path(sys.argv[1]), Path(sys.argv[2]))
