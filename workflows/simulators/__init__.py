@@ -32,6 +32,7 @@ SIMULATORS = {
     "calculix": "tissuebench.workflows.simulators.calculix",
     "sfepy": "tissuebench.workflows.simulators.sfepy",
     "newton": "tissuebench.workflows.simulators.newton",
+    "kratos": "tissuebench.workflows.simulators.kratos",
 }
 
 
