@@ -382,8 +382,8 @@ def test_deformation_json_gives_the_place_of_the_smallest_j(tmp_path):
     assert "0.02 at t = 1.87 s, in the cell at (0.975, 0.475) m, beside the needle" in row
     # the jump of J in the last step: from the last kept step to the reason's J
     assert (
-        "the smallest J went from 0.02 (in the cell at (0.975, 0.475) m, beside the needle) to -41.5 "
-        "on block-s1" in text
+        "the smallest J went from 0.02 (in the cell at (0.975, 0.475) m, beside the needle) "
+        "to -41.5 on block-s1" in text
     )
     assert "| block-s1 | s = 1, w = 0 (point needle) | 0.16 (t = 2 s) |" in text
     assert "reaches J = 0.16 at t = 2 s; the reference's smallest J is 0.5" in text
@@ -427,8 +427,8 @@ def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
     assert "![tip path](large-deformation/rod-s1/tip_path.png)" in section
     assert "shapes.png" not in section  # not among the case's files
     assert (
-        "linear (0.034, -0.1223) m, neo-hookean (0.0213, -0.1249) m, corotational (0.0197, -0.1234) m"
-        in section
+        "linear (0.034, -0.1223) m, neo-hookean (0.0213, -0.1249) m, "
+        "corotational (0.0197, -0.1234) m" in section
     )
     assert "svk: its quasi-static run diverged, no static tip" in section
     assert (

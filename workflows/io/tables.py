@@ -79,7 +79,8 @@ def read_tips(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def spans_decades(values) -> bool:
-    """True if the positive finite values span a factor 10 or more (a log axis then reads better)."""
+    """True if the positive finite values span a factor 10 or more (a log axis then reads
+    better)."""
     values = np.asarray(values)
     positive = values[np.isfinite(values) & (values > 0)]
     return len(positive) > 1 and positive.max() >= 10 * positive.min()

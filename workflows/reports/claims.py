@@ -500,7 +500,8 @@ def render_rod(v: Verdict) -> list[str]:
         "times are interpolated linearly between the two steps around each crossing."
     ]
     lines.append(
-        f"   - Reported run (rod-MP3, {n['end_time']:.3g} s): the tip crosses the static deflection "
+        f"   - Reported run (rod-MP3, {n['end_time']:.3g} s): the tip crosses the static "
+        "deflection "
         f"at t = {', '.join(f'{c:#.3g}' for c in cross) or 'never'} s; it goes "
         f"{100 * overshoot:.3g} % beyond it (at t = {n['lowest_time']:.3g} s). The quasi-static "
         f"E_n has its first minimum at step {fmt_step(n['minimum_step'])} (t = {fmt(tmin)} s, "

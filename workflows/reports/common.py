@@ -34,10 +34,11 @@ LOSS_READING = "interior_error"  # the loss of realism: the time-mean E_i (m) ag
 class Verdict:
     """A claim judged on our numbers: one of SPEC section 7 or one that part 2 makes.
 
-    `claim`: SPEC 7's number, or the claim in words; `holds`: the verdict on the reading it rests on (None: not judged);
-    `checks`: each part of the judgement, {(metric, reading): bool} where the claim is judged
-    per metric and summary, {name: bool} otherwise; `numbers`: the values it rests on, by name
-    (E_n and E_s dimensionless, E_i in m^d, times in s, displacements in m)."""
+    `claim`: SPEC 7's number, or the claim in words; `holds`: the verdict on the reading it
+    rests on (None: not judged); `checks`: each part of the judgement, {(metric, reading):
+    bool} where the claim is judged per metric and summary, {name: bool} otherwise;
+    `numbers`: the values it rests on, by name (E_n and E_s dimensionless, E_i in m^d, times
+    in s, displacements in m)."""
 
     claim: int | str
     holds: bool | None

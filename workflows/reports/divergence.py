@@ -61,8 +61,10 @@ def divergences(out: Path, large: dict, deformation: dict, limits: dict) -> list
     if not runs:
         return lines + ["No run diverged.", ""]
     lines += [
-        "Every run that diverged, with the reason its summary.json gives and the smallest J = det F "
-        "(at the Gauss points, where the solver checks it) at the last step it kept, from the case's "
+        "Every run that diverged, with the reason its summary.json gives and the smallest J = det "
+        "F "
+        "(at the Gauss points, where the solver checks it) at the last step it kept, from the "
+        "case's "
         "deformation.json:",
         "",
         "| case | run | diverged at | reason | smallest J at the last kept step |",
@@ -114,7 +116,10 @@ def why_svk(large: dict, items: list, deformation: dict) -> str:
         text += f" On {name}"
         if newton:
             label, r = newton[0]
-            text += f" `{label}` found no static solution at t = {r['diverged_time']:.3g} s (Newton failed)"
+            text += (
+                f" `{label}` found no static solution at t = {r['diverged_time']:.3g} s "
+                "(Newton failed)"
+            )
             if inverted:
                 later = sum(r["diverged_time"] < q["diverged_time"] for _, q in inverted)
                 text += (
@@ -128,14 +133,17 @@ def why_svk(large: dict, items: list, deformation: dict) -> str:
             js = [d["smallest_J"][lab] for lab, _ in inverted if d and lab in d["smallest_J"]]
             where = {place(s, j["cell_centre_last_step"]) for j in js}
             text += ("; " if newton else " ") + (
-                f"{len(inverted)} dynamic svk runs inverted a cell at t = {min(t):.3g} to {max(t):.3g} s"
+                f"{len(inverted)} dynamic svk runs inverted a cell at t = {min(t):.3g} to "
+                f"{max(t):.3g} s"
                 if len(inverted) > 1
                 else f"`{inverted[0][0]}` inverted a cell at t = {t[0]:.3g} s"
             )
             if js:
                 text += (
-                    f", after a last kept step with J down to {min(j['J_last_step'] for j in js):.2g}–"
-                    f"{max(j['J_last_step'] for j in js):.2g} in the cell at {' or '.join(sorted(where))}"
+                    ", after a last kept step with J down to "
+                    f"{min(j['J_last_step'] for j in js):.2g}–"
+                    f"{max(j['J_last_step'] for j in js):.2g} in the cell at "
+                    f"{' or '.join(sorted(where))}"
                 )
         text += "."
     ran = [
@@ -146,10 +154,14 @@ def why_svk(large: dict, items: list, deformation: dict) -> str:
     if ran:
         text += f" Every svk run ran on {', '.join(ran)}."
     text += (
-        " St Venant-Kirchhoff softens in compression: in 1D with ν = 0 its stress P = E λ(λ² − 1)/2 peaks at "
-        "the stretch λ = 1/√3 and falls back to 0 as λ → 0, so a cell compressed past the peak has no stiffness "
-        "left against collapse, and beyond the largest load the material can carry there is no static "
-        "solution. Newton failures of quasi-static svk and collapsing cells with J → 0 where the body is "
+        " St Venant-Kirchhoff softens in compression: in 1D with ν = 0 its stress P = E λ(λ² − "
+        "1)/2 peaks at "
+        "the stretch λ = 1/√3 and falls back to 0 as λ → 0, so a cell compressed past the peak has "
+        "no stiffness "
+        "left against collapse, and beyond the largest load the material can carry there is no "
+        "static "
+        "solution. Newton failures of quasi-static svk and collapsing cells with J → 0 where the "
+        "body is "
         "compressed most are what that predicts."
     )
     return text
@@ -184,7 +196,8 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
     explicit = {n: v for n, v in explicit.items() if v}
     if explicit:
         text += (
-            " The linear critical step h_c of central differences on each case's mesh (SPEC section 3's "
+            " The linear critical step h_c of central differences on each case's mesh (SPEC "
+            "section 3's "
             "analysis, as in stability.md) puts h at "
             + "; ".join(
                 ", ".join(f"{r:.3g} h_c for {a}" for a, r in ratios.items()) + f" on {n}"
@@ -199,7 +212,8 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
         ]
         if margins:
             text += (
-                " A tangent stiffer than the linear K₀ by (h_c/h)² − 1 anywhere puts the fastest mode beyond "
+                " A tangent stiffer than the linear K₀ by (h_c/h)² − 1 anywhere puts the fastest "
+                "mode beyond "
                 "2/h: " + ", ".join(margins) + "."
             )
     grown = []
@@ -217,7 +231,8 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
             grown.append(
                 f"{g:.3g} times on {name}"
                 + (
-                    f" (the runs of other models that inverted a cell there: at most {max(collapse):.2g} times)"
+                    " (the runs of other models that inverted a cell there: at most "
+                    f"{max(collapse):.2g} times)"
                     if collapse
                     else ""
                 )
@@ -240,11 +255,14 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
         text += " In its last step the smallest J went " + "; ".join(jumps) + "."
     if judge_instability(out, large, items).holds:
         text += (
-            " That is an instability of the step rather than a collapse of the material: the error grows "
+            " That is an instability of the step rather than a collapse of the material: the error "
+            "grows "
             "geometrically before the run stops, and with the same model neither the reference "
-            "(implicit, unconditionally stable) nor explicit-lumped, whose h_c is about twice as long, "
+            "(implicit, unconditionally stable) nor explicit-lumped, whose h_c is about twice as "
+            "long, "
             "diverged. It is consistent with the tangent of the compressed neo-Hookean cells being "
-            "stiffer than K₀, and with consistent mass, whose ω_max is the larger, leaving the smaller "
+            "stiffer than K₀, and with consistent mass, whose ω_max is the larger, leaving the "
+            "smaller "
             "margin."
         )
     return text
@@ -324,7 +342,8 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
         jc, jr = d["smallest_J"][label], d["smallest_J"].get(s["reference"])
         if jr:
             text += (
-                f" On {name}, where it ran, `{label}` reaches J = {jc['J']:.3g} against the reference's "
+                f" On {name}, where it ran, `{label}` reaches J = {jc['J']:.3g} against the "
+                "reference's "
                 f"{jr['J']:.3g}."
             )
     smaller = [
@@ -337,10 +356,14 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
         and deformation[n]["smallest_J"][loss_runs(s)["corotational"]]["J"]
         < deformation[n]["smallest_J"][s["reference"]]["J"]
     ]
-    text += " The corotational element is linear elasticity in a rotated frame: it corrects rotations, not large volume changes"
+    text += (
+        " The corotational element is linear elasticity in a rotated frame: it corrects "
+        "rotations, not large volume changes"
+    )
     if smaller:
         text += (
-            f"; on {cases_text(smaller)} its most compressed cell keeps less of its volume (a smaller J) than "
+            f"; on {cases_text(smaller)} its most compressed cell keeps less of its volume (a "
+            "smaller J) than "
             "the neo-Hookean reference's"
         )
     return text + "."

@@ -5,6 +5,7 @@ by pyvista, composed with matplotlib (deformed.png) and PIL (reference.gif), the
 beside the pictures, never over them."""
 
 import io
+from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -15,7 +16,8 @@ from tissuebench.solvers import interrupt
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.workflows.io.tables import spans_decades
 from tissuebench.workflows.reports import model_figures
-from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, plot_curve
+from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, CaseView, plot_curve
+
 
 # Plain log tick labels: matplotlib's mathtext parser takes seconds to load. One panel per
 # metric of the table that is no variant, labelled as the table says.
@@ -23,7 +25,9 @@ LONG_RUN = 10.0  # s: deformed.png shows (0, 1, 2, 10) s within the run, and its
 
 
 @interrupt.drawing
-def case_figures(out, case, summary, times, curves, tips):
+def case_figures(
+    out: Path, case: CaseView, summary: dict, times: np.ndarray, curves: dict, tips: dict
+) -> list[str]:
     """Write the case's figures into out; return their file names. A case with elastic models
     other than linear (SPEC section 8) has its own figures (workflows/reports/model_figures.py).
     Drawn in a critical section (solvers/interrupt.py)."""
@@ -38,7 +42,7 @@ def case_figures(out, case, summary, times, curves, tips):
     return files
 
 
-def crossings(t, y, level):
+def crossings(t: np.ndarray, y: np.ndarray, level: float) -> list[float]:
     """The times at which the sampled curve y(t) crosses `level` (y - level changes sign),
     each interpolated linearly between the two samples around it. A run of samples exactly at
     the level counts once, at its first sample, when the sign differs on its two sides;
@@ -59,7 +63,7 @@ def crossings(t, y, level):
     return result
 
 
-def static_label(summary, reference):
+def static_label(summary: dict, reference: str) -> str | None:
     """The quasi-static run on the reference's material, or None."""
     runs = summary["runs"]
     return next(
@@ -75,7 +79,7 @@ def static_label(summary, reference):
 # --- error curves --------------------------------------------------------------------------
 
 
-def error_figure(case, summary, times, curves):
+def error_figure(case: CaseView, summary: dict, times: np.ndarray, curves: dict) -> Figure:
     """One panel per metric against time, one line per run but the reference (colour, dash pattern,
     width and staggered markers differ from run to run). A diverged run's curve ends at its
     last finite step; a dotted vertical line in its colour (gid "diverged:<label>") marks the
@@ -92,7 +96,10 @@ def error_figure(case, summary, times, curves):
             y = curves[label][name]
             text = label
             if run["status"] == "diverged":
-                text += f": diverged at step {run['diverged_step']}, t = {run['diverged_time']:.3g} s (dotted line)"
+                text += (
+                    f": diverged at step {run['diverged_step']}, "
+                    f"t = {run['diverged_time']:.3g} s (dotted line)"
+                )
                 ax.axvline(
                     run["diverged_time"],
                     color=f"C{k % 10}",
@@ -128,7 +135,7 @@ def error_figure(case, summary, times, curves):
     return fig
 
 
-def error_curves(path, case, summary, times, curves):
+def error_curves(path: Path, case: CaseView, summary: dict, times: np.ndarray, curves: dict) -> str:
     error_figure(case, summary, times, curves).savefig(path, dpi=110)
     return path.name
 
@@ -136,7 +143,7 @@ def error_curves(path, case, summary, times, curves):
 # --- the rod's tip -------------------------------------------------------------------------
 
 
-def tip_figure(case, summary, times, tips):
+def tip_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> Figure:
     """The vertical displacement of the probe point against time, one line per run: the
     reference wide and pale underneath, the others narrower and dashed on top of it. Where a
     quasi-static run on the reference's material exists, its last value is the static
@@ -248,7 +255,7 @@ def tip_figure(case, summary, times, tips):
     return fig
 
 
-def tip_history(path, case, summary, times, tips):
+def tip_history(path: Path, case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> str:
     tip_figure(case, summary, times, tips).savefig(path, dpi=110)
     return path.name
 
@@ -256,7 +263,7 @@ def tip_history(path, case, summary, times, tips):
 # --- deformed shapes -----------------------------------------------------------------------
 
 
-def shape_rows(case, summary):
+def shape_rows(case: CaseView, summary: dict) -> list[str]:
     """The runs whose deformed shape is drawn: the reference, and the runs of the same
     algorithm on other materials (the MP1 counterpart of implicit-MP2), sorted by material."""
     runs = summary["runs"]
@@ -272,7 +279,9 @@ def shape_rows(case, summary):
     return sorted(rows, key=lambda label: (runs[label]["material"], label))
 
 
-def shown_steps(times, shown=(0.0, 1.0, 2.0, LONG_RUN)):
+def shown_steps(
+    times: np.ndarray, shown: tuple[float, ...] = (0.0, 1.0, 2.0, LONG_RUN)
+) -> list[int]:
     """Steps nearest the times `shown` within the run, and the last step if it is not among them."""
     wanted = [t for t in shown if t <= times[-1] + 1e-12] + [times[-1]]
     return list(dict.fromkeys(int(np.argmin(np.abs(times - t))) for t in wanted))
@@ -365,7 +374,7 @@ class ShapeRenderer:
         self.plotter.close()
 
 
-def crop(images, pad=6):
+def crop(images: list[np.ndarray], pad: int = 6) -> list[np.ndarray]:
     """The images cut to the union of their non-white pixels (the same box for all, so that
     every picture keeps the same scale)."""
     mask = np.zeros(images[0].shape[:2], dtype=bool)
@@ -379,7 +388,15 @@ def crop(images, pad=6):
     return [img[r0:r1, c0:c1] for img in images]
 
 
-def shape_grid(case, summary, series, steps, images, clim, row_labels):
+def shape_grid(
+    case: CaseView,
+    summary: dict,
+    series: list,
+    steps: list[int],
+    images: list,
+    clim: tuple[float, float],
+    row_labels: list[str],
+) -> Figure:
     """deformed.png's figure: one row per run, one column per time, one colour bar beside."""
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
@@ -417,7 +434,7 @@ def shape_grid(case, summary, series, steps, images, clim, row_labels):
     return fig
 
 
-def colour_bar(clim, height, dpi=100):
+def colour_bar(clim: tuple[float, float], height: int, dpi: int = 100) -> np.ndarray:
     """A vertical colour bar of |u| with its ticks and label, as an RGB picture `height` pixels
     tall."""
     from matplotlib.cm import ScalarMappable
@@ -429,7 +446,15 @@ def colour_bar(clim, height, dpi=100):
     return _rgba(fig, dpi)
 
 
-def animation(path, frames, titles, labels, clim, width=280, fps=10):
+def animation(
+    path: Path,
+    frames: list,
+    titles: list[str],
+    labels: list[str],
+    clim: tuple[float, float],
+    width: int = 280,
+    fps: int = 10,
+) -> None:
     """A GIF: each frame's pictures side by side (scaled to `width` pixels), a label above each,
     the frame's title above all and the colour bar beside them, clear of the pictures. Composed
     with PIL: the colour bar is drawn once."""
@@ -496,7 +521,7 @@ def _rgba(fig, dpi):
     return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
 
-def deformed_shapes(out, case, summary, frames=30):
+def deformed_shapes(out: Path, case: CaseView, summary: dict, frames: int = 30) -> list[str]:
     """deformed.png (the reference, and its counterparts on other materials, at a few times)
     and reference.gif (their animation), read back from the runs' XDMF output."""
     from PIL import Image

@@ -59,12 +59,17 @@ def large_deformation(out: Path, large: dict, limits: dict | None = None) -> lis
     lines = [
         "## Part 2, beyond the paper: large deformation (SPEC section 8)",
         "",
-        "The paper assumes small strain. Here every algorithm runs with every elastic model (linear, St "
-        f"Venant-Kirchhoff `svk`, `neo-hookean`, `corotational`) against `{ref}`, at the paper's loads "
-        "(load scale s = 1) and at large ones. The loss of realism of a run is its time-mean interior "
+        "The paper assumes small strain. Here every algorithm runs with every elastic model "
+        "(linear, St "
+        f"Venant-Kirchhoff `svk`, `neo-hookean`, `corotational`) against `{ref}`, at the paper's "
+        "loads "
+        "(load scale s = 1) and at large ones. The loss of realism of a run is its time-mean "
+        "interior "
         f"error E_i against `{ref}` over steps 1..N (summary.json `{LOSS_READING}_mean`; in m: the "
-        "distance between the two displacement fields, averaged over the body and the run). A run that "
-        "diverged has a mean over the steps it kept only; it is reported as diverged, not compared.",
+        "distance between the two displacement fields, averaged over the body and the run). A run "
+        "that "
+        "diverged has a mean over the steps it kept only; it is reported as diverged, not "
+        "compared.",
         "",
         "### What linearisation loses, against lumping and explicit stepping",
         "",
@@ -74,7 +79,8 @@ def large_deformation(out: Path, large: dict, limits: dict | None = None) -> lis
     columns += ["lumped explicit stepping", "inertia (quasi-static)"]
     lines += [
         "Time-mean E_i (m) against the reference of the run that differs from it in one respect: "
-        "its model (linear, corotational or svk, with the reference's algorithm), its mass (lumped), its "
+        "its model (linear, corotational or svk, with the reference's algorithm), its mass "
+        "(lumped), its "
         "time stepping (explicit), both, or no inertia (quasi-static).",
         "",
         "| case | load | largest nodal displacement of the reference (m) | "
@@ -150,7 +156,8 @@ def loss_bullet(name: str, s: dict) -> str:
     names = loss_runs(s)
     lin, lin_status, _ = loss(s, names["linearisation"])
     if lin_status != "ok":
-        return f"- **{name}**, {load_text(s)}: `{names['linearisation']}` {loss_text(s, names['linearisation'])}."
+        lin_label = names["linearisation"]
+        return f"- **{name}**, {load_text(s)}: `{lin_label}` {loss_text(s, lin_label)}."
     parts = []
     for what in ("lumping", "explicit stepping", "lumped explicit stepping"):
         v, status, t = loss(s, names[what])
@@ -176,7 +183,8 @@ def loss_bullet(name: str, s: dict) -> str:
     if len(values) > 1:
         spread = (max(values) - min(values)) / min(values)
         text += (
-            f" With the linear model the {len(values)} dynamic algorithms lose {min(values):.3g} to "
+            f" With the linear model the {len(values)} dynamic algorithms lose {min(values):.3g} "
+            "to "
             f"{max(values):.3g} m, within {100 * spread:.2g} % of each other"
             + (": once the model is linear, the algorithm hardly matters." if spread < 0.1 else ".")
         )
@@ -260,9 +268,12 @@ def load_growth(large: dict) -> list[str]:
             else ""
         )
         lines.append(
-            f"- {bench}: the linear model's loss grows from {la[0]:.3g} m ({n1}) to {lb[0]:.3g} m ({n2}), "
-            f"{ratio:.3g} times for {s2 / s1:g} times the load{other}: as s^{exponent:.3g}. To leading "
-            "order the difference between a linear and a nonlinear solution grows as the square of the "
+            f"- {bench}: the linear model's loss grows from {la[0]:.3g} m ({n1}) to {lb[0]:.3g} m "
+            f"({n2}), "
+            f"{ratio:.3g} times for {s2 / s1:g} times the load{other}: as s^{exponent:.3g}. To "
+            "leading "
+            "order the difference between a linear and a nonlinear solution grows as the square of "
+            "the "
             "load (the strain's quadratic term)."
         )
     return lines
@@ -312,7 +323,8 @@ def corotational_bullets(large: dict, deformation: dict) -> list[str]:
             if jc and jr:
                 text += (
                     f" (its most compressed cell, at {place(s, jc['cell_centre'])}, reaches J = "
-                    f"{jc['J']:.3g} at t = {jc['time']:.3g} s; the reference's smallest J is {jr['J']:.3g})"
+                    f"{jc['J']:.3g} at t = {jc['time']:.3g} s; the reference's smallest J is "
+                    f"{jr['J']:.3g})"
                 )
         parts.append(text)
     if not parts:
@@ -340,7 +352,8 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
     parts = [
         f"### {name}",
         "",
-        f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = {s['h']:.6g} s, "
+        f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = {s['h']:.6g} "
+        "s, "
         f"T = {s['end_time']:.4g} s ({s['steps']} steps), solver {s['solver']}. Files: "
         f"[metrics.csv]({rel}/metrics.csv), [summary.json]({rel}/summary.json)"
         + (f", [tip.csv]({rel}/tip.csv)" if "tip.csv" in files else "")
@@ -352,9 +365,11 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         parts += [
             f"![loss of realism]({rel}/realism.png)",
             "",
-            f"*Loss of realism: the time-mean E_i (m) of every algorithm (rows) with every model (columns) "
+            "*Loss of realism: the time-mean E_i (m) of every algorithm (rows) with every model "
+            "(columns) "
             f"against {ref} over steps 1..{s['steps']}, on a log colour scale (light: close to the "
-            "reference). Hatched grey: a run that diverged, with its divergence time and its mean over the "
+            "reference). Hatched grey: a run that diverged, with its divergence time and its mean "
+            "over the "
             "steps it kept, which is not comparable with the others.*",
             "",
         ]
@@ -367,9 +382,12 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         parts += [
             f"![errors]({rel}/errors.png)",
             "",
-            f"*Errors against {ref} at every step: one row of panels per model, one column per metric "
-            "(E_n, E_s, E_i), one line per algorithm, drawn alike in every row (colour, dash pattern, marker); "
-            "log axes where the values span a decade, one y range per column. A cross at a curve's last "
+            f"*Errors against {ref} at every step: one row of panels per model, one column per "
+            "metric "
+            "(E_n, E_s, E_i), one line per algorithm, drawn alike in every row (colour, dash "
+            "pattern, marker); "
+            "log axes where the values span a decade, one y range per column. A cross at a curve's "
+            "last "
             "finite value and a dotted line in its colour mark a run that diverged"
             + (": " + ", ".join(diverged) if diverged else " (none here)")
             + ".*",
@@ -387,10 +405,14 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         parts += [
             f"![deformed shapes]({rel}/shapes.png)",
             "",
-            f"*Deformed shape of {', '.join(drawn)} at t = {big['time']:.3g} s, the step at which the "
-            f"reference's largest nodal displacement ({big['u_max']:.3g} m) is largest: {view}, over the "
-            "undeformed outline (dotted); the reference wide and pale under the others. Where the outlines "
-            "differ only locally, the right panel enlarges the square about the boundary nodes farthest "
+            f"*Deformed shape of {', '.join(drawn)} at t = {big['time']:.3g} s, the step at which "
+            "the "
+            f"reference's largest nodal displacement ({big['u_max']:.3g} m) is largest: {view}, "
+            "over the "
+            "undeformed outline (dotted); the reference wide and pale under the others. Where the "
+            "outlines "
+            "differ only locally, the right panel enlarges the square about the boundary nodes "
+            "farthest "
             "apart. A run that diverged before that time is listed, not drawn.*",
             "",
         ]
@@ -405,9 +427,12 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         parts += [
             f"![tip path]({rel}/tip_path.png)",
             "",
-            f"*The tip of the implicit run with each model: its path in the x-y plane (left; the axes are "
-            "not to the same scale) and its u_y against time (right). Stars and thin dashed lines: each "
-            f"model's static tip, its quasi-static run at t = {s['end_time']:.3g} s, (u_x, u_y): {tips}"
+            "*The tip of the implicit run with each model: its path in the x-y plane (left; the "
+            "axes are "
+            "not to the same scale) and its u_y against time (right). Stars and thin dashed lines: "
+            "each "
+            f"model's static tip, its quasi-static run at t = {s['end_time']:.3g} s, (u_x, u_y): "
+            f"{tips}"
             + (
                 f"; {', '.join(missing)}: its quasi-static run diverged, no static tip"
                 if missing

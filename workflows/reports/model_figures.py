@@ -20,9 +20,14 @@ paper's figures, which one line per run would crowd with twenty runs:
   and the same at its last kept step.
 """
 
+from __future__ import annotations
+
 import json
+from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullLocator
 
@@ -34,22 +39,28 @@ from tissuebench.workflows.reports.style import (
     HEAT_CMAP,
     MARKERS,
     STYLES,
+    CaseView,
     model_style,
     plot_curve,
 )
 from tissuebench.workflows.io.tables import spans_decades
+
+if TYPE_CHECKING:
+    from shapely.geometry.base import BaseGeometry
 
 DEFORMATION = "deformation.json"
 SHAPE_MODELS = ("linear", "corotational", "neo-hookean")  # shapes.png: the implicit runs of these
 SHAPE_ALGORITHM = "implicit"
 
 
-def is_model_case(case) -> bool:
+def is_model_case(case: CaseView) -> bool:
     """True if some run of the case has an elastic model other than linear."""
     return any(run.model != LINEAR for run in case.runs)
 
 
-def case_figures(out, case, summary, times, curves, tips):
+def case_figures(
+    out: Path, case: CaseView, summary: dict, times: np.ndarray, curves: dict, tips: dict
+) -> list[str]:
     """Write the figures of a case with models into out; return their file names."""
     cache = {}
     deformation = deformation_data(out, summary, cache)
@@ -66,7 +77,7 @@ def case_figures(out, case, summary, times, curves, tips):
     return [*files, DEFORMATION]
 
 
-def save(path, fig, dpi=110):
+def save(path: Path, fig: Figure, dpi: int = 110) -> str:
     fig.savefig(path, dpi=dpi)
     return path.name
 
@@ -74,7 +85,7 @@ def save(path, fig, dpi=110):
 # --- the grid of runs ----------------------------------------------------------------------
 
 
-def grid(summary):
+def grid(summary: dict) -> tuple[list[str], list[str], dict]:
     """(algorithms, models, {(algorithm, model): label}) of a summary's runs, in the order of
     the registries (ALGORITHMS, MODELS), only those present."""
     runs = summary["runs"]
@@ -86,7 +97,9 @@ def grid(summary):
     return algorithms, models, cells
 
 
-def realism_table(summary, metric="interior_error"):
+def realism_table(
+    summary: dict, metric: str = "interior_error"
+) -> tuple[list[str], list[str], list[list]]:
     """(algorithms, models, cells): cells[i][j] is None (no such run), "reference", or a dict
     with the run's label, status, time-mean of `metric` (NaN if none) and divergence time."""
     algorithms, models, labels = grid(summary)
@@ -119,7 +132,7 @@ def realism_table(summary, metric="interior_error"):
 # --- errors.png ----------------------------------------------------------------------------
 
 
-def error_figure(case_name, summary, times, curves):
+def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict) -> Figure:
     """One row of panels per model, one column per metric that is no variant; in each panel
     one line per algorithm (the reference left out), drawn alike in every row. A diverged run's
     curve ends at its last finite step, with a cross there and a dotted vertical line in its
@@ -222,7 +235,7 @@ def error_figure(case_name, summary, times, curves):
 # --- realism.png ---------------------------------------------------------------------------
 
 
-def realism_figure(case_name, summary, metric="interior_error"):
+def realism_figure(case_name: str, summary: dict, metric: str = "interior_error") -> Figure:
     """Rows: algorithms; columns: models; each cell the run's time-mean of `metric` against the
     reference over steps 1..N on a log colour scale, its value written in it. A diverged run is
     a hatched grey cell (gid "diverged:<label>") with its divergence time and its time-mean over
@@ -319,7 +332,8 @@ def realism_figure(case_name, summary, metric="interior_error"):
     )
     fig.suptitle(
         f"{case_name}: loss of realism, time-mean interior error {symbol} against "
-        f"{summary['reference']}\nover steps 1..{summary['steps']} (t to {summary['end_time']:.3g} s)",
+        f"{summary['reference']}\nover steps 1..{summary['steps']} (t to {summary['end_time']:.3g} "
+        "s)",
         fontsize=10.5,
     )
     return fig
@@ -338,14 +352,14 @@ VTK_CORNERS = {
 }
 
 
-def gauss_points(d):
+def gauss_points(d: int) -> np.ndarray:
     """The 2 x ... x 2 Gauss points on [0, 1]^d: the points at which the solver checks J
     (solvers/elastic.py, quadrature degree 2)."""
     g = 0.5 + np.array([-1.0, 1.0]) / (2 * np.sqrt(3.0))
     return np.stack(np.meshgrid(*([g] * d), indexing="ij"), axis=-1).reshape(-1, d)
 
 
-def shape_gradients(corners, xi):
+def shape_gradients(corners: np.ndarray, xi: np.ndarray) -> np.ndarray:
     """Gradients of the Q1 shape functions of the reference corners at the points xi:
     (points, corners, d)."""
     # N_a(xi) = prod_k (c_ak xi_k + (1 - c_ak)(1 - xi_k)); dN_a/dxi_j drops factor j for 2 c_aj - 1
@@ -358,7 +372,7 @@ def shape_gradients(corners, xi):
     return grads
 
 
-def jacobians(points, cells, displacements):
+def jacobians(points: np.ndarray, cells: np.ndarray, displacements: np.ndarray) -> np.ndarray:
     """J = det F at the Gauss points of every cell, (steps, cells, points), for displacements
     (steps, nodes, d) on a Q1 mesh with cells in VTK order: the ratio of the deformed to the
     undeformed determinant of the map from the reference cell."""
@@ -377,7 +391,7 @@ def jacobians(points, cells, displacements):
     return determinants(X + u) / determinants(X)[None]
 
 
-def deformation_data(folder, summary, cache=None):
+def deformation_data(folder: Path, summary: dict, cache: dict | None = None) -> dict:
     """deformation.json's content from the runs' XDMF series in folder (read into `cache`,
     {label: Series}, for the figures that follow)."""
     from tissuebench.metrics.series import InputError
@@ -426,7 +440,7 @@ def deformation_data(folder, summary, cache=None):
 # --- shapes.png ----------------------------------------------------------------------------
 
 
-def silhouette(points, cells, u):
+def silhouette(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> BaseGeometry:
     """The deformed domain seen along z as a shapely geometry: in 2D the union of the deformed
     quadrilaterals (the polygon through the deformed boundary nodes, as SPEC section 6 takes
     it), in 3D the union of the convex hulls of each deformed hexahedron's corners projected on
@@ -442,7 +456,7 @@ def silhouette(points, cells, u):
     return union_all(pieces)
 
 
-def draw_outline(ax, geometry, **style):
+def draw_outline(ax: Axes, geometry: BaseGeometry, **style) -> None:
     """Draw every exterior and interior ring of a (multi)polygon; the first ring carries the
     label."""
     polygons = getattr(geometry, "geoms", [geometry])
@@ -456,7 +470,7 @@ def draw_outline(ax, geometry, **style):
             first = False
 
 
-def boundary_nodes(cells):
+def boundary_nodes(cells: np.ndarray) -> np.ndarray:
     """The nodes on the boundary of a Q1 mesh: those of the edges (quadrilaterals) or faces
     (hexahedra) that belong to one cell only."""
     from tissuebench.metrics.series import HEX_FACES, QUAD_EDGES
@@ -467,7 +481,9 @@ def boundary_nodes(cells):
     return np.unique(keys[counts == 1])
 
 
-def shapes_figure(folder, case_name, summary, deformation, cache=None):
+def shapes_figure(
+    folder: Path, case_name: str, summary: dict, deformation: dict, cache: dict | None = None
+) -> Figure | None:
     """shapes.png: the implicit runs of SHAPE_MODELS (those present) at the step of the
     reference's largest deflection; left the whole body, right the square about the boundary
     nodes where the drawn shapes are farthest apart (left out when that square is more than
@@ -563,7 +579,8 @@ def shapes_figure(folder, case_name, summary, deformation, cache=None):
         )
         axes[0].set_title(f"whole body, {view}", fontsize=10)
         axes[1].set_title(
-            f"enlarged ({2 * half:.2g} m square): the outlines are up to {1000 * apart:.3g} mm apart",
+            f"enlarged ({2 * half:.2g} m square): the outlines are up to {1000 * apart:.3g} mm "
+            "apart",
             fontsize=10,
         )
     else:
@@ -587,7 +604,7 @@ def shapes_figure(folder, case_name, summary, deformation, cache=None):
 # --- tip_path.png --------------------------------------------------------------------------
 
 
-def static_tips(summary):
+def static_tips(summary: dict) -> dict[str, list[float]]:
     """{model: final tip displacement of its quasi-static run (m)} for the runs that reached the
     end time."""
     result = {}
@@ -599,7 +616,7 @@ def static_tips(summary):
     return result
 
 
-def tip_path_figure(case, summary, times, tips):
+def tip_path_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> Figure:
     """Left: the tip's position in the x-y plane over the run for the implicit run of each model
     (a cross where a run diverged), each model's static tip (its quasi-static run at the end
     time) as a star; right: its u_y against time, with the static u_y of each model dashed."""
@@ -644,7 +661,8 @@ def tip_path_figure(case, summary, times, tips):
                 ms=14,
                 mec="white",
                 zorder=15,
-                label=f"quasi-static{'' if m == LINEAR else '+' + m} at t = {summary['end_time']:.3g} s "
+                label=f"quasi-static{'' if m == LINEAR else '+' + m} at "
+                f"t = {summary['end_time']:.3g} s "
                 f"(static tip u = ({s[0]:.4g}, {s[1]:.4g}) m)",
             )
             time_ax.axhline(s[1], color=color, ls=(0, (2, 2)), lw=1.0, zorder=0)

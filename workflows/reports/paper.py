@@ -31,16 +31,20 @@ MARKER = (
 def caption_errors(out: Path, name: str, s: dict) -> str:
     ref = s["reference"]
     text = (
-        f"*Errors of each run against {ref} at every step 1..{s['steps']} (E_n, E_s, E_i; log axes where the "
-        "values span a decade). Runs differ in colour, dash pattern, width and marker; a wider line lies "
+        f"*Errors of each run against {ref} at every step 1..{s['steps']} (E_n, E_s, E_i; log axes "
+        "where the "
+        "values span a decade). Runs differ in colour, dash pattern, width and marker; a wider "
+        "line lies "
         "under the narrower ones."
     )
     for label, run in s["runs"].items():
         if run["status"] == "diverged" and label != ref:
             step = run["diverged_step"]
             text += (
-                f" {label} diverged at step {step} (t = {run['diverged_time']:.3g} s): its curve ends at step "
-                f"{step - 1} (t = {(step - 1) * s['h']:.3g} s), its last finite values, and the dotted vertical "
+                f" {label} diverged at step {step} (t = {run['diverged_time']:.3g} s): its curve "
+                "ends at step "
+                f"{step - 1} (t = {(step - 1) * s['h']:.3g} s), its last finite values, and the "
+                "dotted vertical "
                 "line in its colour marks the divergence, at the time its legend gives."
             )
     runs = s["runs"]
@@ -59,8 +63,10 @@ def caption_errors(out: Path, name: str, s: dict) -> str:
             spreads.append(f"{TABLE[m].symbol} {100 * np.nanmax(spread):.2g} %")
         mat = runs[group[0]]["material"]
         text += (
-            f" The {len(group)} dynamic {mat} runs ({', '.join(group)}) differ from one another by at most "
-            f"{', '.join(spreads)} of their mean at any step: on these log axes their curves overlap; each is "
+            f" The {len(group)} dynamic {mat} runs ({', '.join(group)}) differ from one another by "
+            "at most "
+            f"{', '.join(spreads)} of their mean at any step: on these log axes their curves "
+            "overlap; each is "
             "drawn with its own dash pattern, width and markers so that all of them can be seen."
         )
     return text + "*"
@@ -70,18 +76,24 @@ def caption_tip(out: Path, name: str, s: dict) -> str:
     ref = s["reference"]
     tips = read_tips(out / name / "tip.csv")
     text = (
-        f"*Vertical displacement of the tip of every run. {ref}, the reference, is the wide pale line; the "
+        f"*Vertical displacement of the tip of every run. {ref}, the reference, is the wide pale "
+        "line; the "
         "others are narrower, dashed or dotted lines on top of it."
     )
     static = static_label(s, ref)
     if static in tips:
         level, cross = tip_crossings(tips, s)
         text += (
-            f" Black dashed: {static}, 0 at step 0 and the static deflection {level:.4g} m from step 1 on. "
-            "Lower panel: each run's distance from the static deflection, on a symmetric log scale (linear "
-            "in a narrow band about 0), where the oscillation about the static shape stays visible as it "
-            f"decays. Dotted vertical lines and circles: {ref}'s crossings of the static deflection, "
-            f"interpolated linearly between steps, at t = {', '.join(f'{c:#.3g}' for c in cross) or 'none'} s."
+            f" Black dashed: {static}, 0 at step 0 and the static deflection {level:.4g} m from "
+            "step 1 on. "
+            "Lower panel: each run's distance from the static deflection, on a symmetric log scale "
+            "(linear "
+            "in a narrow band about 0), where the oscillation about the static shape stays visible "
+            "as it "
+            f"decays. Dotted vertical lines and circles: {ref}'s crossings of the static "
+            "deflection, "
+            "interpolated linearly between steps, at t = "
+            f"{', '.join(f'{c:#.3g}' for c in cross) or 'none'} s."
         )
     return text + "*"
 
@@ -94,14 +106,16 @@ def caption_deformed(out: Path, name: str, s: dict) -> str:
     times = np.arange(s["steps"] + 1) * s["h"]
     shown = ", ".join(f"{times[k]:.3g}" for k in shown_steps(times))
     view = (
-        "seen from its long side (+z), a little from above and from the free end, the side to which it bends"
+        "seen from its long side (+z), a little from above and from the free end, the side to "
+        "which it bends"
         if s["benchmark"] == "rod"
         else "seen from +z"
     )
     which = " and ".join(f"{r} ({runs[r]['material']})" for r in rows)
     return (
         f"*Deformed shape of {which} at t = {shown} s, "
-        f"{view}. Faces are coloured by |u| on one scale for all panels and are not shaded, so their colours "
+        f"{view}. Faces are coloured by |u| on one scale for all panels and are not shaded, so "
+        "their colours "
         "read directly on the colour bar; grey: the undeformed outline, drawn behind the shape.*"
     )
 
@@ -123,24 +137,30 @@ def paper_report(
     parts = [
         MARKER,
         "",
-        "Written by `tissuebench paper` (do not edit by hand). The study of Alterovitz and Goldberg, "
-        "*Comparing Algorithms for Soft Tissue Deformation*, as tissuebench poses it (README): Q1 elements, "
+        "Written by `tissuebench paper` (do not edit by hand). The study of Alterovitz and "
+        "Goldberg, "
+        "*Comparing Algorithms for Soft Tissue Deformation*, as tissuebench poses it (README): Q1 "
+        "elements, "
         "five integrators, three metrics against the `implicit` reference on the same mesh."
         + (
-            " Part 2 goes beyond the paper (SPEC section 8): large deformation, every integrator with "
+            " Part 2 goes beyond the paper (SPEC section 8): large deformation, every integrator "
+            "with "
             f"every elastic model against `{next(iter(large.values()))['reference']}` "
             f"([{LARGE_DEFORMATION}/]({LARGE_DEFORMATION}/))."
             if large
             else ""
         ),
         "",
-        f"Software: tissuebench {v['tissuebench']}, DOLFINx {v['dolfinx']}, petsc4py {v['petsc4py']}, "
-        f"gmsh {v['gmsh']}, shapely {v['shapely']}, manifold3d {v['manifold3d']}, Python {v['python']}, "
+        f"Software: tissuebench {v['tissuebench']}, DOLFINx {v['dolfinx']}, petsc4py "
+        f"{v['petsc4py']}, "
+        f"gmsh {v['gmsh']}, shapely {v['shapely']}, manifold3d {v['manifold3d']}, Python "
+        f"{v['python']}, "
         f"{v['mpi_ranks']} MPI rank(s).",
         "",
         "## SPEC section 7, claim by claim",
         "",
-        "Summaries (SPEC section 6, as in each case's summary.json): the time-mean and the maximum of a metric "
+        "Summaries (SPEC section 6, as in each case's summary.json): the time-mean and the maximum "
+        "of a metric "
         "over steps 1..N. Each verdict names the reading it rests on.",
         "",
         claims(out, summaries),
@@ -152,7 +172,8 @@ def paper_report(
         parts += [
             f"## {name}",
             "",
-            f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = {s['h']:.6g} s, "
+            f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = "
+            f"{s['h']:.6g} s, "
             f"T = {s['end_time']:.4g} s ({s['steps']} steps), solver {s['solver']}. Files: "
             f"[metrics.csv]({name}/metrics.csv), [summary.json]({name}/summary.json)"
             + (f", [tip.csv]({name}/tip.csv)" if "tip.csv" in s["files"] else "")

@@ -1,8 +1,21 @@
 """The look shared by the figures of part 1 (figures.py) and part 2 (model_figures.py): one
 line style and marker per run, one colour and dash per elastic model, the colour maps."""
 
+from typing import Protocol
+
 import numpy as np
 from matplotlib.axes import Axes
+
+
+class CaseView(Protocol):
+    """A case as the figures see it (workflows/study.py's Case has these): its name, benchmark,
+    reference run label and runs (each with its elastic `model`)."""
+
+    name: str
+    benchmark: str
+    reference: str
+    runs: list
+
 
 # One line style per run, widest first: a run drawn later lies on top of the earlier ones with
 # a narrower, differently dashed line, so curves that coincide all stay visible.

@@ -63,8 +63,10 @@ def _truth_claim(claim: Claim) -> list[str]:
         e, il, el = (claim.numbers["relative_error", "mean"][a] for a in ORDER[:3])
         spread = (max(e, il, el) - min(e, il, el)) / min(e, il, el)
         parts += (
-            f" The three E_n time-means are within {100 * spread:.2g} % of one another (each mostly the "
-            "mesh error, below): a ratio near 1/2 says that they do not add, and the verdict rests on "
+            f" The three E_n time-means are within {100 * spread:.2g} % of one another (each "
+            "mostly the "
+            "mesh error, below): a ratio near 1/2 says that they do not add, and the verdict rests "
+            "on "
             f"the factor-{ROUGHLY} margin."
         )
     lines.append(
@@ -78,19 +80,26 @@ def truth_section(data: PaperTruth) -> list[str]:
     lines = [
         "## The paper against the truth",
         "",
-        "SPEC section 10's truth (see [truth.md](truth.md)) is a converged reference of the continuum "
-        "problem; the paper's reference, `implicit` on the paper's Q1 mesh, is not. The block's truth "
-        "exists with a needle of width w = 0.2 m only: the paper used a point needle (w = 0), for which "
-        "refinement converges to no solution (SPEC 10). So the block here is run with w = 0.2 m (every "
+        "SPEC section 10's truth (see [truth.md](truth.md)) is a converged reference of the "
+        "continuum "
+        "problem; the paper's reference, `implicit` on the paper's Q1 mesh, is not. The block's "
+        "truth "
+        "exists with a needle of width w = 0.2 m only: the paper used a point needle (w = 0), for "
+        "which "
+        "refinement converges to no solution (SPEC 10). So the block here is run with w = 0.2 m "
+        "(every "
         "right-edge node with |y - 0.5| <= 0.1 m moves with the needle), at the paper's N = 20, "
-        "h = 1/30 s and T = 10 s, in [truth-block-w0.2/](truth-block-w0.2/); the rod's reference (n = 3) "
+        "h = 1/30 s and T = 10 s, in [truth-block-w0.2/](truth-block-w0.2/); the rod's reference "
+        "(n = 3) "
         "in [truth-rod-MP3/](truth-rod-MP3/). Each run is graded on its own mesh against the truth "
-        "(SPEC 10, 'Grading against the truth'); E_n and E_s dimensionless, E_i in m^3 (rod) and m^2 "
+        "(SPEC 10, 'Grading against the truth'); E_n and E_s dimensionless, E_i in m^3 (rod) and "
+        "m^2 "
         "(block); time-mean and maximum over steps 1..300.",
         "",
         "How far the paper's reference is from the truth:",
         "",
-        "| case | reference | truth | E_n mean | E_n max | E_i mean | E_i max | the truth's own E_i max |",
+        "| case | reference | truth | E_n mean | E_n max | E_i mean | E_i max | the truth's own "
+        "E_i max |",
         "|---|---|---|---:|---:|---:|---:|---:|",
     ]
     for ref in data.references:
@@ -151,13 +160,16 @@ def truth_findings(graded: dict) -> list[str]:
     gap = max(abs(x - floor) for x in dynamic.values())
     qs = mp1["quasi-static-MP1"][key]
     text = (
-        "What the numbers say: against the truth every run carries the error of the paper's Q1 mesh, "
-        f"which the reference shows alone (MP1: implicit's E_i time-mean {floor:.3g} m^2). The dynamic "
+        "What the numbers say: against the truth every run carries the error of the paper's Q1 "
+        "mesh, "
+        f"which the reference shows alone (MP1: implicit's E_i time-mean {floor:.3g} m^2). The "
+        "dynamic "
         "schemes' E_i time-means ("
         + ", ".join(f"{a} {x:.3g}" for a, x in dynamic.items())
         + f") lie within {gap:.2g} m^2 ({100 * gap / floor:.2g} % of it) of that mesh error, and "
         f"quasi-static's ({qs:.3g}) {100 * (qs - floor) / floor:.2g} % above it: the mesh error "
-        "dominates, and the orderings among the dynamic schemes that the paper reads against the same-mesh "
+        "dominates, and the orderings among the dynamic schemes that the paper reads against the "
+        "same-mesh "
         "reference are differences of a few per cent on top of it."
     )
     if mp2:
@@ -167,9 +179,13 @@ def truth_findings(graded: dict) -> list[str]:
             for a in ("implicit", "explicit", "implicit-lumped", "explicit-lumped", "quasi-static")
         )
         text += (
-            f" Against the MP2 truth the MP2 reference's own error (E_i time-mean {ref2:.3g} m^2, the "
-            f"Q1 mesh locking at nu = 0.495) is shared by quasi-static MP2 ({mp2['quasi-static-MP2'][key]:.3g}); "
-            f"the best MP1 run ({best:.3g}) is {best / ref2:.3g} times the reference's error: the material "
-            "data still matter more than the solver, but by less than ten times once the mesh error counts."
+            f" Against the MP2 truth the MP2 reference's own error (E_i time-mean {ref2:.3g} m^2, "
+            "the "
+            "Q1 mesh locking at nu = 0.495) is shared by quasi-static MP2 "
+            f"({mp2['quasi-static-MP2'][key]:.3g}); "
+            f"the best MP1 run ({best:.3g}) is {best / ref2:.3g} times the reference's error: the "
+            "material "
+            "data still matter more than the solver, but by less than ten times once the mesh "
+            "error counts."
         )
     return [text, ""]
