@@ -33,6 +33,7 @@ SIMULATORS = {
     "sfepy": "tissuebench.workflows.simulators.sfepy",
     "newton": "tissuebench.workflows.simulators.newton",
     "kratos": "tissuebench.workflows.simulators.kratos",
+    "drake": "tissuebench.workflows.simulators.drake",
 }
 
 
