@@ -32,6 +32,7 @@ SIMULATORS = {
     "calculix": "tissuebench.workflows.simulators.calculix",
     "sfepy": "tissuebench.workflows.simulators.sfepy",
     "newton": "tissuebench.workflows.simulators.newton",
+    "mujoco": "tissuebench.workflows.simulators.mujoco",
     "kratos": "tissuebench.workflows.simulators.kratos",
     "drake": "tissuebench.workflows.simulators.drake",
 }
