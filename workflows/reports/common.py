@@ -8,6 +8,7 @@ Every verdict says on which summary of the error curves it is judged. The summar
 of summary.json (SPEC section 6): the time-mean and the maximum over steps 1..N."""
 
 import json
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -197,13 +198,13 @@ def ratio_text(r: float) -> str:
     return f"{float(f'{r:.2g}'):.0f}" if r >= 10 else f"{r:.2g}"
 
 
-def cases_text(names) -> str:
+def cases_text(names: Iterable[str]) -> str:
     """'a, b and c'."""
     names = list(names)
     return " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
 
 
-def place(summary: dict, centre) -> str:
+def place(summary: dict, centre: Sequence[float]) -> str:
     """Where a cell centre (m) lies, in words, from the benchmark's geometry (SPEC sections 4,
     5)."""
     x = centre
