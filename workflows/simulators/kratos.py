@@ -1,14 +1,19 @@
-"""Kratos Multiphysics (StructuralMechanicsApplication) as an outside simulator: the rod posed
-as a Kratos user would, with its small-displacement solid elements and its implicit dynamic
-solver, run in a child Python process (its own OpenMP, logger and global state; one thread).
+"""Kratos Multiphysics (StructuralMechanicsApplication) as an outside simulator: the rod and
+the block posed as a Kratos user would, with its small-displacement solid elements and its
+implicit dynamic solver, run in a child Python process (its own OpenMP, logger and global
+state; one thread).
 
-The posed problem (SPEC sections 1-3, 5)
-----------------------------------------
-- Mesh: the exported nodes (Kratos node i + 1 is node i) and either the exported hexahedra as
-  `SmallDisplacementElement3D8N` (Q1, 2x2x2 Gauss: our own grid and element, compared node for
-  node with our `implicit`) or each hexahedron split into six tetrahedra exactly as newton.py
-  splits it (`split_hexahedra`, imported) as `SmallDisplacementElement3D4N` (P1).
-- Material: `LinearElastic3DLaw` with E, nu, rho: sigma = 2 mu eps + lambda tr(eps) I.
+The posed problem (SPEC sections 1-5)
+-------------------------------------
+- Mesh: the exported nodes (Kratos node i + 1 is node i). The rod: either the exported
+  hexahedra as `SmallDisplacementElement3D8N` (Q1, 2x2x2 Gauss: our own grid and element,
+  compared node for node with our `implicit`) or each hexahedron split into six tetrahedra
+  exactly as newton.py splits it (`split_hexahedra`, imported) as
+  `SmallDisplacementElement3D4N` (P1). The block: the exported quadrilaterals as
+  `SmallDisplacementElement2D4N` (Q1, 2x2 Gauss), THICKNESS 1 m, in 2D (domain_size 2): no
+  slab needed.
+- Material: `LinearElastic3DLaw` (3D), `LinearElasticPlaneStrain2DLaw` or
+  `LinearElasticPlaneStress2DLaw` (2D, as the export says) with E, nu, rho.
 - Mass: Kratos's consistent mass by default (checked on one tetrahedron: rho V / 20 (1 +
   delta_ij), exactly P1's; the hexahedra's 2x2x2 Gauss is exact for Q1); the `-lumped`
   variant sets COMPUTE_LUMPED_MASS_MATRIX on the properties, which gives V / 8 (V / 4) to each
@@ -17,7 +22,13 @@ The posed problem (SPEC sections 1-3, 5)
 - Damping: the solver's `rayleigh_alpha` = alpha, `rayleigh_beta` = beta: C = alpha M + beta K
   element by element, K the linear stiffness (K_0): the SPEC's form exactly.
 - Gravity: VOLUME_ACCELERATION on every node (the element's body force rho g, integrated with
-  its shape functions); the clamped face: DISPLACEMENT_X/Y/Z fixed at 0.
+  its shape functions).
+- Constrained sets (a node follows the last set that names it): DISPLACEMENT fixed, and set to
+  the prescribed u at t_i before each step's prediction. Kratos's scheme derives a fixed
+  dof's VELOCITY and ACCELERATION from its u by the Newmark formulas (for the needle's ramp
+  under the trapezoidal rule: v alternating 0, 2 g', 0, ...), so the prescribed v and a are
+  set after the prediction (the free rows then get the SPEC's M_fc a_c + C_fc v_c) and again
+  after the solve (the state the next step starts from).
 - Solver: "Dynamic", `analysis_type` "linear" (ResidualBasedLinearStrategy: one solve per
   step, the matrix built and factorised every step), LinearSolversApplication's sparse_lu
   (Eigen's SparseLU: the fastest direct solver Kratos finds in these wheels, which have no
@@ -32,33 +43,36 @@ The posed problem (SPEC sections 1-3, 5)
   T takes 301 steps, checked, and a project file must say T - h/2). Here the loop runs exactly
   `steps` steps and the output is the displacement at every t_i = i h.
 
-Departures from the SPEC, measured (tests/test_external_kratos.py: rod MP3, n = 2, 1 s)
---------------------------------------------------------------------------------------
-- Initial acceleration: Kratos alone starts from a_0 = 0, not from M a_0 = f as the SPEC
-  decides (checked: its u_1 is exactly half ours, h^2/4 S^-1 f against h^2/2 S^-1 f with
-  S = M + hC/2 + h^2 K/4). Posed here: before the first step the child solves M a_0 = f on the
-  free dofs with Kratos's own element mass matrices and right-hand sides (sparse LU) and sets
+Departures from the SPEC, measured (largest nodal difference over the largest displacement,
+unless E_n / E_i is said; tests/test_external_kratos.py checks the identities)
+-------------------------------------------------------------------------------------------
+- Initial acceleration: Kratos alone starts from a_0 = 0, not from the equation of motion at
+  t = 0 as the SPEC decides (checked: on the rod its u_1 is exactly half ours, h^2/4 S^-1 f
+  against h^2/2 S^-1 f with S = M + hC/2 + h^2 K/4). Posed here: before the first step the
+  child solves M_ff a_f = f_f - K_fc u_c - C_fc v_c - M_fc a_c with Kratos's own element
+  mass, damping and stiffness matrices and right-hand sides (sparse LU) and sets
   ACCELERATION. Left out (SPEC_INITIAL_ACCELERATION = False), the rod lacks the velocity
-  h a_0 / 2 throughout: 3.2 % of the largest displacement over the first second on n = 3,
-  0.62 % over 10 s, 6.7e-5 at t = 10 s (alpha = 1/s damps it).
-- With it, `hex8-newmark` is our `implicit` to round-off (E_n max 1.8e-14 on n = 3) and
-  `hex8-newmark-lumped` our `implicit-lumped` (6e-17 relative on n = 2): no departure left.
+  h a_0 / 2 throughout: 3.2 % over the first second on n = 3, 0.62 % over 10 s, 6.7e-5 at
+  t = 10 s (alpha = 1/s damps it); the block MP1 N = 20: 0.30 % (the needle's C_fc v_c).
+- The needle's v and a: left to Kratos (SPEC_CONSTRAINED_RATES = False), the block MP1 N = 20
+  departs by 0.49 % over 10 s (0.35 % before the needle stops at t = 2 s); both left to
+  Kratos, 0.49 %.
+- With both set, `hex8-newmark` and `quad4-newmark` are our `implicit` to round-off (E_n max
+  1.8e-14 on the rod n = 3, 8.3e-15 on the block N = 20) and the `-lumped` variants our
+  `implicit-lumped` (6e-15 relative, rod n = 2 and block N = 4): no departure left.
 - `bossak`: its dissipation and alpha_m-weighted inertia (checked against an independent
   Bossak-Newmark solve to round-off): E_n max 0.018, E_i max 3.4e-7 against `implicit` on
-  n = 3 over 10 s.
+  the rod n = 3 over 10 s; 0.072 and 1.2e-6 on the block MP1 N = 20.
 - `tet4`: the P1 element on the same nodes, stiffer in bending than Q1 (static tip 0.69 of
   Q1's on n = 2, 0.80 on n = 3, newton.py): E_n max 0.215, E_i max 1.2e-3 against our Q1
   `implicit` on n = 3; against a dense P1 trapezoidal (and Bossak) solve on the same
   tetrahedra it is round-off.
 - `-lumped`: M_L for M, in the inertia and in alpha M: E_n max 0.072 against `implicit` on
-  n = 3 (what our `implicit-lumped` departs by).
+  the rod n = 3, 0.119 on the block MP1 N = 20 (what our `implicit-lumped` departs by).
 
-Not posed: the 2D block (Kratos derives a fixed degree of freedom's velocity and acceleration
-from its displacement by the scheme's Newmark formulas, so the needle's prescribed v and a,
-which the SPEC holds exactly, would alternate step by step), moving constrained sets, the
-static procedure, and the nonlinear models (Kratos's HyperElastic3DLaw is the ln J neo-Hookean
-psi = mu/2 (I_1 - 3) - mu ln J + lambda/2 (ln J)^2, not the SPEC's, and issue 27 asks for the
-linear model of Kratos only).
+Not posed: the static procedure, and the nonlinear models (Kratos's HyperElastic3DLaw is the
+ln J neo-Hookean psi = mu/2 (I_1 - 3) - mu ln J + lambda/2 (ln J)^2, not the SPEC's, and
+issue 27 asks for the linear model of Kratos only).
 
 A run diverges as SPEC section 3 says (a displacement not finite or beyond 100 x the largest
 extent, checked at every t_i): NaN from there on, status "failed". Kratos raising (a singular
@@ -100,56 +114,59 @@ TIMEOUT = 3600.0  # s: a child run beyond this is stopped and recorded as failed
 BOSSAK_ALPHA_M = -0.3  # Kratos's default damp_factor_m
 # set the SPEC's a_0 (M a_0 = f) before the first step; False: Kratos's own a_0 = 0
 SPEC_INITIAL_ACCELERATION = True
+# set the constrained nodes' prescribed v and a every step; False: Kratos's own, derived from
+# the prescribed u by the scheme's Newmark formulas
+SPEC_CONSTRAINED_RATES = True
 MESHES = {
     "hex8": ("SmallDisplacementElement3D8N", "reference"),
     "tet4": (
         "SmallDisplacementElement3D4N",
         "tetrahedra, 6 per hexahedron, on the reference's nodes",
     ),
+    "quad4": ("SmallDisplacementElement2D4N", "reference"),
 }
+SCHEMES = {  # scheme name -> (Kratos scheme_type, damp_factor_m, how the description says it)
+    "newmark": ("newmark", 0.0, "newmark beta = 1/4, gamma = 1/2 (trapezoidal)"),
+    "bossak": (
+        "bossak",
+        BOSSAK_ALPHA_M,
+        "bossak alpha_m = -0.3 (beta = 0.4225, gamma = 0.8: dissipative, rho_inf = 0.54)",
+    ),
+}
+ELEMENTS = {  # element key -> what the description says of it
+    "hex8": "SmallDisplacementElement3D8N (Q1) on our hexahedra",
+    "tet4": "SmallDisplacementElement3D4N (P1) on 6 tetrahedra per hexahedron",
+    "quad4": "SmallDisplacementElement2D4N (Q1) on our quadrilaterals",
+}
+
+
+def _variant(element: str, scheme: str, lumped: bool) -> tuple:
+    """(element key, scheme_type, damp_factor_m, lumped, one-line description)."""
+    kind, damp, said = SCHEMES[scheme]
+    mass = (
+        "lumped mass (COMPUTE_LUMPED_MASS_MATRIX: the row sums; C = alpha M_L + beta K)"
+        if lumped
+        else "consistent mass"
+    )
+    exact = ": our implicit" if scheme == "newmark" and element != "tet4" else ""
+    exact = ": our implicit-lumped" if exact and lumped else exact
+    return (element, kind, damp, lumped, f"{ELEMENTS[element]}, {mass}, {said}{exact}; "
+            "the SPEC's a_0 set")  # fmt: skip
+
 
 # name -> (element key, scheme_type, damp_factor_m, lumped mass, one-line description)
 VARIANTS = {
-    "hex8-newmark": (
-        "hex8",
-        "newmark",
-        0.0,
-        False,
-        "SmallDisplacementElement3D8N (Q1) on our hexahedra, consistent mass, newmark "
-        "beta = 1/4, gamma = 1/2 (trapezoidal): our implicit; the SPEC's a_0 set",
-    ),
-    "hex8-newmark-lumped": (
-        "hex8",
-        "newmark",
-        0.0,
-        True,
-        "SmallDisplacementElement3D8N (Q1), lumped mass (COMPUTE_LUMPED_MASS_MATRIX: V/8 a "
-        "corner, C = alpha M_L + beta K: our implicit-lumped), newmark 1/4, 1/2; the SPEC's a_0 set",
-    ),
-    "hex8-bossak": (
-        "hex8",
-        "bossak",
-        BOSSAK_ALPHA_M,
-        False,
-        "SmallDisplacementElement3D8N (Q1), consistent mass, bossak alpha_m = -0.3 (beta = "
-        "0.4225, gamma = 0.8: dissipative, rho_inf = 0.54); the SPEC's a_0 set",
-    ),
-    "tet4-newmark": (
-        "tet4",
-        "newmark",
-        0.0,
-        False,
-        "SmallDisplacementElement3D4N (P1) on 6 tetrahedra per hexahedron, consistent mass, "
-        "newmark beta = 1/4, gamma = 1/2 (trapezoidal); the SPEC's a_0 set",
-    ),
-    "tet4-bossak": (
-        "tet4",
-        "bossak",
-        BOSSAK_ALPHA_M,
-        False,
-        "SmallDisplacementElement3D4N (P1) on 6 tetrahedra per hexahedron, consistent mass, "
-        "bossak alpha_m = -0.3 (beta = 0.4225, gamma = 0.8, rho_inf = 0.54); the SPEC's a_0 set",
-    ),
+    f"{element}-{scheme}{'-lumped' if lumped else ''}": _variant(element, scheme, lumped)
+    for element, scheme, lumped in (
+        ("hex8", "newmark", False),
+        ("hex8", "newmark", True),
+        ("hex8", "bossak", False),
+        ("tet4", "newmark", False),
+        ("tet4", "bossak", False),
+        ("quad4", "newmark", False),
+        ("quad4", "newmark", True),
+        ("quad4", "bossak", False),
+    )
 }
 
 
@@ -170,25 +187,14 @@ def available() -> str | None:
     return None
 
 
-def _moving(data: Exported) -> bool:
-    """Whether some constrained set moves."""
-    return any(
-        np.any(np.abs(np.asarray(x)) > 0) for motion in data.motions.values() for x in motion
-    )
-
-
 def variants(data: Exported) -> dict[str, str]:
-    """The variants that pose this export, name -> one line: every variant for the dynamic 3D
-    hexahedral export of the linear model with fixed constrained sets; else none."""
-    if (
-        data.procedure != "dynamic"
-        or data.dim != 3
-        or data.cell_type != "hexahedron"
-        or data.model != "linear"
-        or _moving(data)
-    ):
+    """The variants that pose this export, name -> one line: hex8 and tet4 for the 3D
+    hexahedral export, quad4 for the 2D quadrilateral one (plane strain or stress), each for
+    the linear model's dynamic procedure; else none."""
+    if data.procedure != "dynamic" or data.model != "linear":
         return {}
-    return {name: spec[4] for name, spec in VARIANTS.items()}
+    element = {"hexahedron": ("hex8", "tet4"), "quadrilateral": ("quad4",)}.get(data.cell_type, ())
+    return {name: spec[4] for name, spec in VARIANTS.items() if spec[0] in element}
 
 
 def skipped(data: Exported) -> dict[str, str]:
@@ -198,9 +204,8 @@ def skipped(data: Exported) -> dict[str, str]:
     if data.model != "linear":
         return {"all": f"the {data.model} model is not posed in Kratos here (its hyperelastic "
                 "law is the ln J neo-Hookean, not the SPEC's): linear only"}  # fmt: skip
-    if data.dim != 3 or data.cell_type != "hexahedron" or _moving(data):
-        return {"all": "Kratos derives a fixed dof's v and a from its u by the Newmark formulas: "
-                "the needle's prescribed v and a would alternate step by step"}  # fmt: skip
+    if not variants(data):
+        return {"all": f"no Kratos element posed here for {data.cell_type} cells"}
     return {}
 
 
@@ -208,13 +213,27 @@ def skipped(data: Exported) -> dict[str, str]:
 
 
 def posed_mesh(data: Exported, variant: str) -> tuple[np.ndarray, str]:
-    """(cells (C, 8) or (T, 4) as node indices, cell type) of variant: the exported hexahedra or
-    newton.py's six-tetrahedra split of them."""
+    """(cells as node indices, cell type) of variant: the exported cells, or newton.py's
+    six-tetrahedra split of the hexahedra."""
     from tissuebench.workflows.simulators.newton import split_hexahedra
 
-    if VARIANTS[variant][0] == "hex8":
-        return np.asarray(data.cells, dtype=np.int64), "hexahedron"
+    if VARIANTS[variant][0] != "tet4":
+        return np.asarray(data.cells, dtype=np.int64), data.cell_type
     return split_hexahedra(np.asarray(data.nodes, dtype=np.float64), data.cells), "tetrahedron"
+
+
+def constrained(data: Exported) -> tuple[np.ndarray, np.ndarray]:
+    """(constrained nodes (K,), their prescribed motion (steps + 1, K, 3, d): u m, v m/s,
+    a m/s^2 at every t_i), each node following the last set that names it (SPEC section 3)."""
+    owner: dict[int, str] = {}
+    for name, nodes in data.effective_sets().items():
+        for i in np.asarray(nodes, dtype=np.int64):
+            owner[int(i)] = name
+    nodes = np.array(sorted(owner), dtype=np.int64)
+    motion = np.zeros((data.steps + 1, len(nodes), 3, data.dim))
+    for k, i in enumerate(nodes):
+        motion[:, k] = np.stack([np.asarray(x) for x in data.motions[owner[int(i)]]], axis=1)
+    return nodes, motion
 
 
 def write_input(
@@ -223,19 +242,27 @@ def write_input(
     path: Path,
     cells: np.ndarray,
     initial_acceleration_set: bool = True,
+    rates_set: bool = True,
 ) -> None:
     """The posed problem as an .npz for the child (SI units); initial_acceleration_set False
-    leaves Kratos's own a_0 = 0 (the measured departure)."""
+    leaves Kratos's own a_0 = 0, rates_set False Kratos's own v and a on the constrained nodes
+    (the measured departures)."""
     element_key, scheme, damp, lumped, _ = VARIANTS[variant]
     m = data.material
-    clamped = np.unique(np.concatenate([np.asarray(s) for s in data.effective_sets().values()]))
     nodes = np.asarray(data.nodes, dtype=np.float64)
+    fixed, motion = constrained(data)
+    law = "LinearElastic3DLaw"
+    if data.dim == 2:
+        law = "LinearElasticPlaneStress2DLaw" if data.plane == "stress" else (
+            "LinearElasticPlaneStrain2DLaw")  # fmt: skip
     np.savez(
         path,
         nodes=nodes,
         cells=cells,
         element=MESHES[element_key][0],
-        clamped=clamped.astype(np.int64),
+        law=law,
+        clamped=fixed,
+        motion=motion,
         gravity=np.asarray(data.gravity, dtype=np.float64),
         material=np.array([m.E, m.nu, m.rho, m.alpha, m.beta]),
         h=data.h,
@@ -244,46 +271,61 @@ def write_input(
         damp_factor_m=damp,
         lumped=lumped,
         initial_acceleration=initial_acceleration_set,
+        rates=rates_set,
         limit=DIVERGED * float(np.max(nodes.max(axis=0) - nodes.min(axis=0))),
     )
 
 
-def initial_acceleration(part, n_nodes: int, clamped: np.ndarray) -> np.ndarray:
-    """The SPEC's a_0 (N, 3) m/s^2: M a_0 = f on the free dofs with u = v = 0, from Kratos's own
-    element mass matrices (consistent or lumped, as the properties say) and right-hand sides
-    (the body force at u = 0), a sparse LU solve; 0 on the clamped nodes. Kratos alone would
-    start from a_0 = 0."""
+def initial_acceleration(part, n_nodes: int, dim: int, fixed: np.ndarray, motion0: np.ndarray):
+    """The SPEC's a_0 (N, dim) m/s^2: on the free dofs, M_ff a_f = f_f - K_fc u_c - C_fc v_c -
+    M_fc a_c with u = v = 0 there and the constrained dofs at their prescribed state motion0
+    (K, 3, dim) at t = 0, from Kratos's own element matrices (mass consistent or lumped as the
+    properties say, damping alpha M + beta K, stiffness) and right-hand sides at u = 0 (the
+    body force); a sparse LU solve. Kratos alone would start from a_0 = 0."""
     import KratosMultiphysics as KM
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla  # imported by simulate before its clock starts
 
     info = part.ProcessInfo
-    rows, cols, values = [], [], []
-    f = np.zeros(3 * n_nodes)
-    M_e, f_e = KM.Matrix(), KM.Vector()
+    n = dim * n_nodes
+    rows, cols, values = [], [], {"M": [], "C": [], "K": []}
+    f = np.zeros(n)
+    A_e, f_e = KM.Matrix(), KM.Vector()
     for element in part.Elements:
-        dofs = np.array([3 * (n.Id - 1) + k for n in element.GetNodes() for k in range(3)])
-        element.CalculateMassMatrix(M_e, info)
-        element.CalculateRightHandSide(f_e, info)
+        dofs = np.array(
+            [dim * (node.Id - 1) + k for node in element.GetNodes() for k in range(dim)]
+        )
         rows.append(np.repeat(dofs, len(dofs)))
         cols.append(np.tile(dofs, len(dofs)))
-        values.append(np.array(M_e).ravel())
+        element.CalculateMassMatrix(A_e, info)
+        values["M"].append(np.array(A_e).ravel())
+        element.CalculateDampingMatrix(A_e, info)
+        values["C"].append(np.array(A_e).ravel())
+        element.CalculateLocalSystem(A_e, f_e, info)  # at u = 0: K and the body force
+        values["K"].append(np.array(A_e).ravel())
         np.add.at(f, dofs, np.array(f_e))
-    M = sp.csc_matrix(
-        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
-        shape=(3 * n_nodes, 3 * n_nodes),
-    )
-    fixed = (3 * np.asarray(clamped, dtype=np.int64)[:, None] + np.arange(3)).ravel()
-    free = np.setdiff1d(np.arange(3 * n_nodes), fixed)
-    a0 = np.zeros(3 * n_nodes)
-    a0[free] = spla.spsolve(M[free][:, free].tocsc(), f[free])
-    return a0.reshape(-1, 3)
+    index = (np.concatenate(rows), np.concatenate(cols))
+    M, C, K = (sp.csr_matrix((np.concatenate(values[x]), index), shape=(n, n)) for x in "MCK")
+    fixed_dofs = (dim * np.asarray(fixed, dtype=np.int64)[:, None] + np.arange(dim)).ravel()
+    free = np.setdiff1d(np.arange(n), fixed_dofs)
+    u_c, v_c, a_c = (motion0[:, j, :].ravel() for j in range(3))
+    rhs = f - K[:, fixed_dofs] @ u_c - C[:, fixed_dofs] @ v_c - M[:, fixed_dofs] @ a_c
+    a0 = np.zeros(n)
+    a0[fixed_dofs] = a_c
+    a0[free] = spla.spsolve(M[free][:, free].tocsc(), rhs[free])
+    return a0.reshape(-1, dim)
 
 
 def simulate(source: Path, target: Path) -> None:
     """The child's work: read the posed problem (source .npz), run Kratos on one thread, write
     target .npz with U (steps + 1, N, 3) m (NaN from a divergence on), diverged (step or -1),
-    reason, wall_time_s (s: from the model's creation to the last step)."""
+    reason, wall_time_s (s: from the model's creation to the last step).
+
+    Constrained nodes: DISPLACEMENT fixed and set to the prescribed u before each step's
+    prediction; their VELOCITY and ACCELERATION, which Kratos's scheme derives from u by its
+    Newmark formulas, are set to the prescribed v and a after the prediction (so that the
+    free equations get M_fc a_c + C_fc v_c of the SPEC) and again after the solve (the state
+    the next step starts from)."""
     os.environ["OMP_NUM_THREADS"] = "1"
     import KratosMultiphysics as KM
     import KratosMultiphysics.LinearSolversApplication  # noqa: F401 (sparse_lu)
@@ -297,7 +339,8 @@ def simulate(source: Path, target: Path) -> None:
     KM.Logger.GetDefaultOutput().SetSeverity(KM.Logger.Severity.WARNING)
     KM.ParallelUtilities.SetNumThreads(1)
     p = np.load(source)
-    nodes, cells, clamped = p["nodes"], p["cells"], p["clamped"]
+    nodes, cells, fixed, motion = p["nodes"], p["cells"], p["clamped"], p["motion"]
+    dim = nodes.shape[1]
     E, nu, rho, alpha, beta = (float(x) for x in p["material"])
     h, steps, limit = float(p["h"]), int(p["steps"]), float(p["limit"])
     settings = KM.Parameters(
@@ -311,6 +354,7 @@ def simulate(source: Path, target: Path) -> None:
         "linear_solver_settings": {"solver_type": "LinearSolversApplication.sparse_lu"}
         }"""
     )
+    settings["domain_size"].SetInt(dim)
     settings["time_stepping"]["time_step"].SetDouble(h)
     settings.AddEmptyValue("scheme_type").SetString(str(p["scheme"]))
     settings.AddEmptyValue("damp_factor_m").SetDouble(float(p["damp_factor_m"]))
@@ -321,47 +365,66 @@ def simulate(source: Path, target: Path) -> None:
     start = time.perf_counter()
     model = KM.Model()
     part = model.CreateModelPart("Structure")
-    part.ProcessInfo[KM.DOMAIN_SIZE] = 3
+    part.ProcessInfo[KM.DOMAIN_SIZE] = dim
     solver = wrapper.CreateSolverByParameters(model, settings, "OpenMP")
     solver.AddVariables()
     for i, x in enumerate(nodes):
-        part.CreateNewNode(i + 1, float(x[0]), float(x[1]), float(x[2]))
+        z = float(x[2]) if dim == 3 else 0.0
+        part.CreateNewNode(i + 1, float(x[0]), float(x[1]), z)
     props = part.GetProperties()[1]
     props.SetValue(KM.YOUNG_MODULUS, E)
     props.SetValue(KM.POISSON_RATIO, nu)
     props.SetValue(KM.DENSITY, rho)
+    props.SetValue(KM.THICKNESS, 1.0)  # 2D: per metre of depth, as the SPEC's plane problems
     props.SetValue(KM.COMPUTE_LUMPED_MASS_MATRIX, bool(p["lumped"]))
-    props.SetValue(KM.CONSTITUTIVE_LAW, SMA.LinearElastic3DLaw())
+    props.SetValue(KM.CONSTITUTIVE_LAW, getattr(SMA, str(p["law"]))())
     element = str(p["element"])
     for c, cell in enumerate(cells):
         part.CreateNewElement(element, c + 1, [int(k) + 1 for k in cell], props)
     solver.ImportModelPart()
     solver.PrepareModelPart()
     solver.AddDofs()
-    gravity = [float(g) for g in p["gravity"]]
+    gravity = [float(g) for g in p["gravity"]] + [0.0] * (3 - dim)
     for node in part.Nodes:
         node.SetSolutionStepValue(KM.VOLUME_ACCELERATION, gravity)
-    for i in clamped:
-        node = part.GetNode(int(i) + 1)
-        for var in (KM.DISPLACEMENT_X, KM.DISPLACEMENT_Y, KM.DISPLACEMENT_Z):
+    components = (KM.DISPLACEMENT_X, KM.DISPLACEMENT_Y, KM.DISPLACEMENT_Z)[:dim]
+    held = [part.GetNode(int(i) + 1) for i in fixed]
+    for node in held:
+        for var in components:
             node.Fix(var)
     solver.Initialize()
     solver.Check()
+
+    def prescribe(i: int, which: tuple) -> None:
+        """Set the constrained nodes' variables `which` (indices into u, v, a) to step i."""
+        for node, values in zip(held, motion[i]):
+            for j in which:
+                vector = [float(x) for x in values[j]] + [0.0] * (3 - dim)
+                node.SetSolutionStepValue(
+                    (KM.DISPLACEMENT, KM.VELOCITY, KM.ACCELERATION)[j], vector
+                )
+
+    rates = (1, 2) if bool(p["rates"]) else ()
+    prescribe(0, (0, *rates))
     if bool(p["initial_acceleration"]):
-        a0 = initial_acceleration(part, len(nodes), clamped)
+        a0 = initial_acceleration(part, len(nodes), dim, fixed, motion[0])
         for node in part.Nodes:
-            node.SetSolutionStepValue(KM.ACCELERATION, a0[node.Id - 1].tolist())
+            node.SetSolutionStepValue(KM.ACCELERATION, list(a0[node.Id - 1]) + [0.0] * (3 - dim))
 
     U = np.full((steps + 1, len(nodes), 3), np.nan)
     U[0] = 0.0
+    U[0, fixed, :dim] = motion[0, :, 0]
     diverged, reason = -1, ""
     read = KM.VariableUtils()
     t = 0.0
     for i in range(1, steps + 1):
         t = solver.AdvanceInTime(t)
         solver.InitializeSolutionStep()
+        prescribe(i, (0,))
         solver.Predict()
+        prescribe(i, rates)
         solver.SolveSolutionStep()
+        prescribe(i, rates)
         solver.FinalizeSolutionStep()
         u = np.array(read.GetSolutionStepValuesVector(part.Nodes, KM.DISPLACEMENT, 0, 3))
         u = u.reshape(-1, 3)
@@ -392,7 +455,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
 
     workdir = Path(workdir)
     nodes = np.asarray(data.nodes, dtype=np.float64)
-    dofs = 3 * len(nodes)
+    dofs = nodes.size
     if variant not in variants(data):
         return not_run(
             dofs,
@@ -409,7 +472,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
                 dofs, "the six-tetrahedra split of these hexahedra does not conform", mesh
             )
     source, target = workdir / "kratos_input.npz", workdir / "kratos_output.npz"
-    write_input(data, variant, source, cells, SPEC_INITIAL_ACCELERATION)
+    write_input(data, variant, source, cells, SPEC_INITIAL_ACCELERATION, SPEC_CONSTRAINED_RATES)
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     command = [
         sys.executable,
@@ -430,7 +493,9 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     result = np.load(target)
     U, diverged = result["U"], int(result["diverged"])
     path = workdir / SERIES
-    write_series(path, ((nodes, cells, cell_type), {FIELD: U}), data.times)
+    points = np.zeros((len(nodes), 3))
+    points[:, : data.dim] = nodes
+    write_series(path, ((points, cells, cell_type), {FIELD: U}), data.times)
     failed = diverged > 0
     return ExternalRun(
         series=path,
