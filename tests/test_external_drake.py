@@ -4,7 +4,7 @@ against a P1 Newmark written here (numpy and scipy only, on the same tetrahedra)
 reproduces it to round-off once given the departures the module states (the one-point mass,
 Newmark gamma = 1, beta = 1/2) and departs by them otherwise; the scheme is shown first order;
 the neo-Hookean mapping is checked against the small-strain Lame constants of Drake's energy;
-a blow-up comes back failed. Serial: Drake runs on one process; about 15 s."""
+a blow-up comes back failed. Serial: Drake runs on one process; 3 to 9 s."""
 
 import unittest.mock
 
