@@ -5,6 +5,7 @@ function and an `ENTRY` (meshes.benchmark.Entry: its defaults and options), regi
 """
 
 from tissuebench.meshes import block, rod
+from tissuebench.meshes.benchmark import Benchmark, Entry
 from tissuebench.meshes.gmshio import MeshError
 
 BENCHMARKS = {
@@ -13,13 +14,13 @@ BENCHMARKS = {
 }
 
 
-def get_entry(name):
+def get_entry(name: str) -> Entry:
     """The registry entry of benchmark `name` (see BENCHMARKS)."""
     if name not in BENCHMARKS:
         raise MeshError(f"unknown benchmark {name!r}: use one of {', '.join(BENCHMARKS)}")
     return BENCHMARKS[name]
 
 
-def get_benchmark(name, **kwargs):
+def get_benchmark(name: str, **kwargs: object) -> Benchmark:
     """Build the benchmark `name` (see BENCHMARKS) with its keyword options."""
     return get_entry(name).build(**kwargs)

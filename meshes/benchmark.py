@@ -4,6 +4,7 @@ the body force, and the SPEC's defaults."""
 from dataclasses import dataclass, field
 from typing import Callable
 
+import dolfinx.mesh
 import numpy as np
 
 
@@ -33,11 +34,11 @@ class Benchmark:
     options: dict = field(default_factory=dict)
 
     @property
-    def mesh(self):
+    def mesh(self) -> dolfinx.mesh.Mesh:
         return self.tagged.mesh
 
     @property
-    def gdim(self):
+    def gdim(self) -> int:
         return self.tagged.mesh.geometry.dim
 
 
@@ -112,7 +113,7 @@ def shape_options(gdim: int, cell: str | None, mesh: str | None) -> dict:
 LOAD_SCALE_HELP = "load scale s > 0: the prescribed motion and gravity times s (default 1, SPEC 8)"
 
 
-def check_load_scale(s) -> None:
+def check_load_scale(s: object) -> None:
     """Refuse a load scale that is not a finite positive number (MeshError: bad input)."""
     from tissuebench.meshes.gmshio import MeshError
 
@@ -126,7 +127,7 @@ def check_load_scale(s) -> None:
         )
 
 
-def fixed(gdim):
+def fixed(gdim: int) -> Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The motion of a clamped node: u = v = a = 0."""
     zero = np.zeros(gdim)
     return lambda t: (zero, zero, zero)

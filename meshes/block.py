@@ -7,6 +7,8 @@ The right edge is split at the needle node (1, 0.5), so that N must be even. Phy
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from mpi4py import MPI
 
 import dolfinx.mesh
@@ -85,7 +87,7 @@ def gmsh_block(
 def block_mesh(
     N: int = 20,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    msh_path=None,
+    msh_path: str | Path | None = None,
     cell: str = "quadrilateral",
     mesh: str = "structured",
     needle_width: float = 0.0,
@@ -119,7 +121,7 @@ def benchmark(
     needle_width: float = 0.0,
     load_scale: float = 1.0,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    msh_path=None,
+    msh_path: str | Path | None = None,
     cell: str = "quadrilateral",
     mesh: str = "structured",
 ) -> Benchmark:

@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from mpi4py import MPI
 
 import gmsh
@@ -63,7 +65,7 @@ def gmsh_rod(n: int, cell: str = "hexahedron", mesh: str = "structured") -> None
 def rod_mesh(
     n: int = 3,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    msh_path=None,
+    msh_path: str | Path | None = None,
     cell: str = "hexahedron",
     mesh: str = "structured",
 ) -> TaggedMesh:
@@ -84,7 +86,7 @@ def benchmark(
     mesh_size: int = 3,
     load_scale: float = 1.0,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    msh_path=None,
+    msh_path: str | Path | None = None,
     cell: str = "hexahedron",
     mesh: str = "structured",
 ) -> Benchmark:
