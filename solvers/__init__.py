@@ -5,9 +5,16 @@ damping and Newmark parameters, and how to build its Integrator), registered bel
 stability analysis and the command-line choices derive from this table.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from tissuebench.solvers import explicit, explicit_lumped, implicit, implicit_lumped, quasi_static
 from tissuebench.solvers.algorithm import Algorithm, Integrator
 from tissuebench.solvers.models import MODELS, get_model
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
 
 ALGORITHMS: dict[str, Algorithm] = {
     "implicit": implicit.ALGORITHM,
@@ -23,7 +30,7 @@ __all__ = ["ALGORITHMS", "MODELS", "REFERENCE", "get_integrator"]
 
 
 def get_integrator(
-    name: str, system, h: float, solver: str = "direct", model: str = "linear"
+    name: str, system: System, h: float, solver: str = "direct", model: str = "linear"
 ) -> Integrator:
     """The integrator `name` (see ALGORITHMS) for `system` with time step h (s) and the
     elastic model `model` (see MODELS; `linear` is the assembled K of SPEC sections 1-7)."""

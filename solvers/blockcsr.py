@@ -11,14 +11,22 @@ Products are exact to round-off against PETSc's MatMult (tests/test_system.py); 
 the ghost values of x come from DOLFINx's scatter, as in DOLFINx's own MatrixCSR.mult.
 """
 
+from __future__ import annotations
+
 import hashlib
 import importlib.util
 import os
 import platform
 import tempfile
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from petsc4py import PETSc
 
 SOURCE = r"""
 #include <stdint.h>
@@ -90,7 +98,7 @@ def _declarations():
     return "\n".join(lines)
 
 
-def cache_dir():
+def cache_dir() -> Path:
     """Where compiled kernels are kept: $TISSUEBENCH_CACHE or ~/.cache/tissuebench."""
     return Path(os.environ.get("TISSUEBENCH_CACHE", Path.home() / ".cache" / "tissuebench"))
 
@@ -104,7 +112,7 @@ def _cpu_key():
         return platform.processor()
 
 
-def load(comm=None):
+def load(comm: MPI.Comm | None = None) -> ModuleType:
     """The compiled kernels (a cffi module: .ffi, .lib), compiled on first use. Under MPI, rank
     0 of `comm` compiles and the others wait."""
     global _lib
@@ -206,12 +214,21 @@ class BlockCSR:
         self._x.scatter_forward()
         return self._xp
 
-    def mult(self, x, y, add=False):
+    def mult(self, x: PETSc.Vec, y: PETSc.Vec, add: bool = False) -> None:
         """y = A x, or y += A x if add."""
         xp = self._ghosted(x)
         self._mult(*self._args, xp, self.lib.ffi.from_buffer("double[]", y.array), int(add))
 
-    def explicit_lumped(self, u, f, inv_s, alpha_ml, v, a, gh):
+    def explicit_lumped(
+        self,
+        u: PETSc.Vec,
+        f: PETSc.Vec,
+        inv_s: PETSc.Vec,
+        alpha_ml: PETSc.Vec,
+        v: PETSc.Vec,
+        a: PETSc.Vec,
+        gh: float,
+    ) -> None:
         """With A = K: a = inv_s (f - K u - alpha_ml v), then v += gh a (all owned dofs)."""
         ptr = self.lib.ffi.from_buffer
         self._step(

@@ -9,7 +9,10 @@ length), and from the differences between consecutive solutions, free of the ref
 error. Units: h and t in s, errors dimensionless (E_n, E_s) or in m (E_i).
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Sequence
 
 from mpi4py import MPI
 
@@ -34,7 +37,9 @@ SPACE_TIME = 1.0  # s: the space study compares the solutions at this time
 # --- runs ---------------------------------------------------------------------------------------
 
 
-def displacements(system, algorithm, h, n_steps, every=1):
+def displacements(
+    system: System, algorithm: str, h: float, n_steps: int, every: int = 1
+) -> list[np.ndarray]:
     """The owned displacement values (m) at steps 0, every, 2 every, ... of a run with step h
     (s); a diverged run gives the ones before it diverged."""
     kept = []
@@ -54,7 +59,9 @@ def displacements(system, algorithm, h, n_steps, every=1):
     return kept
 
 
-def peak_errors(metrics, reference, candidate):
+def peak_errors(
+    metrics: Metrics, reference: list[np.ndarray], candidate: list[np.ndarray]
+) -> dict[str, float]:
     """Each metric's maximum over the shared times j = 1..n; inf when a run diverged (it then
     has fewer times than the other)."""
     if len(candidate) != len(reference):
@@ -66,7 +73,7 @@ def peak_errors(metrics, reference, candidate):
 # --- observed orders ----------------------------------------------------------------------------
 
 
-def orders(refinements, errors):
+def orders(refinements: Sequence[float], errors: Sequence[float]) -> list[float]:
     """p = log(e_a / e_b) / log(s_b / s_a) for consecutive refinements s (1/h or cells per unit
     length); NaN where an error is not finite and positive."""
     out = []
@@ -76,7 +83,7 @@ def orders(refinements, errors):
     return out
 
 
-def difference_orders(refinements, differences):
+def difference_orders(refinements: Sequence[float], differences: Sequence[float]) -> list[float]:
     """The order p from the differences d_ab = |u_a - u_b| of consecutive solutions: for three
     consecutive refinements a < b < c, the p with d_ab / d_bc = (a^-p - b^-p) / (b^-p - c^-p),
     the ratio of an error C s^-p; log2(d_ab / d_bc) when each refines the last by 2."""
@@ -106,7 +113,14 @@ def difference_orders(refinements, differences):
 # --- time ---------------------------------------------------------------------------------------
 
 
-def time_study(system, h, end_time, algorithms=DYNAMIC, levels=LEVELS, refinement=REFINEMENT):
+def time_study(
+    system: System,
+    h: float,
+    end_time: float,
+    algorithms: Sequence[str] = DYNAMIC,
+    levels: int = LEVELS,
+    refinement: int = REFINEMENT,
+) -> dict[str, dict[str, list[dict[str, float]]]]:
     """For each scheme, the peak errors of h / 2^k (k < levels) against `implicit` with
     h / refinement, and the peak differences between consecutive levels, all at t_j = j h up to
     end_time (s). {algorithm: {"errors": [...], "differences": [...]}}, each a list of dicts
@@ -127,7 +141,9 @@ def time_study(system, h, end_time, algorithms=DYNAMIC, levels=LEVELS, refinemen
 # --- space --------------------------------------------------------------------------------------
 
 
-def interpolate(V_to, V_from, values):
+def interpolate(
+    V_to: fem.FunctionSpace, V_from: fem.FunctionSpace, values: np.ndarray
+) -> np.ndarray:
     """Owned dof values on V_to of the Q1 field with owned dof values `values` on V_from (on
     another mesh of the same domain), by Function.interpolate_nonmatching."""
     u_from = fem.Function(V_from)
@@ -142,7 +158,7 @@ def interpolate(V_to, V_from, values):
     return u_to.x.array[: V_to.dofmap.index_map.size_local * V_to.dofmap.bs].copy()
 
 
-def solution_at(system, problem, t, h):
+def solution_at(system: System, problem: str, t: float, h: float) -> np.ndarray:
     """The owned displacement values (m) at time t (s): `quasi-static` (one solve of K u = f(t))
     or `implicit` with step h (s)."""
     if problem == "quasi-static":
@@ -151,15 +167,15 @@ def solution_at(system, problem, t, h):
 
 
 def space_study(
-    benchmark,
-    material,
-    sizes,
-    problems=("quasi-static", "implicit"),
-    t=SPACE_TIME,
-    h=1 / 30,
-    comm=MPI.COMM_WORLD,
-    **options,
-):
+    benchmark: str,
+    material: str | None,
+    sizes: Sequence[int],
+    problems: Sequence[str] = ("quasi-static", "implicit"),
+    t: float = SPACE_TIME,
+    h: float = 1 / 30,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    **options: object,
+) -> dict[str, dict[str, list[dict[str, float]]]]:
     """For each problem, the errors of the solutions at time t on every mesh but the finest
     against the finest, and the differences between consecutive meshes, all measured on the
     finest mesh. {problem: {"errors": [...], "differences": [...]}}, lists of dicts keyed by METRICS."""

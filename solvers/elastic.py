@@ -176,7 +176,9 @@ class ElasticForces:
         out.array[:] = b.array_r[: out.getLocalSize()]
         return out
 
-    def jacobian(self, c_T: float, c_K: float, c_M: float, lumped: PETSc.Vec | None = None):
+    def jacobian(
+        self, c_T: float, c_K: float, c_M: float, lumped: PETSc.Vec | None = None
+    ) -> PETSc.Mat:
         """c_T K_T(u) + c_K K_0 + c_M M at the u last set (set_u or internal_force), with the
         constrained rows and columns replaced by the identity. With `lumped` (M_L, zero on
         the constrained dofs) c_M M_L goes on the diagonal instead of c_M M. Reuses one

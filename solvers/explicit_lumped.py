@@ -3,8 +3,15 @@ and C = alpha M_L (the paper's scheme). The step matrix (1 + h alpha / 2) M_L is
 custom loop per step: pointwise Vec updates, then one compiled pass over K that also
 updates a and v (solvers/blockcsr.py), no KSP."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.newmark import Newmark
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
 
 
 class ExplicitLumped(Newmark):
@@ -41,7 +48,7 @@ class ExplicitLumped(Newmark):
         return state
 
 
-def integrator(system, h: float, solver: str = "direct") -> ExplicitLumped:
+def integrator(system: System, h: float, solver: str = "direct") -> ExplicitLumped:
     return ExplicitLumped(system, h, solver)
 
 

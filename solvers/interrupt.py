@@ -40,6 +40,10 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 GRACE = 10.0  # s: how long rank 0 waits for a point where all ranks can stop together
 
@@ -137,7 +141,7 @@ def _alarm(signum, frame):
     raise _take()
 
 
-def install(comm, received: int = 0) -> Callable[[], None]:
+def install(comm: MPI.Comm, received: int = 0) -> Callable[[], None]:
     """Install the handlers for a job on `comm` (an mpi4py communicator). `received` is a
     signal recorded before, by the command line's first handler, which may also carry it as
     its attribute `received`. Return the function that restores the old handlers."""
@@ -185,7 +189,7 @@ def stop_together(received: Iterable[int]) -> None:
         raise exception(signum)
 
 
-def checkpoint(comm) -> None:
+def checkpoint(comm: MPI.Comm) -> None:
     """Collective: raise the signal on every rank if any rank received one."""
     if comm.size == 1:
         if (_pending or _lost()) and not _depth:
@@ -216,7 +220,7 @@ def will_write(parts: Iterable) -> None:
     _unwritten[:] = [str(part) for part in parts]
 
 
-def written(part) -> None:
+def written(part: object) -> None:
     """The part named in `will_write` is complete."""
     if str(part) in _unwritten:
         _unwritten.remove(str(part))

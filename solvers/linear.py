@@ -5,11 +5,18 @@ options already in the PETSc database (from the command line or options.set_pets
 win over the defaults below.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
 from tissuebench.meshes.errors import UserError
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
 
 SOLVERS = {
     # factor once (MUMPS Cholesky: every step matrix here is symmetric positive definite, and
@@ -100,7 +107,7 @@ def mumps_failure(ksp: PETSc.KSP) -> str | None:
 
 
 @contextmanager
-def petsc_defaults(prefix: str, defaults: dict):
+def petsc_defaults(prefix: str, defaults: dict) -> Iterator[None]:
     """Put `defaults` under `prefix` in PETSc's options database while the block runs (options
     already there, from the command line or `set_petsc_options`, win), and turn PETSc's
     refusal of an option into OptionsError. The defaults are removed afterwards, so that they
@@ -118,7 +125,7 @@ def petsc_defaults(prefix: str, defaults: dict):
             opts.delValue(key)
 
 
-def make_ksp(A, prefix, solver="direct"):
+def make_ksp(A: PETSc.Mat, prefix: str, solver: str = "direct") -> PETSc.KSP:
     """A KSP for the constant matrix A, set up (and factorised) once. `solver` is a key of
     SOLVERS or of INTERNAL."""
     if solver not in SOLVERS and solver not in INTERNAL:
@@ -185,7 +192,14 @@ class DiagonalSolve:
         x.pointwiseDivide(b, self.d)
 
 
-def step_operator(system, mass_coef, stiffness_coef, lumped, prefix, solver="direct"):
+def step_operator(
+    system: System,
+    mass_coef: float,
+    stiffness_coef: float,
+    lumped: bool,
+    prefix: str,
+    solver: str = "direct",
+) -> KSPSolve | DiagonalSolve:
     """The solve with S = mass_coef (M or M_L) + stiffness_coef K, constrained rows and columns
     replaced by the identity. A diagonal S (lumped mass, no K) is solved pointwise."""
     if lumped and stiffness_coef == 0:

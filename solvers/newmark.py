@@ -12,8 +12,17 @@ prescribed values put into the predictors, the unknown is the free part delta of
     S = (1 + gamma h alpha) M + (gamma h beta + beta_N h^2/2) K.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from tissuebench.solvers.algorithm import Algorithm, State
-from tissuebench.solvers.linear import step_operator
+from tissuebench.solvers.linear import DiagonalSolve, KSPSolve, step_operator
+
+if TYPE_CHECKING:
+    from petsc4py import PETSc
+
+    from tissuebench.solvers.system import System
 
 __all__ = ["Newmark", "State"]
 
@@ -22,7 +31,9 @@ class Newmark:
     """One Newmark scheme, its data taken from its registry entry (solvers/algorithm.py): an
     Integrator (`start()`, `step(state)` in place)."""
 
-    def __init__(self, system, h: float, scheme: Algorithm, prefix: str, solver: str = "direct"):
+    def __init__(
+        self, system: System, h: float, scheme: Algorithm, prefix: str, solver: str = "direct"
+    ):
         if not h > 0:
             raise ValueError(f"time step h must be > 0 s, got {h}")
         self.system, self.h = system, h
@@ -35,7 +46,7 @@ class Newmark:
         K = system.K
         self._r, self._w, self._delta = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
 
-    def step_solver(self, prefix: str, solver: str):
+    def step_solver(self, prefix: str, solver: str) -> KSPSolve | DiagonalSolve | None:
         """The solve with S = (1 + gamma h alpha) M + (gamma h beta + beta_N h^2/2) K."""
         h = self.h
         return step_operator(
@@ -56,14 +67,14 @@ class Newmark:
         self.solve.destroy()
         self.mass_solve.destroy()
 
-    def mass_mult(self, x, y):
+    def mass_mult(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """y = M x (consistent) or M_L x (lumped)."""
         if self.lumped:
             y.pointwiseMult(self.system.ML, x)
         else:
             self.system.M_csr.mult(x, y)
 
-    def residual(self, a0, vbar, ubar):
+    def residual(self, a0: PETSc.Vec, vbar: PETSc.Vec, ubar: PETSc.Vec) -> PETSc.Vec:
         """r = f - M (a0 + alpha vbar) - K (ubar + beta vbar), zero on constrained dofs."""
         r, w = self._r, self._w
         w.waxpy(self.alpha, vbar, a0)
@@ -113,7 +124,7 @@ class Newmark:
         u.array[s.constrained] = uc  # ubar
         v.array[s.constrained] = vc  # vbar
 
-    def correct(self, state: State, delta) -> State:
+    def correct(self, state: State, delta: PETSc.Vec) -> State:
         """Add the free part delta of a_{i+1} (zero on constrained dofs): state is step i + 1."""
         h = self.h
         state.u.axpy(self.beta_N * h * h / 2, delta)

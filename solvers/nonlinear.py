@@ -19,6 +19,9 @@ diverges there (solvers/simulate.py). Units as in solvers/newmark.py.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 from petsc4py import PETSc
 
 from tissuebench.solvers.algorithm import Algorithm, State
@@ -27,6 +30,9 @@ from tissuebench.solvers.linear import SolveError, petsc_defaults, petsc_message
 from tissuebench.solvers.models.model import Model
 from tissuebench.solvers.newmark import Newmark
 from tissuebench.solvers.quasi_static import initial_state
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
 
 # SPEC 8: relative residual 1e-10. ATOL_SCALE x max diag(K_0) x extent is the absolute floor:
 # the force of a 1e-13 relative nodal displacement error, a little above round-off.
@@ -44,13 +50,19 @@ ATOL_SCALE = 1e-13
 MAX_HALVINGS = 6  # quasi-static: the smallest load increment is 1/64 of a step's
 
 
-def absolute_tolerance(system) -> float:
+def absolute_tolerance(system: System) -> float:
     """The residual (N) below which round-off, not Newton, decides."""
     d = system.K.getDiagonal()
     return ATOL_SCALE * d.max()[1] * system.benchmark.extent
 
 
-def make_snes(system, J: PETSc.Mat, prefix: str, function, jacobian) -> PETSc.SNES:
+def make_snes(
+    system: System,
+    J: PETSc.Mat,
+    prefix: str,
+    function: Callable[..., None],
+    jacobian: Callable[..., None],
+) -> PETSc.SNES:
     """A SNES with NEWTON's defaults under `prefix` (options in PETSc's database win)."""
     snes = PETSc.SNES().create(system.comm)
     snes.setOptionsPrefix(prefix)
@@ -67,7 +79,7 @@ class ModelForces:
 
     forces: ElasticForces
 
-    def residual(self, a0, vbar, ubar):
+    def residual(self, a0: PETSc.Vec, vbar: PETSc.Vec, ubar: PETSc.Vec) -> PETSc.Vec:
         """r = f - M (a0 + alpha vbar) - beta K_0 vbar - f_int(ubar), zero on constrained dofs."""
         r, w = self._r, self._w
         w.waxpy(self.alpha, vbar, a0)
@@ -125,7 +137,7 @@ class NewtonModel(ModelForces, Newmark):
         self.newton_iterations = 0
         self.residual_norms: list[float] = []
 
-    def step_solver(self, prefix, solver):
+    def step_solver(self, prefix: str, solver: str) -> None:
         return None  # the Newton iterations factorise their own Jacobian
 
     def iterations(self) -> int:
@@ -270,7 +282,14 @@ class QuasiStaticModel:
         return state
 
 
-def integrator(scheme: Algorithm, system, h: float, model: Model, prefix: str, solver="direct"):
+def integrator(
+    scheme: Algorithm,
+    system: System,
+    h: float,
+    model: Model,
+    prefix: str,
+    solver: str = "direct",
+) -> NewtonModel | QuasiStaticModel | ExplicitModel:
     """The integrator of `scheme` (an ALGORITHMS entry) with a nonlinear `model`."""
     if not scheme.newmark:
         return QuasiStaticModel(system, h, model, prefix, solver)

@@ -3,7 +3,11 @@ anything runs, against the options prefixes of every integrator in the registry 
 module sits above the registry, not in linear.py, which the integrators import).
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
@@ -16,6 +20,9 @@ from tissuebench.solvers.linear import (
     petsc_message,
 )
 from tissuebench.solvers.nonlinear import NEWTON
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 
 def parse_petsc_options(text: str) -> list[tuple[str, str]]:
@@ -61,7 +68,7 @@ def prefix_of(key: str) -> str | None:
 
 
 @contextmanager
-def silent_stdout():
+def silent_stdout() -> Iterator[None]:
     """Standard output (file descriptor 1, and Python's sys.stdout, which petsc4py may route
     PETSc's printing to: monitors, views) is dropped while the block runs; C's buffers are
     flushed on either side."""
@@ -130,7 +137,7 @@ def _try_prefix(prefix: str, solver: str, keys: list[str], comm) -> None:
             obj.destroy()
 
 
-def check_petsc_options(text: str, solver: str, comm=None) -> None:
+def check_petsc_options(text: str, solver: str, comm: MPI.Comm | None = None) -> None:
     """Put the --petsc options in PETSc's database and check them before anything runs
     (collective; the same OptionsError, one line, on every rank): each must be under one of
     prefixes() (global options such as -log_view and -help are not taken: tissuebench passes

@@ -1,11 +1,18 @@
 """`quasi-static`: K u_{i+1} = f_{i+1} at every step, no history; v and a are reported as 0.
 Step 0 is the initial state (u = 0, constrained dofs prescribed)."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.linear import step_operator
 
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
 
-def initial_state(system) -> State:
+
+def initial_state(system: System) -> State:
     """Step 0: u = 0 on free dofs, the prescribed values on constrained ones; v = a = 0."""
     u, v, a = (system.K.createVecLeft() for _ in range(3))
     for x in (u, v, a):
@@ -53,7 +60,7 @@ class QuasiStatic:
         return state
 
 
-def integrator(system, h: float, solver: str = "direct") -> QuasiStatic:
+def integrator(system: System, h: float, solver: str = "direct") -> QuasiStatic:
     return QuasiStatic(system, h, solver)
 
 

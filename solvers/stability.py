@@ -18,6 +18,9 @@ A(h, omega). A step h is stable when the spectral radius of A is at most 1 for e
 Units: omega in rad/s, h in s, alpha in 1/s, beta in s.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -31,10 +34,12 @@ import numpy as np
 from tissuebench.meshes import BENCHMARKS, get_benchmark
 from tissuebench.solvers import ALGORITHMS, get_integrator
 from tissuebench.solvers.simulate import max_nodal_displacement, simulate
+from tissuebench.solvers.algorithm import Algorithm
+from tissuebench.solvers.materials import Material
 from tissuebench.solvers.system import System
 
 
-def newmark_schemes():
+def newmark_schemes() -> dict[str, Algorithm]:
     """The Newmark schemes of the algorithm registry (solvers/__init__.py), by name: each entry
     carries beta_N, gamma, its mass (lumped or not) and whether C holds beta K."""
     return {name: a for name, a in ALGORITHMS.items() if a.newmark}
@@ -52,12 +57,14 @@ OMEGA_H_MAX = 1e8  # Omega = h omega up to which a scheme is searched for instab
 # --- one mode ----------------------------------------------------------------------------------
 
 
-def modal_damping(omega, alpha, beta):
+def modal_damping(omega: float | np.ndarray, alpha: float, beta: float) -> float | np.ndarray:
     """c = alpha + beta omega^2 (1/s) of the mode omega (rad/s): C = alpha M_s + beta K."""
     return alpha + beta * omega**2
 
 
-def amplification(h, omega, c, beta_N, gamma):
+def amplification(
+    h: float | np.ndarray, omega: float, c: float, beta_N: float, gamma: float
+) -> np.ndarray:
     """The matrix A with (u, v, a)_{i+1} = A (u, v, a)_i for a + c v + omega^2 u = 0 and step h
     (s; an array of steps gives an array of matrices, shape (..., 3, 3)):
 
@@ -76,12 +83,14 @@ def amplification(h, omega, c, beta_N, gamma):
     )
 
 
-def spectral_radius(h, omega, c, beta_N, gamma):
+def spectral_radius(
+    h: float | np.ndarray, omega: float, c: float, beta_N: float, gamma: float
+) -> float | np.ndarray:
     """The largest |eigenvalue| of the amplification matrix (dimensionless), for each h."""
     return np.abs(np.linalg.eigvals(amplification(h, omega, c, beta_N, gamma))).max(axis=-1)
 
 
-def mode_critical_h(omega, c, beta_N, gamma):
+def mode_critical_h(omega: float, c: float, beta_N: float, gamma: float) -> float:
     """The largest stable step h (s) of the mode omega (rad/s) with damping c (1/s); inf when
     the spectral radius stays at most 1 for every Omega = h omega up to OMEGA_H_MAX.
 
@@ -103,7 +112,13 @@ def mode_critical_h(omega, c, beta_N, gamma):
     return float(lo / omega)
 
 
-def critical_dt(scheme, material, omega_min, omega_max, samples=30):
+def critical_dt(
+    scheme: str | Algorithm,
+    material: Material,
+    omega_min: float,
+    omega_max: float,
+    samples: int = 30,
+) -> float:
     """The largest step h (s) stable for every mode with omega_min <= omega <= omega_max (rad/s),
     the scheme's whole discrete spectrum; inf for an unconditionally stable scheme.
 
@@ -118,7 +133,7 @@ def critical_dt(scheme, material, omega_min, omega_max, samples=30):
     )
 
 
-def growth_per_step(scheme, material, omega, h):
+def growth_per_step(scheme: str | Algorithm, material: Material, omega: float, h: float) -> float:
     """The spectral radius of the mode omega (rad/s) with step h (s) in `scheme`: above 1 it is
     the factor by which that mode grows at every step."""
     scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
@@ -133,13 +148,13 @@ def growth_per_step(scheme, material, omega, h):
 # --- the discrete spectrum ---------------------------------------------------------------------
 
 
-def free_dofs(system):
+def free_dofs(system: System) -> PETSc.IS:
     """The free degrees of freedom as a PETSc IS of global indices (owned ones on each rank)."""
     offset = system.V.dofmap.index_map.local_range[0] * system.gdim
     return PETSc.IS().createGeneral((system.free + offset).astype(PETSc.IntType), comm=system.comm)
 
 
-def reduced_matrices(system, lumped):
+def reduced_matrices(system: System, lumped: bool) -> tuple[PETSc.Mat, PETSc.Mat]:
     """(K_ff, M_ff): stiffness (N/m) and mass (kg) on the free dofs; M_ff is diagonal (M_L)
     when `lumped`."""
     free = free_dofs(system)
@@ -183,7 +198,9 @@ def _eps(K, M, smallest, tol):
     return eps
 
 
-def extreme_eigenvalue(K, M, smallest=False, tol=1e-10):
+def extreme_eigenvalue(
+    K: PETSc.Mat, M: PETSc.Mat, smallest: bool = False, tol: float = 1e-10
+) -> float:
     """The largest (or smallest) eigenvalue lam = omega^2 (rad^2/s^2) of K x = lam M x.
     Collective; every rank gets the same number."""
     eps = _eps(K, M, smallest, tol)
@@ -198,7 +215,7 @@ def extreme_eigenvalue(K, M, smallest=False, tol=1e-10):
     return lam
 
 
-def omega_range(system, lumped):
+def omega_range(system: System, lumped: bool) -> tuple[float, float]:
     """(omega_min, omega_max) in rad/s: the extreme natural frequencies of the free dofs with
     the consistent (lumped=False) or lumped mass."""
     K, M = reduced_matrices(system, lumped)
@@ -220,11 +237,11 @@ class Limit:
     critical_dt: float
 
     @property
-    def unconditional(self):
+    def unconditional(self) -> bool:
         return bool(np.isinf(self.critical_dt))
 
 
-def stability_limits(system, algorithms=None):
+def stability_limits(system: System, algorithms: Sequence[str] | None = None) -> dict[str, Limit]:
     """{algorithm: Limit} for the Newmark schemes of `system` (quasi-static has no dynamics)."""
     schemes = newmark_schemes()
     spectra = {}
@@ -246,12 +263,17 @@ DEFAULTS = [(name, m, e.mesh_size) for name, e in BENCHMARKS.items() for m in e.
 SWEEP = [(name, m, e.study_sizes) for name, e in BENCHMARKS.items() for m in e.materials]
 
 
-def system_for(benchmark, material=None, mesh_size=None, comm=MPI.COMM_WORLD):
+def system_for(
+    benchmark: str,
+    material: str | None = None,
+    mesh_size: int | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> System:
     options = {} if mesh_size is None else {"mesh_size": mesh_size}
     return System(get_benchmark(benchmark, comm=comm, **options), material)
 
 
-def steps_to_diverge(growth, max_steps):
+def steps_to_diverge(growth: float, max_steps: int) -> int:
     """Steps for a mode growing by `growth` per step to grow by GROWTH_TO_DIVERGE, at most
     max_steps."""
     if growth <= 1:
@@ -259,7 +281,9 @@ def steps_to_diverge(growth, max_steps):
     return min(max_steps, math.ceil(math.log(GROWTH_TO_DIVERGE) / math.log(growth)))
 
 
-def check_run(system, algorithm, h, steps):
+def check_run(
+    system: System, algorithm: str, h: float, steps: int
+) -> tuple[str, int | None, float, float]:
     """Run `algorithm` with step h (s) for `steps` steps: (status, diverged step, largest nodal
     displacement reached in m, wall time in s)."""
     bench = system.benchmark
@@ -279,7 +303,9 @@ def check_run(system, algorithm, h, steps):
     return run.status, run.diverged_step, peak[0], run.wall_time_s
 
 
-def run_check(system, limits, margin=0.05, max_steps=100_000):
+def run_check(
+    system: System, limits: dict[str, Limit], margin: float = 0.05, max_steps: int = 100_000
+) -> list[dict]:
     """For each explicit scheme, real runs at (1 + margin) and (1 - margin) times the predicted
     critical step. The run above goes on for the steps its fastest mode needs to grow by
     GROWTH_TO_DIVERGE (at most max_steps), the run below for as many steps as the run above
@@ -316,11 +342,11 @@ def run_check(system, limits, margin=0.05, max_steps=100_000):
     return rows
 
 
-def system_end(case):
+def system_end(case: dict) -> float:
     return case["end_time"]
 
 
-def case_summary(system, limits):
+def case_summary(system: System, limits: dict[str, Limit]) -> dict:
     """The JSON record of one benchmark, material and mesh."""
     m = system.material
     algorithms = {}
@@ -351,7 +377,7 @@ def case_summary(system, limits):
     }
 
 
-def sweep(comm):
+def sweep(comm: MPI.Comm) -> list[dict]:
     """Every (benchmark, material, size) of SWEEP: a list of case summaries (explicit schemes)."""
     cases = []
     for bench, material, sizes in SWEEP:

@@ -7,6 +7,7 @@ Units: K in N/m, M and M_L in kg, f in N (SI throughout).
 from __future__ import annotations
 
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -20,13 +21,18 @@ from tissuebench.meshes.benchmark import Benchmark
 from tissuebench.solvers.materials import Material, get_material
 from tissuebench.solvers.models.model import small_strain_stress
 
+if TYPE_CHECKING:
+    from tissuebench.solvers.blockcsr import BlockCSR
+
 
 def epsilon(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
     """Small strain, sym(grad u)."""
     return ufl.sym(ufl.grad(u))
 
 
-def sigma(u: ufl.core.expr.Expr, mu, lmbda) -> ufl.core.expr.Expr:
+def sigma(
+    u: ufl.core.expr.Expr, mu: fem.Constant | float, lmbda: fem.Constant | float
+) -> ufl.core.expr.Expr:
     """Linear isotropic stress of u, 2 mu eps + lambda tr(eps) I with eps = epsilon(u)."""
     return small_strain_stress(epsilon(u), mu, lmbda)
 
@@ -84,21 +90,21 @@ class System:
         self._constrain(benchmark.constraints)
 
     @cached_property
-    def K_csr(self):
+    def K_csr(self) -> BlockCSR:
         """K for the products in the time loops (solvers/blockcsr.py), built on first use."""
         from tissuebench.solvers.blockcsr import BlockCSR
 
         return BlockCSR(self.K, self.V)
 
     @cached_property
-    def M_csr(self):
+    def M_csr(self) -> BlockCSR:
         """M for the products in the time loops (solvers/blockcsr.py), built on first use."""
         from tissuebench.solvers.blockcsr import BlockCSR
 
         return BlockCSR(self.M, self.V)
 
     @cached_property
-    def rigid_body_modes(self):
+    def rigid_body_modes(self) -> PETSc.NullSpace:
         """The rigid-body motions of the mesh (gdim translations, 1 or 3 rotations) as a PETSc
         near null space, for algebraic multigrid (PETSc's MatNullSpaceCreateRigidBody)."""
         n = self.V.dofmap.index_map.size_local
@@ -148,7 +154,9 @@ class System:
     def num_dofs(self) -> int:
         return self.V.dofmap.index_map.size_global * self.gdim
 
-    def function(self, values=None, name="displacement"):
+    def function(
+        self, values: np.ndarray | None = None, name: str = "displacement"
+    ) -> fem.Function:
         """A Function on V holding the owned values `values` (ghosts updated)."""
         fn = fem.Function(self.V, name=name)
         if values is not None:
@@ -157,7 +165,9 @@ class System:
         return fn
 
 
-def gather_by_coordinates(V: fem.FunctionSpace, values: np.ndarray, comm: MPI.Comm | None = None):
+def gather_by_coordinates(
+    V: fem.FunctionSpace, values: np.ndarray, comm: MPI.Comm | None = None
+) -> tuple[np.ndarray, np.ndarray] | None:
     """On rank 0: (coordinates, values) of all nodes of V in one order fixed by the node
     coordinates, whatever the partition; None on other ranks. `values` are owned dof values."""
     comm = comm or V.mesh.comm

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import ufl
+from ufl.core.expr import Expr
 
 
 @dataclass(frozen=True)
@@ -26,6 +27,6 @@ class Model:
     description: str = ""
 
 
-def small_strain_stress(eps, mu, lmbda):
+def small_strain_stress(eps: Expr, mu: Expr | float, lmbda: Expr | float) -> Expr:
     """Linear isotropic stress 2 mu eps + lambda tr(eps) I of a (symmetric) strain eps."""
     return 2 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(ufl.shape(eps)[0])

@@ -3,12 +3,15 @@ psi = (mu/2)(J^(-2/3) I1 - 3) + (kappa/2)(J - 1)^2, I1 = tr(F^T F), J = det F,
 kappa = lambda + 2 mu / 3: CalculiX's and Abaqus's NEO HOOKE with C10 = mu/2, D1 = 2/kappa.
 In 2D (plane strain) F33 = 1: I1 = tr(C_2D) + 1, J = det F_2D."""
 
+from __future__ import annotations
+
 import ufl
+from ufl.core.expr import Expr
 
 from tissuebench.solvers.models.model import Model
 
 
-def strain_energy(F, mu, lmbda):
+def strain_energy(F: Expr, mu: Expr | float, lmbda: Expr | float) -> Expr:
     """psi(F) in J/m^3."""
     d = ufl.shape(F)[0]
     J = ufl.det(F)
@@ -17,7 +20,7 @@ def strain_energy(F, mu, lmbda):
     return mu / 2 * (J ** (-2 / 3) * I1 - 3) + kappa / 2 * (J - 1) ** 2
 
 
-def first_piola(F, mu, lmbda, R=None):
+def first_piola(F: Expr, mu: Expr | float, lmbda: Expr | float, R: Expr | None = None) -> Expr:
     F = ufl.variable(F)
     return ufl.diff(strain_energy(F, mu, lmbda), F)
 

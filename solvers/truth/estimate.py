@@ -87,7 +87,9 @@ class ErrorEstimate:
 
 
 def estimate_error(
-    level_differences: Sequence, time_difference=None, time_order: float = 2.0
+    level_differences: Sequence,
+    time_difference: float | np.ndarray | None = None,
+    time_order: float = 2.0,
 ) -> ErrorEstimate:
     """The own error from a hierarchy: level_differences = [E(l1, l0), E(l2, l1)] (the last
     two differences of consecutive uniformly refined levels, scalars or arrays over steps, any

@@ -228,7 +228,7 @@ class Truth:
         force = self.load * ufl.inner(self.f, w)
         return (inertia + self._elastic(u, v, ps, w, qs) - force) * dx
 
-    def step_residual(self):
+    def step_residual(self) -> ufl.Form:
         """The residual at t_{n+1} with unknown u_{n+1} (trapezoidal rule)."""
         u, ps = self._split(self.U)
         v = self.vpred + self.c1 * u

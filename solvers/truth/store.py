@@ -123,25 +123,25 @@ class _Numerics(ast.NodeTransformer):
     """A module's syntax tree without what cannot change a number: imports, docstrings and
     type annotations (line numbers and comments are not in it)."""
 
-    def visit_Import(self, node):  # noqa: N802 (ast's names)
+    def visit_Import(self, node: ast.Import | ast.ImportFrom) -> None:  # noqa: N802 (ast's names)
         return None
 
     visit_ImportFrom = visit_Import
 
-    def visit_Expr(self, node):  # noqa: N802
+    def visit_Expr(self, node: ast.Expr) -> ast.AST | None:  # noqa: N802
         if isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
             return None
         return self.generic_visit(node)
 
-    def visit_arg(self, node):
+    def visit_arg(self, node: ast.arg) -> ast.arg:
         node.annotation = None
         return node
 
-    def visit_FunctionDef(self, node):  # noqa: N802
+    def visit_FunctionDef(self, node: ast.FunctionDef) -> ast.AST:  # noqa: N802
         node.returns = None
         return self.generic_visit(node)
 
-    def visit_AnnAssign(self, node):  # noqa: N802
+    def visit_AnnAssign(self, node: ast.AnnAssign) -> ast.AST:  # noqa: N802
         node.annotation = ast.Constant(None)
         return self.generic_visit(node)
 
