@@ -33,12 +33,15 @@ bench: setup
 	$(BIN)/tissuebench bench --quick
 
 # The outside simulators of `tissuebench external` and the leaderboard, and the tests that run
-# them (each skipped where its simulator is missing): SfePy and Newton through pip extras;
-# CalculiX (ccx) through apt-get where it is missing and we may, with a message otherwise.
-EXTERNAL ?= sfepy,newton
+# them (each skipped where its simulator is missing): SfePy, Newton, Drake, MuJoCo and Kratos
+# through pip extras, one at a time (one that fails to install leaves the others); CalculiX
+# (ccx) through apt-get where it is missing and we may, with a message otherwise.
+EXTERNAL ?= sfepy newton drake mujoco kratos
 external-tools: setup
-	$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS),$(EXTERNAL)]" \
-		|| echo "pip could not install the extras $(EXTERNAL): their runs and tests are skipped"
+	@for extra in $(EXTERNAL); do \
+		$(BIN)/python -m pip install --quiet -e ".[$(EXTRAS),$$extra]" \
+			|| echo "pip could not install the extra $$extra: its runs and tests are skipped"; \
+	done
 	@if command -v ccx >/dev/null; then echo "ccx: $$(command -v ccx)"; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
