@@ -12,6 +12,7 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 import basix
 import dolfinx.mesh
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def _oriented_facets(V):
@@ -88,6 +89,6 @@ class Boundary:
         rows = self.comm.gather(values[self._local], root=0)
         return np.concatenate(rows) if self.comm.rank == 0 else None
 
-    def gather(self, u):
+    def gather(self, u: ArrayLike) -> np.ndarray | None:
         """Displacements of the boundary nodes on rank 0 (shape (nodes, d)); None elsewhere."""
         return self._gather_rows(np.asarray(u).reshape(-1, self.dim))

@@ -186,7 +186,7 @@ def boundary_facets(points: np.ndarray, cells: np.ndarray, cell_type: str) -> np
 # --- location -------------------------------------------------------------------------------
 
 
-def match_points(a, b, tol):
+def match_points(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray:
     """match[i] = the index of the point of b within tol of a[i] (in every coordinate); -1
     where there is none. Points are hashed on a grid of spacing tol, so a match lies in the
     same or a neighbouring grid cell."""

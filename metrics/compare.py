@@ -16,6 +16,9 @@ the steps after a shorter candidate's last one), and Grading gives the reason. W
 bound no metric of a graded step can overflow (series.py bounds the coordinates).
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from mpi4py import MPI
@@ -23,6 +26,7 @@ from mpi4py import MPI
 import basix.ufl
 import dolfinx.mesh
 import numpy as np
+from numpy.typing import ArrayLike
 import ufl
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
@@ -55,7 +59,7 @@ TIME_RTOL = 1e-5
 DIVERGENCE = 100.0  # SPEC 3: a nodal displacement beyond this times the largest extent diverges
 
 
-def summarize(curve):
+def summarize(curve: ArrayLike) -> tuple[float, float]:
     """(max, time-mean) of a metric curve over steps 1..N, ignoring NaN; NaN if none (the
     curve's own units: the metrics are dimensionless)."""
     values = np.asarray(curve, dtype=np.float64)[1:]
@@ -102,7 +106,7 @@ def check_meshes(ref: Series, cand: Series) -> np.ndarray | None:
     return match
 
 
-def smallest_step(times) -> float:
+def smallest_step(times: ArrayLike) -> float:
     """The smallest time step of a series (s); for a single time, that time's magnitude (or 1
     s at t = 0), so that tolerances stay relative."""
     times = np.asarray(times, dtype=np.float64)
@@ -111,13 +115,13 @@ def smallest_step(times) -> float:
     return float(abs(times[0])) or 1.0
 
 
-def time_tolerance(t_ref, h: float):
+def time_tolerance(t_ref: float | np.ndarray, h: float) -> float | np.ndarray:
     """How far a time stamp may be from the reference's t_ref (s) with step h: TIME_RTOL
     max(|t_ref|, h), at most h/4 (see TIME_RTOL)."""
     return np.minimum(TIME_RTOL * np.maximum(np.abs(t_ref), h), 0.25 * h)
 
 
-def check_times(ref, cand):
+def check_times(ref: Series, cand: Series) -> None:
     """The candidate's times are the reference's, or a prefix of them (a run that stopped),
     within time_tolerance."""
     if len(cand.times) > len(ref.times):
@@ -233,7 +237,7 @@ def statuses(
 # --- parallel evaluation --------------------------------------------------------------------
 
 
-def function_space(comm, series):
+def function_space(comm: MPI.Comm, series: Series | None) -> tuple[fem.FunctionSpace, np.ndarray]:
     """The vector Q1 space on the series' mesh, read on rank 0 and distributed over comm, and
     for each owned node of the space the index of its point in the series."""
     cell_type, dim, per_cell = comm.bcast(
@@ -334,7 +338,7 @@ def describe(
     cand_steps: int,
     reference: tuple[int | None, str | None],
     candidate: tuple[int | None, str | None],
-    suffix=lambda name: "",
+    suffix: Callable[[str], str] = lambda name: "",
 ) -> tuple[str, dict[str, str]]:
     """The title and one-line summaries of a grading: where a series diverged or the
     candidate ended, and each metric's maximum and time-mean over the steps graded (with

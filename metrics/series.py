@@ -18,10 +18,13 @@ The field: a name, taken as it is; or none, and then the first of io.series.DEFA
 that the file holds (`displacement` as we write it, `U` and `DISP` as CalculiX names it, ...).
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 from tissuebench.metrics.cells import DIM, FACETS, NAMES
 from tissuebench.meshes.errors import UserError
 
@@ -64,11 +67,19 @@ class Series:
     field: str = "displacement"
 
     @property
-    def dim(self):
+    def dim(self) -> int:
         return self.points.shape[1]
 
 
-def series_of(path, field, points, cells, cell_type, times, values) -> "Series":
+def series_of(
+    path: Path,
+    field: str,
+    points: ArrayLike,
+    cells: ArrayLike,
+    cell_type: str,
+    times: ArrayLike,
+    values: ArrayLike,
+) -> Series:
     """The Series read from `path` (named in errors): its arrays as a file holds them (cell type
     by the file's name, 2D data possibly with a zero third coordinate), checked, reduced to d
     columns; InputError (one line) for anything that cannot be graded."""
@@ -129,7 +140,7 @@ def series_of(path, field, points, cells, cell_type, times, values) -> "Series":
     return Series(path, points, cells, cell_type, times, displacements, field)
 
 
-def real(path: Path, data, what: str) -> np.ndarray:
+def real(path: Path, data: ArrayLike, what: str) -> np.ndarray:
     """`data` as float64, refusing (InputError) complex and non-numeric values: a complex field
     is not graded on its real part. Values beyond float64's range become +-inf."""
     data = np.asarray(data)

@@ -15,6 +15,8 @@ The two domains may be bounded by different boundaries (a candidate on its own m
 section 9): `surface_error(shape, x_ref, x_cand, cand_shape)`.
 """
 
+from __future__ import annotations
+
 import manifold3d
 import numpy as np
 import shapely
@@ -24,13 +26,13 @@ import shapely
 ROUND_OFF = 16 * np.finfo(np.float64).eps
 
 
-def signed_area(points):
+def signed_area(points: np.ndarray) -> float:
     """Shoelace area of a closed polygon, positive when counter-clockwise."""
     x, y = points[:, 0], points[:, 1]
     return 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
 
 
-def loops(edges):
+def loops(edges: np.ndarray) -> list[np.ndarray]:
     """The closed loops (arrays of node positions) traced by oriented edges (a, b)."""
     following = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist()))
     if len(following) != len(edges):
@@ -67,7 +69,7 @@ class Polygon:
             ]
             self.parts[min(around, key=areas.__getitem__)][1].append(hole)
 
-    def region(self, x):
+    def region(self, x: np.ndarray) -> shapely.Geometry:
         """The valid (multi)polygon bounded by the deformed loops through x."""
         pieces = []
         for shell, holes in self.parts:
@@ -77,12 +79,12 @@ class Polygon:
             ]
         return shapely.union_all(pieces)
 
-    def error(self, x_ref, x_cand):
+    def error(self, x_ref: np.ndarray, x_cand: np.ndarray) -> float:
         """|A ⊕ B| / |A| for the regions through x_ref (A) and x_cand (B)."""
         return area_error(self.region(x_ref), self.region(x_cand))
 
 
-def area_error(ref, cand):
+def area_error(ref: shapely.Geometry, cand: shapely.Geometry) -> np.float64:
     """|A ⊕ B| / |A| for two shapely regions A (ref) and B (cand); NaN if |A| = 0."""
     if not ref.area > 0:
         return np.float64(np.nan)
@@ -105,7 +107,7 @@ class Solid:
         triangles = [np.stack(t, axis=1) for t in ((a, b, m), (b, c, m), (c, d, m), (d, a, m))]
         self.triangles = np.ascontiguousarray(np.concatenate(triangles), dtype=np.uint64)
 
-    def region(self, x):
+    def region(self, x: np.ndarray) -> manifold3d.Manifold:
         """The manifold3d solid bounded by the (split) faces through x."""
         if self.quads is None:
             vertices = x
@@ -123,7 +125,7 @@ class Solid:
             )
         return solid
 
-    def error(self, x_ref, x_cand):
+    def error(self, x_ref: np.ndarray, x_cand: np.ndarray) -> float:
         """|A ⊕ B| / |A| for the solids through x_ref (A) and x_cand (B), from
         |A| + |B| - 2 |A ∩ B|. That difference has round-off of a few eps relative to |A| and
         can come out negative (-4.4e-16 for identical shapes): a value below ROUND_OFF
@@ -132,7 +134,7 @@ class Solid:
         return volume_error(self.region(x_ref), self.region(x_cand))
 
 
-def volume_error(ref, cand):
+def volume_error(ref: manifold3d.Manifold, cand: manifold3d.Manifold) -> np.float64:
     """|A ⊕ B| / |A| for two manifold3d solids A (ref) and B (cand), from |A| + |B| - 2 |A ∩ B|,
     clipped to 0 below ROUND_OFF (see Solid.error); NaN if |A| = 0."""
     if not ref.volume() > 0:
@@ -142,13 +144,18 @@ def volume_error(ref, cand):
     return np.float64(0.0) if value < ROUND_OFF else value
 
 
-def domain(X, facets):
+def domain(X: np.ndarray, facets: np.ndarray) -> Polygon | Solid:
     """Polygon (2D edges) or Solid (3D quadrilateral or triangular faces) for the undeformed
     boundary."""
     return Polygon(X, facets) if facets.shape[1] == 2 else Solid(X, facets)
 
 
-def surface_error(shape, x_ref, x_cand, cand_shape=None):
+def surface_error(
+    shape: Polygon | Solid,
+    x_ref: np.ndarray,
+    x_cand: np.ndarray,
+    cand_shape: Polygon | Solid | None = None,
+) -> float:
     """E_s of a Polygon or Solid for deformed boundary nodes x_ref, x_cand; NaN if either is
     not finite or the reference domain is empty or of zero area (2D) or volume (3D). The candidate's domain is bounded by
     `cand_shape` through x_cand when given (its own boundary), else by `shape`."""

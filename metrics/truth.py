@@ -32,6 +32,7 @@ main() prints a table of timings (issue 25, item 6).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -303,7 +304,7 @@ def grade_truth(
     comm: MPI.Comm = MPI.COMM_WORLD,
     *,
     label: str | None = None,
-    log=None,
+    log: Callable[[str], None] | None = None,
 ) -> TruthGrading:
     """Grade the candidate series (rank 0's; None may be passed elsewhere) against the truth
     (rank 0's) as the module docstring says. Collective: rank 0 computes, every rank gets the
