@@ -147,3 +147,33 @@ def test_leaderboard_on_a_small_rod(tmp_path, monkeypatch):
     write_owned(tmp_path / "leaderboard.csv", lambda tmp: tmp.write_text(text))
     with pytest.raises(leaderboard.OutputError, match="elsewhere, which cannot run here"):
         leaderboard.main(args)
+
+
+@needs_ccx
+@pytest.mark.serial
+def test_leaderboard_across_mesh_sizes_runs_the_chosen_variants(tmp_path, monkeypatch):
+    """A series of two mesh sizes (issue 27): on the finer case only the variants named for it
+    run, the note says why the others do not, and one table lines the runs up across sizes."""
+    common = dict(simulators=("calculix",), end_time=0.2, sizes="small")
+    boards = [
+        Board("rod-n1", "rod", "MP3", "linear", mesh_size=1, description="n = 1", **common),
+        Board("rod-n2", "rod", "MP3", "linear", mesh_size=2, description="n = 2",
+              variants={"calculix": ("implicit-C3D8I",)}, skip_note="only C3D8I here",
+              **common),
+    ]  # fmt: skip
+    monkeypatch.setattr(leaderboard, "BOARDS", boards)
+    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False)
+    assert leaderboard.main(args) == 0
+    with open(tmp_path / "leaderboard.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    ccx = {(r["case"], r["label"]) for r in rows if r["label"].startswith("calculix:")}
+    assert len([c for c in ccx if c[0] == "rod-n1"]) == 6
+    assert [c for c in ccx if c[0] == "rod-n2"] == [("rod-n2", "calculix:implicit-C3D8I")]
+    text = (tmp_path / "leaderboard.md").read_text()
+    assert "- only C3D8I here" in text
+    section = text.split("## Against mesh size: rod-n1, rod-n2")[1]
+    table = [line for line in section.splitlines() if line.startswith("| ")]
+    assert "n = 1 (" in table[0] and "n = 2 (" in table[0]
+    labels = [line.split(" | ")[0][2:] for line in table[1:]]
+    assert "calculix:implicit-C3D8I" in labels and "calculix:hht-C3D8" not in labels
+    assert "implicit" in labels  # ours at both sizes

@@ -61,6 +61,11 @@ class Board:
     truth: str | None = None  # its SPEC 10 truth case (None: it has none, truth_note says why)
     truth_note: str = ""  # one line on the truth in the case's header (why none, not computed)
     truth_band: float | None = None  # the truth's own E_i max (m^gdim), once it is loaded
+    # simulator -> the variants run on this case (a simulator not named: every variant), with
+    # `skip_note` saying why the others are not
+    variants: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    skip_note: str = ""
+    sizes: str | None = None  # the series of mesh sizes it belongs to (size_table), if any
 
 
 @dataclass
@@ -703,6 +708,62 @@ def truth_lines(board: Board, rows: list[Row]) -> list[str]:
     return out + [""]
 
 
+def size_series(boards: list[Board]) -> list[list[Board]]:
+    """The cases of each series of mesh sizes (Board.sizes), ordered by mesh size (series of
+    two cases or more)."""
+    groups: dict[str, list[tuple[int, Board]]] = {}
+    for b in boards:
+        if b.sizes is not None:
+            size = b.mesh_size or get_entry(b.benchmark).mesh_size
+            groups.setdefault(b.sizes, []).append((size, b))
+    return [[b for _, b in sorted(g, key=lambda x: x[0])] for g in groups.values() if len(g) > 1]
+
+
+def size_rows(series: list[Board], rows: dict[str, list[Row]]) -> dict[str, list[Row | None]]:
+    """label -> its row at each mesh size of the series (None where it did not run), for the
+    runs (ours and the simulators') that ran at two sizes or more; users' rows left out."""
+    found: dict[str, list[Row | None]] = {}
+    for k, board in enumerate(series):
+        for r in rows.get(board.name, []):
+            if r.source != "user":
+                found.setdefault(r.label, [None] * len(series))[k] = r
+    return {label: rs for label, rs in found.items() if sum(r is not None for r in rs) > 1}
+
+
+def size_table(series: list[Board], rows: dict[str, list[Row]]) -> list[str]:
+    """The markdown table of the runs across the mesh sizes of one series: against the truth
+    (E_i max, m^gdim) and cost (s per simulated s) at each size, the finest's best first."""
+    sizes = [b.mesh_size or get_entry(b.benchmark).mesh_size for b in series]
+    dofs = []
+    for b in series:
+        ours = [r for r in rows.get(b.name, []) if r.reference]
+        dofs.append(ours[0].dofs if ours else 0)
+    head = "| run | " + " | ".join(
+        f"n = {n} ({d:,} dofs): E_i max, truth | s per s" for n, d in zip(sizes, dofs, strict=True)
+    )
+    lines = [head + " |", "|" + "---|" * (1 + 2 * len(series))]
+    found = size_rows(series, rows)
+
+    def finest(label: str) -> float:
+        for r in reversed(found[label]):
+            if r is not None:
+                value = r.truth.get(f"{E_I}_max") if r.status == "ok" else None
+                return value if finite(value) else math.inf
+        return math.inf
+
+    for label in sorted(found, key=finest):
+        cells = []
+        for r in found[label]:
+            if r is None:
+                cells += ["not run", ""]
+            elif r.status != "ok":
+                cells += [md(r.status), fmt(r.cost)]
+            else:
+                cells += [fmt(r.truth.get(f"{E_I}_max")), fmt(r.cost)]
+        lines.append(f"| {md(label)} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def machine() -> str:
     """One line on where the wall times were measured."""
     import os
@@ -772,4 +833,18 @@ def markdown(
         if against:
             out += ["", *against[:-1]]
         out.append("")
+    for series in size_series(boards):
+        names = ", ".join(b.name for b in series)
+        out += [
+            f"## Against mesh size: {names}",
+            "",
+            "Each run that ran at several of these mesh sizes: its E_i max against the truth "
+            f"({unit_of(series[0])}) and its cost (wall time per simulated second) at each. "
+            "The coarse cases' costs are mostly fixed costs (start-up, set-up); the finest "
+            "shows how each run's cost grows with its dofs and where refining stops paying "
+            "(its E_i stops falling: the run's own algorithm or model error, not its mesh's).",
+            "",
+            *size_table(series, rows),
+            "",
+        ]
     return "\n".join(out)

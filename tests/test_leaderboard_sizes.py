@@ -1,0 +1,41 @@
+"""The leaderboard across mesh sizes (issue 27, item 2): the cases of one series at several
+mesh sizes, each run's E_i max against the truth and cost at each size, in one table."""
+
+from tissuebench.workflows.ranking import Board, Row, size_series, size_table
+
+
+def row(case: str, label: str, dofs: int, truth_max: float, wall: float, status="ok", **kw) -> Row:
+    return Row(
+        case, label, kw.get("source", "tissuebench"), "", "reference", dofs, status, None, {},
+        wall, 10.0, "this session", reference=kw.get("reference", False),
+        truth={"interior_error_max": truth_max},
+    )  # fmt: skip
+
+
+def test_size_table_lines_up_each_run_across_the_sizes():
+    boards = [
+        Board("fine", "rod", "MP3", "linear", mesh_size=6, truth="rod", sizes="rod"),
+        Board("coarse", "rod", "MP3", "linear", truth="rod", sizes="rod"),  # default n = 3
+        Board("other", "rod", "MP3", "linear", mesh_size=6, truth="rod"),  # in no series
+    ]
+    rows = {
+        "coarse": [
+            row("coarse", "implicit", 336, 3e-4, 0.5, reference=True),
+            row("coarse", "explicit", 336, 4e-4, 0.2),
+            row("coarse", "only-coarse", 336, 1e-4, 0.1),
+            row("coarse", "mine", 336, 1e-9, 0.1, source="user"),
+        ],
+        "fine": [
+            row("fine", "implicit", 1911, 8e-5, 2.0, reference=True),
+            row("fine", "explicit", 1911, float("nan"), 0.3, status="diverged"),
+        ],
+    }
+    (series,) = size_series(boards)
+    assert [b.name for b in series] == ["coarse", "fine"]  # by mesh size, "other" apart
+    lines = size_table(series, rows)
+    assert "n = 3 (336 dofs)" in lines[0] and "n = 6 (1,911 dofs)" in lines[0]
+    body = lines[2:]
+    # the finest size's best E_i first; a run at one size only, and users' rows, left out
+    assert [line.split(" | ")[0] for line in body] == ["| implicit", "| explicit"]
+    assert body[0] == "| implicit | 0.0003 | 0.05 | 8e-05 | 0.2 |"
+    assert body[1] == "| explicit | 0.0004 | 0.02 | diverged | 0.03 |"
