@@ -1,0 +1,83 @@
+"""The error budget of a leaderboard case as a figure (SPEC 10): for each run graded against
+the truth, its total error (against the truth) beside the parts it splits into: the
+discretisation (our implicit on the run's mesh against the truth), the algorithm (the run
+against our implicit on its mesh) and the model; time-mean E_i, in m^3 (3D) or m^2 (2D), on
+a log axis. A part that is zero, or could not be measured, is said in words instead of a bar.
+Rank 0 only.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Protocol
+
+from matplotlib.figure import Figure  # no pyplot: no global backend state
+
+PARTS = ("total", "discretisation", "algorithm", "model")
+COLOURS = {
+    "total": "#333333",
+    "discretisation": "#1f77b4",
+    "algorithm": "#ff7f0e",
+    "model": "#2ca02c",
+}
+LABELS = {
+    "total": "total: against the truth",
+    "discretisation": "discretisation: our implicit on its mesh",
+    "algorithm": "algorithm: against our implicit on its mesh",
+    "model": "model",
+}
+
+
+class BudgetRow(Protocol):
+    """What the figure reads of a leaderboard row (workflows/ranking.py's Row)."""
+
+    label: str
+    budget: dict
+
+
+def measured(value: float | None) -> bool:
+    """A part that was measured and can be drawn on a log axis (0 is drawn at the axis)."""
+    return value is not None and math.isfinite(value) and value >= 0
+
+
+def budget_rows(rows: list[BudgetRow]) -> list[BudgetRow]:
+    """The rows that have a budget with a measured total, the largest total first (drawn at
+    the top of the figure last: smallest at the bottom)."""
+    kept = [r for r in rows if r.budget and measured(r.budget.get("total"))]
+    return sorted(kept, key=lambda r: r.budget["total"])
+
+
+def plot_budget(path: Path, title: str, rows: list[BudgetRow], unit: str) -> bool:
+    """Draw the budget of `rows` to path (PNG); False (nothing written) when no row has one.
+    `unit` is E_i's ("m^3" or "m^2")."""
+    kept = budget_rows(rows)
+    if not kept:
+        return False
+    values = [r.budget[p] for r in kept for p in PARTS if measured(r.budget.get(p))]
+    positive = [v for v in values if v > 0]
+    floor = min(positive) / 3 if positive else 1e-12
+    height = 0.8 / len(PARTS)
+    fig = Figure(figsize=(9, 1.0 + 0.42 * len(kept) * len(PARTS) / 2), layout="constrained")
+    ax = fig.add_subplot()
+    drawn: set[str] = set()
+    for i, r in enumerate(kept):
+        for k, part in enumerate(PARTS):
+            y = i + (k - (len(PARTS) - 1) / 2) * height
+            value = r.budget.get(part)
+            if measured(value) and value > 0:
+                ax.barh(y, value - floor, left=floor, height=height * 0.9, color=COLOURS[part],
+                        label=LABELS[part] if part not in drawn else None)  # fmt: skip
+                drawn.add(part)
+            else:
+                said = "0" if measured(value) else "not measured"
+                ax.text(floor, y, f"  {part}: {said}", va="center", fontsize=6, color=COLOURS[part])
+    ax.set_xscale("log")
+    ax.set_ylim(-0.5, len(kept) - 0.5)
+    ax.set_yticks(range(len(kept)), [r.label for r in kept], fontsize=7)
+    ax.set_xlabel(f"time-mean E_i ({unit})")
+    ax.grid(True, axis="x", which="both", alpha=0.25)
+    ax.legend(loc="lower right", fontsize=7)
+    ax.set_title(title, fontsize=9, wrap=True)
+    fig.savefig(path, dpi=110)
+    return True
