@@ -45,6 +45,7 @@ E_i time-mean 1.7e-4, with or without the initial velocity; the static block: 1e
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 import re
 from pathlib import Path
 
@@ -52,6 +53,7 @@ import numpy as np
 
 from tissuebench.metrics.series import InputError
 from tissuebench.workflows.io.exported import ZERO, ExportError, Exported
+from tissuebench.workflows.io.fields import FieldData
 
 # .frd element types -> (nodes per element, our cell type or None when not supported)
 FRD_ELEMENTS = {
@@ -171,7 +173,7 @@ def _block_format(src: _Lines, line: str) -> int:
     return value
 
 
-def read_frd(path: str | Path, names=("DISP",)):
+def read_frd(path: str | Path, names: Sequence[str] = ("DISP",)) -> FieldData:
     """(points, cells, cell_type, times, values, field) of an ASCII .frd: its nodes (n, 3),
     first-order cells (one type: hexahedra or quadrilaterals, VTK node order, which is
     CalculiX's), the times of the result blocks of the first of `names` that the file holds
@@ -323,7 +325,7 @@ def _read_results(src: _Lines, header: str) -> tuple[str, float, dict]:
 DAT_HEADER = re.compile(r"^\s*(\w[\w ]*?)\s*\(([^)]*)\)\s*for set\s+(\S+)\s+and time\s+(\S+)\s*$")
 
 
-def read_dat(path: str | Path, names=(DAT_FIELD,)):
+def read_dat(path: str | Path, names: Sequence[str] = (DAT_FIELD,)) -> FieldData:
     """(points, cells, cell_type, times, values, field) of a CalculiX .dat with the
     displacements that *NODE PRINT writes (`U`), on the mesh of the deck beside it (the .inp
     of the same name)."""
@@ -406,7 +408,9 @@ def _keyword(line: str) -> tuple[str, dict]:
     return parts[0].upper(), params
 
 
-def read_inp_mesh(path: str | Path, depth: int = 0):
+def read_inp_mesh(
+    path: str | Path, depth: int = 0
+) -> tuple[np.ndarray, np.ndarray, str, list[int]]:
     """(points (n, 3), cells (VTK order), cell_type, node ids) of a CalculiX deck: its *NODE
     and *ELEMENT cards (following *INCLUDE), first-order hexahedra or quadrilaterals of one
     type; the nodes that no element uses are left out."""

@@ -160,7 +160,7 @@ def to_json(data: Exported) -> dict:
     }
 
 
-def dumps(value, indent: str = "") -> str:
+def dumps(value: object, indent: str = "") -> str:
     """JSON text with every list of numbers (a node, a cell, a motion at one time) on one line
     and everything else indented."""
     inner = indent + " "

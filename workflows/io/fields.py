@@ -1,7 +1,18 @@
 """The point field a displacement series is read from: a name given, or the first of
 DEFAULT_FIELDS that the file holds."""
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from numpy.typing import ArrayLike
+
 from tissuebench.metrics.series import InputError
+
+# what a reader returns: (points (n, 3), cells (VTK node order), cell type, times (s), the
+# (n, components) values at each time, the field's name), checked by metrics/series.series_of
+FieldData = tuple[ArrayLike, ArrayLike, str, ArrayLike, ArrayLike, str]
 
 DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
 
@@ -11,7 +22,7 @@ def field_names(field: str | None) -> tuple[str, ...]:
     return (field,) if field else DEFAULT_FIELDS
 
 
-def missing_field(path, names, fields) -> InputError:
+def missing_field(path: str | Path, names: Sequence[str], fields: Sequence[str]) -> InputError:
     """One line: none of `names` is among the file's `fields`."""
     nor = f" (nor {', '.join(names[1:])})" if len(names) > 1 else ""
     hint = (

@@ -2,6 +2,8 @@
 ParaView .pvd (io/vtk.py), CalculiX .frd and .dat (io/calculix.py); the Series and its checks
 are metrics/series.py's."""
 
+from __future__ import annotations
+
 from pathlib import Path
 
 from mpi4py import MPI
@@ -12,7 +14,7 @@ from tissuebench.workflows.io.fields import DEFAULT_FIELDS, field_names
 __all__ = ["DEFAULT_FIELDS", "read_on_rank0", "read_series"]
 
 
-def read_series(path, field=None):
+def read_series(path: str | Path, field: str | None = None) -> Series:
     """The Series of point field `field` (None: the first of DEFAULT_FIELDS present) in an
     .xdmf, .pvd, .frd or .dat file."""
     from tissuebench.workflows.io.calculix import read_dat, read_frd

@@ -8,6 +8,7 @@ import csv
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tissuebench.metrics.compare import columns
 from tissuebench.metrics.table import METRICS
@@ -78,7 +79,7 @@ def read_tips(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return {label: (np.array(t), np.array(y)) for label, (t, y) in tips.items()}
 
 
-def spans_decades(values) -> bool:
+def spans_decades(values: ArrayLike) -> bool:
     """True if the positive finite values span a factor 10 or more (a log axis then reads
     better)."""
     values = np.asarray(values)

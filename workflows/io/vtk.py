@@ -1,12 +1,17 @@
 """ParaView .pvd collections of .vtu files, one per time step, read as a displacement series
 (read_pvd). The benchmark's own .vtu mesh is written with the export (io/exported.py)."""
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
 from tissuebench.metrics.series import InputError, check_same_mesh
-from tissuebench.workflows.io.fields import missing_field
+from tissuebench.workflows.io.fields import FieldData, missing_field
 from tissuebench.workflows.io.xdmf import parse_xml
 
 
-def read_pvd(path, names):
+def read_pvd(path: Path, names: Sequence[str]) -> FieldData:
     import meshio
 
     root = parse_xml(path)

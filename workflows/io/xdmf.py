@@ -10,16 +10,26 @@ states its number type and precision (ParaView reads float64 as float32 otherwis
 at every time; ParaView opens it with its XDMF readers.
 """
 
+from __future__ import annotations
+
 import io
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
 from dolfinx.io.utils import cell_perm_vtk
 
 from tissuebench.metrics.series import InputError, check_same_mesh
-from tissuebench.workflows.io.fields import missing_field
+from tissuebench.workflows.io.fields import FieldData, missing_field
+
+if TYPE_CHECKING:
+    from dolfinx import fem
+
+# a mesh gathered on rank 0: node coordinates (N, 3), cells (VTK node order), cell type name
+MeshData = tuple[np.ndarray, np.ndarray, str]
 
 TOPOLOGY = {
     "triangle": "Triangle",
@@ -29,7 +39,7 @@ TOPOLOGY = {
 }
 
 
-def gather_mesh(V):
+def gather_mesh(V: fem.FunctionSpace) -> tuple[MeshData | None, np.ndarray]:
     """On rank 0: node coordinates (N, 3) and cells (VTK node order) in global node numbers of
     V; on other ranks None. Also returns this rank's owned global node numbers."""
     mesh, imap = V.mesh, V.dofmap.index_map
@@ -52,7 +62,12 @@ def gather_mesh(V):
     return (points, cells, cell_type), owned
 
 
-def write_xdmf(path, V, times, fields):
+def write_xdmf(
+    path: str | Path,
+    V: fem.FunctionSpace,
+    times: Sequence[float],
+    fields: dict[str, list[np.ndarray]],
+) -> None:
     """Write fields {name: [owned dof values per step]} at `times` (s) to path (.xdmf) and
     path with suffix .h5. Collective; rank 0 writes (OSError on rank 0 only)."""
     gathered = gather_series(V, fields)
@@ -60,7 +75,9 @@ def write_xdmf(path, V, times, fields):
         write_series(path, gathered, times)
 
 
-def gather_series(V, fields):
+def gather_series(
+    V: fem.FunctionSpace, fields: dict[str, list[np.ndarray]]
+) -> tuple[MeshData, dict[str, np.ndarray]] | None:
     """Collective: on rank 0 (mesh, {name: (steps, nodes, 3) array}); None on other ranks."""
     comm, bs = V.mesh.comm, V.dofmap.bs
     mesh_data, owned = gather_mesh(V)
@@ -80,7 +97,9 @@ def gather_series(V, fields):
     return mesh_data, data
 
 
-def write_series(path, gathered, times):
+def write_series(
+    path: str | Path, gathered: tuple[MeshData, dict[str, np.ndarray]], times: Sequence[float]
+) -> None:
     """Write a gathered series (see gather_series) at `times` (s): path (.xdmf) and its .h5."""
     (points, cells, cell_type), data = gathered
     path = Path(path)
@@ -133,7 +152,7 @@ def write_series(path, gathered, times):
 # --- reading -----------------------------------------------------------------------------------
 
 
-def parse_xml(path):
+def parse_xml(path: str | Path) -> ET.Element:
     try:
         return ET.parse(path).getroot()
     except ET.ParseError as exc:
@@ -149,11 +168,11 @@ class _HDF:
         self.xdmf = xdmf
         self.files = {}
 
-    def close(self):
+    def close(self) -> None:
         for f in self.files.values():
             f.close()
 
-    def read(self, item, what):
+    def read(self, item: ET.Element | None, what: str) -> np.ndarray:
         if item is None:
             raise InputError(f"{self.xdmf}: {what} has no DataItem")
         form = item.get("Format", "XML").upper()
@@ -197,7 +216,7 @@ class _HDF:
         return data
 
 
-def read_xdmf(path, names):
+def read_xdmf(path: Path, names: Sequence[str]) -> FieldData:
     root = parse_xml(path)
     grids = list(root.iter("Grid"))
     mesh = next(
