@@ -31,7 +31,9 @@ import argparse  # noqa: E402
 import shutil  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import TypeVar  # noqa: E402
 
 from mpi4py import MPI  # noqa: E402
 
@@ -45,6 +47,7 @@ from tissuebench.workflows.grading import grade  # noqa: E402
 from tissuebench.metrics.crossmesh import PointValues  # noqa: E402
 from tissuebench.workflows.io.xdmf import gather_mesh, write_series  # noqa: E402
 
+T = TypeVar("T")
 H = 1 / 30  # s, the rod's step
 # Each hexahedron (VTK order) as six tetrahedra around its diagonal 0-6.
 SIX_TETRAHEDRA = np.array(
@@ -52,7 +55,7 @@ SIX_TETRAHEDRA = np.array(
 )
 
 
-def rod(n: int):
+def rod(n: int) -> tuple[np.ndarray, np.ndarray] | None:
     """(points (N, 3), hexahedra in VTK order) of the rod at mesh size n, on rank 0 (else None)."""
     tagged = rod_mesh(n, MPI.COMM_SELF) if MPI.COMM_WORLD.rank == 0 else None
     if tagged is None:
@@ -87,7 +90,9 @@ def amplitude(t: np.ndarray) -> np.ndarray:
     return 0.01 * (1 - np.cos(2 * np.pi * t / 1.5) * np.exp(-0.3 * t))
 
 
-def write(path: Path, points: np.ndarray, cells: np.ndarray, cell_type: str, times, late: bool):
+def write(
+    path: Path, points: np.ndarray, cells: np.ndarray, cell_type: str, times: np.ndarray, late: bool
+) -> None:
     """Write the synthesised series (reference, or with `late` the candidate) to path (.xdmf)."""
     if late:
         values = [bending(points, 1.03 * a, 2e-4 * a / 0.01) for a in amplitude(times - 0.01)]
@@ -96,7 +101,7 @@ def write(path: Path, points: np.ndarray, cells: np.ndarray, cell_type: str, tim
     write_series(path, ((points, cells, cell_type), {"displacement": np.array(values)}), times)
 
 
-def timed(function, repeat: int):
+def timed(function: Callable[[], T], repeat: int) -> tuple[float, T | None]:
     """(the best wall time of `repeat` calls (s), the last result), with the ranks in step."""
     best, result = np.inf, None
     for _ in range(repeat):

@@ -15,6 +15,8 @@ step of each nonlinear model at the paper's loads (newton_iterations). Units: se
 degrees of freedom.
 """
 
+from __future__ import annotations
+
 import gc
 import json
 import math
@@ -25,10 +27,16 @@ import sys
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tissuebench.workflows.output import PREFIX, make_temporary, remove_temporary, write_owned
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from tissuebench.solvers.system import System
 
 STEPS = 30  # steps of a timed run; the displacements after them are compared
 SHORT = 12  # steps of a run too costly for STEPS (no displacement check)
@@ -115,7 +123,7 @@ def split_case_label(label: str) -> tuple[str, str]:
     return algorithm, model or "linear"
 
 
-def get(rec: dict, side: str, case: tuple, field: str):
+def get(rec: dict, side: str, case: tuple, field: str) -> object:
     """One field of one case of one side ("ours1", "ours2", "peer") of a record, or None."""
     return rec.get(side, {}).get("cases", {}).get(key(case), {}).get(field)
 
@@ -150,7 +158,7 @@ def median_step(times: list[float]) -> float:
 # --- the worker for tissuebench (ours), 1 or 2 ranks ------------------------------------------
 
 
-def triad_bandwidth(comm, size: int = TRIAD_SIZE, repeats: int = 10) -> float:
+def triad_bandwidth(comm: MPI.Comm, size: int = TRIAD_SIZE, repeats: int = 10) -> float:
     """Best STREAM-like triad bandwidth w = 3 x + y over all ranks at once, bytes/s (24 bytes
     per entry: two reads, one write)."""
     from petsc4py import PETSc
@@ -178,7 +186,7 @@ def explicit_lumped_bytes(matrix_bytes: int, n: int) -> int:
     return matrix_bytes + 8 * 8 * n
 
 
-def stable_steps(system, names: Iterable[str]) -> tuple[dict, dict, float]:
+def stable_steps(system: System, names: Iterable[str]) -> tuple[dict, dict, float]:
     """{scheme: SAFETY x 2 / omega_max} (s) for the explicit schemes in `names` (for gamma = 1/2,
     beta_N = 0 the critical step is 2 / omega_max whatever the damping), omega_max from SLEPc
     as solvers/stability.py computes it (relative tolerance 1e-4), {scheme: "SLEPc"}, and the

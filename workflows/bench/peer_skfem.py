@@ -15,8 +15,12 @@ The step matrix is restricted to the free degrees of freedom (constrained ones a
 Units: SI throughout (m, s, kg, N); times in s. Serial only (SciPy has no MPI).
 """
 
+from __future__ import annotations
+
 import ctypes
 import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -26,6 +30,13 @@ import skfem
 from skfem.helpers import dot
 from skfem.models.elasticity import linear_elasticity
 
+if TYPE_CHECKING:
+    from skfem.assembly.form.form import FormExtraParams
+    from skfem.element import DiscreteField
+
+# an integrator's state: [step i, u, v, a] (m, m/s, m/s^2 per dof)
+PeerState = list[int | np.ndarray]
+
 # The benchmarks as SPEC sections 4 and 5 define them (the needle tip width is 0).
 ROD_GRAVITY = (0.0, -0.05, 0.0)  # m/s^2
 NEEDLE = (1.0, 0.5)  # m
@@ -34,7 +45,7 @@ CG_RTOL = 1e-12  # relative residual of the iterative solves, as tissuebench's "
 MASS_RTOL = 1e-14  # relative residual of the one initial consistent-mass solve (CG + Jacobi)
 
 
-def skfem_mesh(points, cells):
+def skfem_mesh(points: np.ndarray, cells: np.ndarray) -> skfem.Mesh:
     """A MeshHex (3D) or MeshQuad (2D) from node coordinates `points` (m, one row per node)
     and `cells` (node indices, any vertex order). Each cell's vertices are put in scikit-fem's
     order by their position in the cell, which needs axis-aligned box cells (as here)."""
@@ -53,16 +64,16 @@ def skfem_mesh(points, cells):
 
 
 @skfem.BilinearForm
-def mass_form(u, v, w):
+def mass_form(u: DiscreteField, v: DiscreteField, w: FormExtraParams) -> np.ndarray:
     return w.rho * dot(u, v)
 
 
 @skfem.LinearForm
-def gravity_form(v, w):
+def gravity_form(v: DiscreteField, w: FormExtraParams) -> np.ndarray:
     return w.rho * dot(w.g, v)
 
 
-def rigid_body_modes(points):
+def rigid_body_modes(points: np.ndarray) -> np.ndarray:
     """The rigid-body motions of the nodes `points` (m) as columns, interleaved dofs."""
     n, gdim = points.shape
     x = points - points.mean(axis=0)
@@ -127,21 +138,21 @@ class PeerSystem:
         self.needle = (gdim * np.flatnonzero(needle)[:, None] + np.arange(gdim)).ravel()
         self.free = np.setdiff1d(np.arange(self.K.shape[0]), self.constrained)
 
-    def prescribed(self, t):
+    def prescribed(self, t: float) -> np.ndarray:
         """(u, v, a) of the constrained dofs at time t (s): zero but for the needle's x motion."""
         values = np.zeros((3, self.K.shape[0]))
         values[0, self.needle[0::2]] = NEEDLE_SPEED * min(t, 2.0)
         values[1, self.needle[0::2]] = NEEDLE_SPEED if t < 2.0 else 0.0
         return values[:, self.constrained]
 
-    def num_dofs(self):
+    def num_dofs(self) -> int:
         return self.K.shape[0]
 
 
 _PARDISO = []  # MKL's pardiso function, found once (pypardiso's library search is slow)
 
 
-def mkl_pardiso():
+def mkl_pardiso() -> Callable[..., None]:
     if not _PARDISO:
         import pypardiso
 
@@ -193,11 +204,11 @@ class Pardiso:
     def __call__(self, b):
         return self._call(33, np.ascontiguousarray(b))
 
-    def free(self):
+    def free(self) -> None:
         self._call(-1, np.zeros(self.A.shape[0]))
 
 
-def pardiso_available():
+def pardiso_available() -> bool:
     try:
         mkl_pardiso()
         return True
@@ -233,7 +244,7 @@ class PyamgCG:
         return x
 
 
-def direct_superlu(A):
+def direct_superlu(A: sp.csr_matrix) -> Callable[[np.ndarray], np.ndarray]:
     """splu factorised once, with the ordering for a symmetric positive definite matrix."""
     lu = spla.splu(
         A.tocsc(),
@@ -244,7 +255,9 @@ def direct_superlu(A):
     return lu.solve
 
 
-def make_solver(A, solver, system):
+def make_solver(
+    A: sp.csr_matrix, solver: str, system: PeerSystem
+) -> Callable[[np.ndarray], np.ndarray]:
     """x = A^-1 b for the free-dof matrix A with `solver` (superlu, pardiso or pyamg)."""
     if solver == "superlu":
         return direct_superlu(A)
@@ -256,7 +269,7 @@ def make_solver(A, solver, system):
     raise ValueError(f"unknown peer solver {solver!r}")
 
 
-def jacobi_cg(A, b):
+def jacobi_cg(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
     """A^-1 b by CG with a Jacobi preconditioner (the consistent mass is well conditioned)."""
     d = A.diagonal()
     P = spla.LinearOperator(A.shape, matvec=lambda r: r / d)
@@ -286,16 +299,16 @@ class PeerNewmark:
             S = (cm * mass + ck * s.K).tocsr()[free][:, free]
             self.solve = make_solver(S.tocsr(), solver, s)
 
-    def mass_mult(self, x):
+    def mass_mult(self, x: np.ndarray) -> np.ndarray:
         return self.system.ML * x if self.lumped else self.system.M @ x
 
-    def residual(self, a0, vbar, ubar):
+    def residual(self, a0: np.ndarray, vbar: np.ndarray, ubar: np.ndarray) -> np.ndarray:
         s = self.system
         r = s.f - self.mass_mult(a0 + self.alpha * vbar)
         r -= s.K @ (ubar + self.beta * vbar) if self.beta else s.K @ ubar
         return r
 
-    def start(self):
+    def start(self) -> PeerState:
         """Step 0: u = v = 0 on free dofs, constrained dofs prescribed, M a = f - C v - K u."""
         s = self.system
         n = s.num_dofs()
@@ -308,7 +321,7 @@ class PeerNewmark:
             a[s.free] += jacobi_cg(s.M[s.free][:, s.free], r)
         return [0, u, v, a]
 
-    def step(self, state):
+    def step(self, state: PeerState) -> PeerState:
         """Advance [i, u, v, a] from t_i to t_{i+1} = (i + 1) h, in place."""
         s, h, c = self.system, self.h, self.system.constrained
         i, u, v, a = state
@@ -336,7 +349,7 @@ class PeerExplicitLumped(PeerNewmark):
         self.inv_mass = 1.0 / ((1 + h * self.alpha / 2) * s.ML)
         self.inv_mass[s.constrained] = 0.0
 
-    def step(self, state):
+    def step(self, state: PeerState) -> PeerState:
         s, h, c = self.system, self.h, self.system.constrained
         i, u, v, a = state
         i += 1
@@ -361,14 +374,14 @@ class PeerQuasiStatic:
         self.system, self.h = s, h
         self.solve = make_solver(s.K[s.free][:, s.free].tocsr(), solver, s)
 
-    def start(self):
+    def start(self) -> PeerState:
         s = self.system
         n = s.num_dofs()
         u = np.zeros(n)
         u[s.constrained] = s.prescribed(0.0)[0]
         return [0, u, np.zeros(n), np.zeros(n)]
 
-    def step(self, state):
+    def step(self, state: PeerState) -> PeerState:
         s = self.system
         i = state[0] + 1
         u = state[1]
@@ -380,7 +393,9 @@ class PeerQuasiStatic:
         return state
 
 
-def get_peer_integrator(name, system, h, solver="superlu"):
+def get_peer_integrator(
+    name: str, system: PeerSystem, h: float, solver: str = "superlu"
+) -> PeerNewmark | PeerQuasiStatic:
     """The peer of tissuebench's integrator `name` with time step h (s)."""
     if name == "implicit":
         return PeerNewmark(system, h, 0.5, 0.5, lumped=False, solver=solver)
@@ -395,7 +410,7 @@ def get_peer_integrator(name, system, h, solver="superlu"):
     raise ValueError(f"unknown algorithm {name!r}")
 
 
-def sort_by_coordinates(points, values):
+def sort_by_coordinates(points: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(points, values) with the nodes in the order solvers.system.gather_by_coordinates uses:
     by x, then y, then z, coordinates rounded to 1e-10 m. `values` has one row per node."""
     order = np.lexsort(np.round(points, 10).T[::-1])

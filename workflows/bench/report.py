@@ -46,7 +46,7 @@ MODEL_REAL_TIME_DOFS = 3e4
 # --- tables -------------------------------------------------------------------------------------
 
 
-def fmt(x, digits: int = 3) -> str:
+def fmt(x: float | str | None, digits: int = 3) -> str:
     """A table cell: '-' for None and non-finite numbers, 3 significant digits."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
