@@ -9,7 +9,7 @@ from tissuebench.workflows.io.series import DEFAULT_FIELDS
 from tissuebench.workflows.grading import compare
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "compare",
         help="the three metrics of two displacement series, on one mesh or two",

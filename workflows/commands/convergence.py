@@ -16,8 +16,12 @@ consecutive solutions. Writes DIR/convergence.md, convergence_time.png and
 convergence_space.png (rank 0 only). Units: h in s, errors dimensionless (E_n, E_s) or in m (E_i).
 """
 
+from __future__ import annotations
+
+import argparse
 import math
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from mpi4py import MPI
@@ -51,15 +55,21 @@ SPACE_CASES = [
 # --- output (rank 0) ----------------------------------------------------------------------------
 
 
-def fmt(x):
+def fmt(x: float) -> str:
     return "—" if not math.isfinite(x) else f"{x:.3g}"
 
 
-def fmt_order(x):
+def fmt_order(x: float) -> str:
     return "—" if not math.isfinite(x) else f"{x:.2f}".replace("-0.00", "0.00")
 
 
-def order_table(title, label, refinements, results, fine_label):
+def order_table(
+    title: str,
+    label: Callable[[float], str],
+    refinements: Sequence[float],
+    results: dict[str, dict[str, list[dict[str, float]]]],
+    fine_label: str,
+) -> list[str]:
     """Markdown: per run and metric, the errors, the orders against the reference and from
     the differences."""
     n = len(next(iter(results.values()))["errors"])
@@ -83,7 +93,13 @@ def order_table(title, label, refinements, results, fine_label):
     return lines + [""]
 
 
-def plot(path, title, panels, xlabel, guides):
+def plot(
+    path: Path,
+    title: str,
+    panels: Sequence[tuple[str, Sequence[float], dict[str, dict[str, list[dict[str, float]]]]]],
+    xlabel: str,
+    guides: Sequence[float],
+) -> None:
     """One row per benchmark, one column per metric: error against step or cell size, log-log,
     with dotted lines of the orders in `guides` for comparison."""
     from matplotlib.figure import Figure
@@ -121,7 +137,14 @@ def plot(path, title, panels, xlabel, guides):
     fig.savefig(path, format="png", dpi=110)
 
 
-def markdown(time_results, ratios, space_results, h, end_time, wall):
+def markdown(
+    time_results: dict[tuple[str, str, int], dict[str, dict[str, list[dict[str, float]]]]],
+    ratios: dict[tuple[str, str, int], dict[str, float]],
+    space_results: dict[tuple, dict[str, dict[str, list[dict[str, float]]]]],
+    h: float,
+    end_time: float,
+    wall: float,
+) -> str:
     lines = [
         "## Convergence: observed orders in time and space",
         "",
@@ -184,7 +207,7 @@ def markdown(time_results, ratios, space_results, h, end_time, wall):
     return "\n".join(lines)
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "convergence",
         help="observed orders of the errors in time and in space",
@@ -200,7 +223,7 @@ def add_parser(subparsers):
 FILES = ("convergence.md", "convergence_time.png", "convergence_space.png")
 
 
-def main(args):
+def main(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     h = 1 / 30
     ratio = args.end_time / h

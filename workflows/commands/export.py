@@ -1,6 +1,7 @@
 """`tissuebench export BENCHMARK --format json|inp|vtu|msh --out FILE`: a benchmark posed for
 another simulator, with our reference's history beside it (workflows/io/exported.py)."""
 
+import argparse
 from pathlib import Path
 
 from mpi4py import MPI
@@ -18,7 +19,7 @@ from tissuebench.workflows.io.exported import ExportError
 from tissuebench.workflows.limits import check as check_limits, estimate
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export",
         help="write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
@@ -54,7 +55,7 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def main(args):
+def main(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     fmt = args.format or args.out.suffix.lower().lstrip(".")
     if fmt not in FORMATS:

@@ -1,6 +1,7 @@
 """`tissuebench mesh BENCHMARK --mesh-size N [--cell C --mesh KIND] --out FILE.msh`: save a
 benchmark's gmsh mesh."""
 
+import argparse
 import os
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from tissuebench.workflows.limits import check as check_limits, estimate
 from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "mesh",
         help="save a benchmark's mesh as a gmsh .msh file",
@@ -30,7 +31,7 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def main(args):
+def main(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     entry = get_entry(args.benchmark)
     mesh_size = entry.mesh_size if args.mesh_size is None else args.mesh_size

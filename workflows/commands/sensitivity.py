@@ -18,6 +18,7 @@ deformed bodies at every step, and the study is about E_i).
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
@@ -38,7 +39,7 @@ from tissuebench.workflows.mesh_sensitivity import (
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sensitivity",
         help="mesh-sensitivity study: every algorithm on coarser and other-shaped meshes",
@@ -72,7 +73,7 @@ def check_target(out: Path, quick: bool, force: bool) -> None:
         )
 
 
-def main(args) -> int:
+def main(args: argparse.Namespace) -> int:
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out

@@ -11,6 +11,9 @@ Writes DIR/stability.json (this case), DIR/stability.md and DIR/stability.png (r
 Units: h in s, omega in rad/s, cell size in m.
 """
 
+from __future__ import annotations
+
+import argparse
 import json
 import time
 from pathlib import Path
@@ -36,7 +39,7 @@ from tissuebench.workflows.output import check_writable, collective, write_owned
 EXPLICIT = explicit_schemes()
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "stability",
         help="critical time step of every scheme (eigenvalues + amplification matrix)",
@@ -73,11 +76,11 @@ def add_parser(subparsers):
 # --- output (rank 0) ----------------------------------------------------------------------------
 
 
-def fmt(x):
+def fmt(x: float | None) -> str:
     return "unconditional" if x is None else f"{x:.4g}"
 
 
-def plot(path, cases, benchmark_dt=1 / 30):
+def plot(path: Path, cases: list[dict], benchmark_dt: float = 1 / 30) -> None:
     """Critical step against cell size, log-log: explicit solid, explicit-lumped dashed."""
     from matplotlib.figure import Figure
 
@@ -108,7 +111,7 @@ def plot(path, cases, benchmark_dt=1 / 30):
     fig.savefig(path, format="png", dpi=120)
 
 
-def markdown(case, checks, cases, wall):
+def markdown(case: dict, checks: list[dict], cases: list[dict], wall: float) -> str:
     lines = [
         "## Stability: the critical time step",
         "",
@@ -230,7 +233,9 @@ def markdown(case, checks, cases, wall):
     return "\n".join(lines)
 
 
-def write(out_dir, case, checks, cases, wall):
+def write(
+    out_dir: str | Path, case: dict, checks: list[dict], cases: list[dict], wall: float
+) -> None:
     out = Path(out_dir)
     record = dict(case, run_check=checks)
     write_owned(
@@ -242,7 +247,7 @@ def write(out_dir, case, checks, cases, wall):
     write_owned(out / "stability.md", lambda tmp: tmp.write_text(text))
 
 
-def main(args):
+def main(args: argparse.Namespace) -> int:
     from tissuebench.meshes.errors import UserError
 
     comm = MPI.COMM_WORLD

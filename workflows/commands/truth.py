@@ -17,10 +17,12 @@ cached under its own key; it never replaces a full truth.md (--force does).
 
 from __future__ import annotations
 
+import argparse
 import csv
 import math
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 
@@ -44,6 +46,9 @@ from tissuebench.solvers.truth.store import (
 from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 
+if TYPE_CHECKING:
+    from tissuebench.solvers.truth.samples import TruthSamples
+
 NAME = "truth"
 MARKER = "# The truth (SPEC 10)"
 QUICK_NOTE = " (quick check, not the truth)"
@@ -51,7 +56,7 @@ COLUMNS = ["case", "level", "dofs", "time", "u_x", "u_y", "u_z"]
 TIP_TIMES = (1.0, 5.0, 10.0)  # s: the tip times shown in truth.md
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "truth",
         help="the converged reference of SPEC 10: compute (once, cached) and summarise",
@@ -100,7 +105,7 @@ def check_target(out: Path, quick: bool, force: bool) -> None:
 # --- summaries (rank 0) ---------------------------------------------------------------------------
 
 
-def summary(samples) -> dict:
+def summary(samples: TruthSamples) -> dict:
     """What the report needs of a TruthSamples (its arrays left behind)."""
     return {
         "inputs": samples.inputs,
@@ -112,7 +117,7 @@ def summary(samples) -> dict:
     }
 
 
-def fmt(x, digits: int = 3) -> str:
+def fmt(x: float | None, digits: int = 3) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "n/a"
     return f"{x:.{digits}g}"
@@ -297,7 +302,7 @@ def write_csv(path: Path, rows: list[list]) -> None:
         w.writerows(rows)
 
 
-def main(args) -> int:
+def main(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     names = list(args.cases)
     cases = requested(names)
