@@ -280,7 +280,8 @@ def test_run_writes_the_series_and_reports_failures(small_rod, tmp_path):
     """A run leaves mujoco.xml and mujoco.xdmf: the displacement at t_0..t_30 on 6 tetrahedra
     per hexahedron, zero at t = 0 and on the clamp, finite, sagging; an unknown variant comes
     back failed, and the rod under 1000 times its gravity collapses at its clamp: inverted
-    tetrahedra, status failed, NaN from there on; `euler-10` at h = 0.5 s blows up (MuJoCo's own reset)."""
+    tetrahedra, status failed, NaN from there on; `euler-10` at h = 0.5 s blows up (MuJoCo's
+    own reset)."""
     data = small_rod
     result = mj.run(data, "discrete", tmp_path)
     assert result.status == "ok" and result.reason is None

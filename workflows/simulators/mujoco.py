@@ -51,13 +51,13 @@ time mean (max) against our `implicit` (Q1 hexahedra, consistent M, trapezoidal,
 the rows before MuJoCo's are linear P1 on the same tetrahedra, solved in numpy, adding one
 departure at a time:
 
-                                                        n = 3           n = 6
-    P1 tetrahedra (consistent M, trapezoidal)           0.142 (0.215)   0.047 (0.075)
-    + row-sum lumped M_L                                0.148 (0.213)   0.049 (0.074)
-    + backward Euler at h (`discrete`'s linear limit)   0.157 (0.897)   0.060 (0.924)
-    + St Venant-Kirchhoff: MuJoCo `discrete`            0.185 (0.897)   0.124 (0.924)
-    MuJoCo `discrete-10`                                0.177 (0.244)   0.114 (0.151)
-    MuJoCo `euler-10`                                   0.176 (0.244)   0.114 (0.151)
+                                                  n = 3           n = 6           n = 12
+    P1 tetrahedra (consistent M, trapezoidal)     0.142 (0.215)   0.047 (0.075)   0.014 (0.022)
+    + row-sum lumped M_L                          0.148 (0.213)   0.049 (0.074)   0.014 (0.022)
+    + backward Euler at h (`discrete`, linear)    0.157 (0.897)   0.060 (0.924)   0.027 (0.933)
+    + St Venant-Kirchhoff: MuJoCo `discrete`      0.185 (0.897)   0.124 (0.924)   0.117 (0.933)
+    MuJoCo `discrete-10`                          0.177 (0.244)   0.114 (0.151)   0.108 (0.144)
+    MuJoCo `euler-10`                             0.176 (0.244)   0.114 (0.151)   diverged, t_2
 
 - The tetrahedra: stiffer in bending than Q1 (the Newton runner's split; P1/Q1 static tip
   0.80 on n = 3); the difference shrinks with the mesh.
@@ -65,21 +65,30 @@ departure at a time:
   h^2 a_0 / 2, so E_n is near 0.9 at t_1 (the max); over the run it adds 0.01 to the mean
   (its numerical damping of the rod's oscillation). Ten substeps remove the first-step gap.
 - SVK's geometric nonlinearity at load scale 1 (the tip sags 0.1 m on 0.5 m): `discrete`
-  against its own linear limit 0.086 (0.113) on n = 3 and 0.100 (0.134) on n = 6, as our own
-  Q1 `implicit+svk` against `implicit`, 0.100 (0.135) on n = 3. It does not shrink with the
-  mesh: against our `implicit+svk` (the model MuJoCo poses) `discrete` stands at 0.153 (0.897)
-  and `discrete-10` at 0.144 (0.218) on n = 3, the tetrahedra's own 0.142 being most of it.
+  against its own linear limit 0.086 (0.113) on n = 3, 0.100 (0.134) on n = 6 and 0.106
+  (0.142) on n = 12, as our own Q1 `implicit+svk` against `implicit`, 0.100 (0.135) on n = 3.
+  It does not shrink with the mesh, so MuJoCo stops converging to the linear rod near
+  E_n = 0.11. Against our `implicit+svk` (the model MuJoCo poses), `discrete` stands at
+  0.153 (0.897) and `discrete-10` at 0.144 (0.218) on n = 3, the tetrahedra's own 0.142 being
+  most of it.
 - Large deformation (SPEC 8, load scale 3, against `implicit+neo-hookean`): SVK softens in
-  compression and the rod's tetrahedra by the clamp collapse: `discrete` inverts one at
-  t = 5.57 s, `discrete-10` at 5.2 s (n = 3), and our own Q1 `implicit+svk` inverts at
-  t = 8.3 s: the model's, not MuJoCo's. Up to there, E_i mean (max) 1.5e-3 (3.2e-3) m.
+  compression and the rod's tetrahedra by the clamp collapse. On n = 3 `discrete` inverts one
+  at t = 5.57 s, `discrete-10` at 5.2 s, `euler-10` at 5.17 s; on n = 6 all three by
+  t = 2.77-2.87 s; our own Q1 `implicit+svk` inverts too, at t = 8.3 s on n = 3: the model's,
+  not MuJoCo's (the neo-Hookean reference runs to the end). Up to there, E_i mean (max)
+  1.5e-3 (3.2e-3) m^3 on n = 3, 5.6e-4 (1.7e-3) m^3 on n = 6.
 
-Wall time per simulated second (compile and steps, one thread):
+E_i max against the truth (SPEC 10, `tissuebench compare truth:rod`; its own error 4.7e-6
+m^3) and wall time per simulated second (compile and steps, one thread):
 
-    n (dofs)        `discrete`   `discrete-10`   `euler-10`   our `implicit`
-    3 (336)         0.020 s      0.22 s          0.13 s       0.009 s
-    6 (1,911)       0.18 s       1.2 s           1.1 s        0.043 s
-    12 (12,675)     3.2 s        TBD             TBD          0.46 s
+    n (dofs)      `discrete`         `discrete-10`     `euler-10`         our `implicit`
+    3 (336)       1.74e-3, 0.020 s   1.74e-3, 0.22 s   1.75e-3, 0.13 s    4.4e-4, 0.009 s
+    6 (1,911)     9.8e-4, 0.18 s     9.8e-4, 1.2 s     9.8e-4, 1.1 s      1.4e-4, 0.043 s
+    12 (12,675)   9.0e-4, 3.2 s      9.0e-4, 25 s      diverged at t_2    3.7e-5, 0.46 s
+
+(measured beside other runs on the same 2 cores: the n = 12 times may be up to twice a quiet
+machine's). `euler-10` needs h/10 from n = 6 on and more at n = 12: MuJoCo's bad-acceleration
+reset at t_2, an explicit scheme's stable step shrinking with the element size.
 
 Not posed: the 2D block (`dof="2d"` would hold z on a one-layer slab, but the needle is a
 moving constrained set: a pinned flex vertex follows its body, and a mocap body, MuJoCo's only
@@ -193,8 +202,8 @@ def skipped(data: Exported) -> dict[str, str]:
     if data.procedure != "dynamic":
         return {"all": "MuJoCo steps dynamics only; the static procedure has no counterpart"}
     if data.dim != 3:
-        return {"all": "the block's needle moves: a pinned flex vertex follows its body, and "
-                "MuJoCo refuses mocap (kinematic) bodies for elastic flexes with damping"}  # fmt: skip
+        why = "the block's needle moves: a pinned flex vertex follows its body, and MuJoCo "
+        return {"all": why + "refuses mocap (kinematic) bodies for elastic flexes with damping"}
     if data.model not in MODELS:
         return {"all": f"no MuJoCo counterpart of the {data.model} model"}
     if not _posed(data):
@@ -226,8 +235,8 @@ def clamped_nodes(data: Exported) -> np.ndarray:
 def mjcf(data: Exported, tets: np.ndarray, substeps: int = 1, integrator: str = "discrete") -> str:
     """The MJCF text of the posed rod: one flexcomp on the exported nodes and tetrahedra, SVK
     elasticity with the export's E, nu and beta, the clamped nodes pinned, gravity the
-    export's, no contact, the integrator ("discrete" or "Euler") at h / substeps. The masses and the alpha damping
-    are set after compiling (compile_model)."""
+    export's, no contact, the integrator ("discrete" or "Euler") at h / substeps. The masses
+    and the alpha damping are set after compiling (compile_model)."""
     m = data.material
     gravity = np.zeros(3)
     gravity[: data.dim] = data.gravity
