@@ -19,7 +19,7 @@ The posed problem (SPEC sections 1, 3, 5, 8)
   compiling each free vertex's body gets the row-sum lumped P1 mass, rho V_t / 4 from every
   tetrahedron it is a corner of (`newton.lumped_masses`; total rho * volume), and
   `mj_setConst` recomputes what depends on it. Gravity: the export's vector as `<option
-  gravity>`, m_i g on each vertex (P1's consistent load, exactly). MP3's M_L stands in for the
+  gravity>`, m_i g on each vertex (P1's consistent load, exactly). M_L stands in for the
   reference's consistent M (SPEC's `implicit-lumped` departure).
 - Damping: flexcomp has no mass damping; each free vertex's three slide joints get
   `dof_damping` = alpha m_i (N s/m), so that C = alpha M_L + beta K. The flex damping acts on
