@@ -44,6 +44,7 @@ import argparse  # noqa: E402 (after the handlers above)
 import errno  # noqa: E402
 import importlib  # noqa: E402
 import traceback  # noqa: E402
+from typing import NoReturn  # noqa: E402
 
 COMMANDS = [
     "tissuebench.workflows.commands.run",
@@ -66,7 +67,7 @@ class Parser(argparse.ArgumentParser):
     under mpiexec, `tissuebench COMMAND: error: ...`, exit status 2; the usage is on -h. The
     subcommands' parsers are of this class too (add_subparsers takes the parent's)."""
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         mpi = sys.modules.get("mpi4py.MPI")
         if mpi is None or mpi.COMM_WORLD.rank == 0:
             text = " ".join(str(message).split())
@@ -74,7 +75,7 @@ class Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-def parser():
+def parser() -> Parser:
     p = Parser(
         prog="tissuebench",
         description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.",
@@ -97,7 +98,7 @@ def fault(err: OSError) -> str:
     return f"{where}: {reason}" if where else reason
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     """Run the command line `tissuebench argv...` (sys.argv without argv) and return its exit
     status. Run as the command line (not imported), the process also ends here (`end`)."""
     status = command_line(argv)
@@ -128,7 +129,7 @@ def end(status: int) -> None:
     os._exit(status)
 
 
-def command_line(argv=None) -> int:
+def command_line(argv: list[str] | None = None) -> int:
     from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
     import petsc4py
 

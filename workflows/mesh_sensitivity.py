@@ -24,19 +24,21 @@ import json
 import math
 import re
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
+from dolfinx import fem
 
 from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, CrossMetrics, Mesh
 from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
-from tissuebench.solvers.simulate import simulate
+from tissuebench.solvers.simulate import Run, simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.ranking import Board, Row, error_keys, finite, fmt, real
 from tissuebench.workflows.output import (
@@ -93,7 +95,9 @@ def shapes(gdim: int) -> dict[str, dict]:
 # --- running and grading -----------------------------------------------------------------------
 
 
-def timed_run(system: System, algorithm: str, h: float, steps: int, extent: float, solver: str):
+def timed_run(
+    system: System, algorithm: str, h: float, steps: int, extent: float, solver: str
+) -> tuple[Run, float]:
     """(Run, seconds of the integrator's set-up) of one algorithm on system."""
     start = time.perf_counter()
     integrator = get_integrator(algorithm, system, h, solver=solver)
@@ -104,7 +108,7 @@ def timed_run(system: System, algorithm: str, h: float, steps: int, extent: floa
         integrator.destroy()
 
 
-def whole_mesh(V, comm: MPI.Comm) -> tuple[Mesh, dict]:
+def whole_mesh(V: fem.FunctionSpace, comm: MPI.Comm) -> tuple[Mesh, dict]:
     """The mesh of V on every rank (points, VTK cells), and its sizes."""
     data, _ = gather_mesh(V)
     mesh = comm.bcast(
@@ -127,7 +131,19 @@ def grade_run(grader: CrossMetrics, ref_u: list, cand_u: np.ndarray) -> dict:
     return out
 
 
-def run_mesh(study, shape, options, size, ref, h, steps, solver, folder, comm, log) -> list[dict]:
+def run_mesh(
+    study: Study,
+    shape: str,
+    options: dict,
+    size: int,
+    ref: dict,
+    h: float,
+    steps: int,
+    solver: str,
+    folder: Path,
+    comm: MPI.Comm,
+    log: Callable[[str], None],
+) -> list[dict]:
     """Every algorithm on one mesh of the study, graded against the reference; the rows."""
     entry = get_entry(study.benchmark)
     start = time.perf_counter()
@@ -178,7 +194,7 @@ def run_mesh(study, shape, options, size, ref, h, steps, solver, folder, comm, l
     return rows
 
 
-def warm_up(study: Study, options: dict, h: float, solver: str, comm) -> None:
+def warm_up(study: Study, options: dict, h: float, solver: str, comm: MPI.Comm) -> None:
     """Build every integrator once on the smallest mesh of a shape, untimed: FFCx compiles the
     forms of a cell type on first use, which is no part of a run's cost."""
     bench = get_benchmark(
@@ -189,7 +205,16 @@ def warm_up(study: Study, options: dict, h: float, solver: str, comm) -> None:
         get_integrator(algorithm, system, h, solver=solver).destroy()
 
 
-def reference_run(study, size, h, steps, solver, folder, comm, log) -> dict:
+def reference_run(
+    study: Study,
+    size: int,
+    h: float,
+    steps: int,
+    solver: str,
+    folder: Path,
+    comm: MPI.Comm,
+    log: Callable[[str], None],
+) -> dict:
     """`implicit` on the grid of size 2N: its space, owned values per step and extent."""
     bench = get_benchmark(study.benchmark, mesh_size=2 * size, comm=comm, **study.options)
     system = System(bench, study.material)
@@ -217,8 +242,8 @@ def run_study(
     out: Path,
     solver: str,
     petsc: str,
-    comm,
-    log=print,
+    comm: MPI.Comm,
+    log: Callable[[str], None] = print,
     quick: bool = False,
     session: str | None = None,
 ) -> dict:
@@ -290,7 +315,7 @@ ROW_NUMBERS = ("spacing_m", "wall_time_s", "end_time_s", "cost_s_per_s")  # fini
 ROW_COUNTS = ("size", "nodes", "cells", "dofs", "steps")  # whole numbers >= 0
 
 
-def row_problem(row, study: Study, shape: str, size: int) -> str | None:
+def row_problem(row: dict, study: Study, shape: str, size: int) -> str | None:
     """Why a saved row (run_mesh's) is not one of this mesh's runs (None: it is)."""
     if not isinstance(row, dict):
         return "holds a row that is not an object"
@@ -414,7 +439,7 @@ def trade_off_lines(found: list[tuple[dict, dict, str, float]]) -> list[str]:
     return lines
 
 
-def timed(studies, results) -> str:
+def timed(studies: list[Study], results: dict) -> str:
     """When the runs were timed: one session, or (a resumed study) which."""
     sessions = sorted({t for s in studies for t in results[s.name]["sessions"]})
     if len(sessions) == 1:
@@ -425,7 +450,7 @@ def timed(studies, results) -> str:
     )
 
 
-def markdown(studies, results, quick: bool, ranks: int) -> str:
+def markdown(studies: list[Study], results: dict, quick: bool, ranks: int) -> str:
     lines = [
         f"{MARKER}{' (quick check, not the results)' if quick else ''}",
         "",
@@ -592,7 +617,7 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
     fig.savefig(path, dpi=110)
 
 
-def leaderboard_boards(out: Path, log=lambda line: None) -> list[tuple]:
+def leaderboard_boards(out: Path, log: Callable[[str], None] = lambda line: None) -> list[tuple]:
     """The full study's runs in OUT as leaderboard cases: [(ranking.Board, [ranking.Row])], one
     per case (none without a full study's report). Nothing read is trusted: a report or table
     that cannot be read, and each row of the table that is not a run of the study, is left

@@ -35,8 +35,9 @@ import os
 import shutil
 import socket
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
+from typing import TypeVar
 from pathlib import Path
 
 from mpi4py import MPI
@@ -48,6 +49,8 @@ SUMMARY = "summary.json"
 MANIFEST = ".tissuebench.json"  # what we wrote, with hashes
 MARK = ".tissuebench-temporary"  # inside our temporary and backup folders
 PREFIX = ".tissuebench-"  # of our temporary, backup and lock names beside a target
+
+T = TypeVar("T")  # what a collective action returns
 
 
 class OutputError(UserError):
@@ -361,7 +364,7 @@ class Lock:
             self.held = False
 
 
-def collective(comm: MPI.Comm, action, where: Path | None = None):
+def collective(comm: MPI.Comm, action: Callable[[], T], where: Path | None = None) -> T:
     """Run action() on rank 0 and broadcast its result. An exception on rank 0 is raised on
     every rank (an OSError as a WriteFailure naming `where`), so that none is left waiting.
     A signal that any rank received is raised on every rank first (solvers/interrupt.py)."""
@@ -555,7 +558,9 @@ def check_file_target(out: Path, suffix: str, force: bool, also: tuple | list = 
         raise OutputError(f"output {out}: cannot write there ({existing} is not a writable folder)")
 
 
-def check_writable(out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD, owned=()) -> None:
+def check_writable(
+    out_dir: Path | str, comm: MPI.Comm = MPI.COMM_WORLD, owned: Iterable[str] = ()
+) -> None:
     """Raise OutputError on every rank unless rank 0 can create and write out_dir (a shared
     folder of loose outputs such as stability.md; nothing is created) and every file of
     `owned` (names in it) that exists is ours, unchanged."""

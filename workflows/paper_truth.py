@@ -18,6 +18,7 @@ Units: E_n and E_s dimensionless, E_i in m^d (m^2 on the block, m^3 on the rod) 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.metrics.compare import summarize
+from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.study import Case, algorithm_case, run_case
 
@@ -228,7 +230,7 @@ def _values(curves: dict) -> dict:
     return values
 
 
-def grade_runs(folder: Path, labels: list[str], truth, comm: MPI.Comm) -> dict:
+def grade_runs(folder: Path, labels: list[str], truth: TruthSamples, comm: MPI.Comm) -> dict:
     """{label: {metric_reading: value}} of each run's displacement series (folder/label.xdmf)
     graded against the truth (rank 0's TruthSamples). Collective."""
     from tissuebench.metrics.truth import grade_truth
@@ -246,7 +248,7 @@ def compute(
     solver: str = "direct",
     petsc: str = "",
     force: bool = False,
-    log=print,
+    log: Callable[[str], None] = print,
 ) -> PaperTruth:
     """Run (or keep) the case folders OUT/truth-*, grade their runs against each cached truth
     and judge claims 1, 2 and 5. Collective; never computes a truth."""

@@ -9,6 +9,8 @@ import math
 import time
 import platform
 from dataclasses import asdict, dataclass, field
+from collections.abc import Callable
+from pathlib import Path
 from typing import NamedTuple
 
 from mpi4py import MPI
@@ -69,13 +71,23 @@ class Case:
         self.runs = [RunSpec(*run) for run in self.runs]
 
 
-def algorithm_case(name, benchmark, material, algorithms, **options):
+def algorithm_case(
+    name: str, benchmark: str, material: object, algorithms: list[str], **options
+) -> "Case":
     """The usual case: each algorithm on one material, against `implicit` on that material."""
     labels = list(dict.fromkeys([REFERENCE, *algorithms]))
     return Case(name, benchmark, [(a, a, material) for a in labels], REFERENCE, **options)
 
 
-def model_case(name, benchmark, material, algorithms, models, reference=None, **options):
+def model_case(
+    name: str,
+    benchmark: str,
+    material: object,
+    algorithms: list[str],
+    models: list[str],
+    reference: str | None = None,
+    **options,
+) -> "Case":
     """Every algorithm with every model on one material (SPEC section 8), against `reference`,
     a run label that must be among them. Without one, the reference is `implicit`, or
     `implicit+neo-hookean` when `linear` is not among the models, and it always runs."""
@@ -94,7 +106,7 @@ def model_case(name, benchmark, material, algorithms, models, reference=None, **
     return Case(name, benchmark, specs, reference, **options)
 
 
-def versions():
+def versions() -> dict[str, str]:
     import dolfinx
     import petsc4py
     import gmsh
@@ -114,7 +126,7 @@ def versions():
     }
 
 
-def nan_to_none(x):
+def nan_to_none(x: float) -> float | None:
     return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
 
 
@@ -146,7 +158,13 @@ def case_inputs(case: Case, mesh_size: int, h: float, n_steps: int, materials: d
     }
 
 
-def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print, force=False):
+def run_case(
+    case: "Case",
+    out_dir: Path,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log: Callable[[str], None] = print,
+    force: bool = False,
+) -> dict:
     """Run every run of the case, measure it against the reference and write the case folder
     (whole, or not at all; see workflows/output.py for which folders may be written). Returns
     the summary dict; complete results of the same inputs are kept and their summary returned
@@ -185,7 +203,18 @@ def run_case(case, out_dir, comm=MPI.COMM_WORLD, log=print, force=False):
     return summary
 
 
-def compute_case(case, tmp, target, inputs, mesh_size, h, n_steps, materials, comm, log):
+def compute_case(
+    case: "Case",
+    tmp: Path,
+    target: Path,
+    inputs: dict,
+    mesh_size: int,
+    h: float,
+    n_steps: int,
+    materials: dict,
+    comm: MPI.Comm,
+    log: Callable[[str], None],
+) -> dict:
     """The runs, metrics, figures and summary of a case, written into tmp, which becomes
     target. Collective."""
     rank0 = comm.rank == 0

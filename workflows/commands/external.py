@@ -1,6 +1,8 @@
 """`tissuebench external SIMULATOR BENCHMARK [options] --out DIR`: pose a benchmark in an
 outside simulator, run it, and grade it against our reference (workflows/simulators/runner.py)."""
 
+import argparse
+
 from pathlib import Path
 
 from mpi4py import MPI
@@ -16,7 +18,7 @@ from tissuebench.workflows.commands.arguments import (
 from tissuebench.workflows.simulators.runner import run_external
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "external",
         help="run a benchmark in an outside simulator (CalculiX, SfePy, ...) and grade it",
@@ -38,7 +40,7 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def main(args) -> int:
+def main(args: argparse.Namespace) -> int:
     from tissuebench.workflows.simulators import get_simulator
     from tissuebench.meshes.errors import UserError
 

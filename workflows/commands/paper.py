@@ -18,6 +18,8 @@ with every elastic model against implicit+neo-hookean, in OUT/large-deformation/
 schemes on each of their meshes (solvers/stability.py), which says why explicit runs diverge.
 """
 
+import argparse
+
 from pathlib import Path
 
 from mpi4py import MPI
@@ -149,7 +151,7 @@ def model_cases(solver: str = "direct", petsc: str = "") -> list[Case]:
     return result
 
 
-def explicit_limits(case: Case, comm) -> dict:
+def explicit_limits(case: Case, comm: MPI.Comm) -> dict:
     """{algorithm: critical step in s} of the explicit schemes with the linear model on the
     case's mesh, material and constraints (SPEC section 3's Newmark analysis, as in
     stability.md): the step above which central differences diverge. Collective."""
@@ -165,7 +167,7 @@ def explicit_limits(case: Case, comm) -> dict:
     return {name: limit.critical_dt for name, limit in limits.items()}
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "paper",
         help="the paper's study, its figures and report",
@@ -181,7 +183,7 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def main(args):
+def main(args: argparse.Namespace) -> int:
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out

@@ -1,6 +1,8 @@
 """`tissuebench run BENCHMARK --out DIR`: one benchmark, the chosen algorithms with the chosen
 elastic models (SPEC section 8), one material."""
 
+import argparse
+
 from pathlib import Path
 
 from mpi4py import MPI
@@ -22,7 +24,7 @@ from tissuebench.workflows.commands.arguments import (
 from tissuebench.workflows.study import model_case, run_case
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "run",
         help="run one benchmark with the chosen algorithms",
@@ -64,7 +66,7 @@ def add_parser(sub):
     p.set_defaults(func=main)
 
 
-def main(args):
+def main(args: argparse.Namespace) -> int:
     entry = get_entry(args.benchmark)
     options = benchmark_options(args, args.benchmark, BENCHMARKS)
     algorithms = parse_algorithms(args.algorithms)

@@ -359,18 +359,18 @@ class ShapeRenderer:
         p.reset_camera_clipping_range()
         self.plotter = p
 
-    def image(self, u):
+    def image(self, u: np.ndarray) -> np.ndarray:
         u = _pad3(u)
         self.grid.points = self.x0 + u
         self.grid.point_data["|u| (m)"] = np.linalg.norm(u, axis=1)
         self.plotter.render()
         return np.asarray(self.plotter.screenshot(return_img=True))
 
-    def resize(self, size):
+    def resize(self, size: tuple[int, int]) -> None:
         """Pictures of `size` pixels from now on, framed as before (the aspect ratio is kept)."""
         self.plotter.window_size = size
 
-    def close(self):
+    def close(self) -> None:
         self.plotter.close()
 
 
