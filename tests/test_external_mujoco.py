@@ -276,7 +276,7 @@ def test_variants_and_skips(small_rod):
 
 
 @pytest.mark.serial
-def test_run_writes_the_series_and_reports_failures(small_rod, tmp_path):
+def test_run_writes_the_series_and_reports_failures(small_rod, tmp_path, monkeypatch):
     """A run leaves mujoco.xml and mujoco.xdmf: the displacement at t_0..t_30 on 6 tetrahedra
     per hexahedron, zero at t = 0 and on the clamp, finite, sagging; an unknown variant comes
     back failed, and the rod under 1000 times its gravity collapses at its clamp: inverted
@@ -311,5 +311,9 @@ def test_run_writes_the_series_and_reports_failures(small_rod, tmp_path):
 
     coarse = rod(steps=10, h=0.5)  # euler-10 at 0.05 s: beyond its stable step
     (tmp_path / "coarse").mkdir()
+    user = tmp_path / "user"  # the folder the user runs tissuebench from
+    user.mkdir()
+    monkeypatch.chdir(user)
     blown = mj.run(coarse, "euler-10", tmp_path / "coarse")
     assert blown.status == "failed" and "bad acceleration" in blown.reason
+    assert list(user.iterdir()) == []  # MuJoCo's warning log (MUJOCO_LOG.TXT) is not written

@@ -325,24 +325,34 @@ def integrate(
     U = np.full((steps + 1, len(nodes), 3), np.nan)
     U[0] = 0.0
     diverged, reason = None, None
-    for i in range(1, steps + 1):
-        for _ in range(substeps):
-            mujoco.mj_step(mj, d)
-        u = displacement(d.qpos, address)
-        if d.warning[bad].number > 0:
-            diverged, reason = i, "MuJoCo reset the state: bad acceleration (mjWARN_BADQACC)"
-        elif not np.all(np.isfinite(u)):
-            diverged, reason = i, "a displacement is not finite"
-        elif np.linalg.norm(u, axis=1).max() > DIVERGED * extent:
-            diverged, reason = i, f"a displacement exceeds {DIVERGED:g} x the domain's extent"
-        else:
-            J = tet_volumes(nodes + u, tets) / volumes
-            if J.min() <= 0:
-                inverted = int(np.sum(J <= 0))
-                diverged, reason = i, f"{inverted} tetrahedra inverted (J down to {J.min():.3g})"
-        if diverged is not None:
-            break
-        U[i] = u
+    # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the current folder (the user's): a
+    # divergence is read from d.warning instead, and the text goes nowhere
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda text: None)
+    try:
+        for i in range(1, steps + 1):
+            for _ in range(substeps):
+                mujoco.mj_step(mj, d)
+            u = displacement(d.qpos, address)
+            if d.warning[bad].number > 0:
+                diverged, reason = i, "MuJoCo reset the state: bad acceleration (mjWARN_BADQACC)"
+            elif not np.all(np.isfinite(u)):
+                diverged, reason = i, "a displacement is not finite"
+            elif np.linalg.norm(u, axis=1).max() > DIVERGED * extent:
+                diverged, reason = i, f"a displacement exceeds {DIVERGED:g} x the domain's extent"
+            else:
+                J = tet_volumes(nodes + u, tets) / volumes
+                if J.min() <= 0:
+                    inverted = int(np.sum(J <= 0))
+                    diverged, reason = (
+                        i,
+                        f"{inverted} tetrahedra inverted (J down to {J.min():.3g})",
+                    )
+            if diverged is not None:
+                break
+            U[i] = u
+    finally:
+        mujoco.set_mju_user_warning(previous)
     wall = time.perf_counter() - start
     return {
         "U": U,
