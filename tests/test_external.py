@@ -96,7 +96,7 @@ def test_leaderboard_on_a_small_rod(tmp_path, monkeypatch):
     board = Board("rod-small", "rod", "MP3", "linear", simulators=("calculix",), mesh_size=2,
                   end_time=0.5, description="rod, n = 2, 0.5 s")  # fmt: skip
     monkeypatch.setattr(leaderboard, "BOARDS", [board])
-    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False)
+    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False, rerun=[])
     # a user's run, graded by compare into the case's user/ folder beforehand
     ours = tmp_path / "seed"
     assert tissuebench("run", "rod", *SMALL, "--algorithms", "implicit,explicit-lumped",
@@ -140,11 +140,13 @@ def test_leaderboard_on_a_small_rod(tmp_path, monkeypatch):
     assert text.startswith(leaderboard.MARKER) and "## rod-small" in text
     assert (tmp_path / "leaderboard" / "rod-small.png").stat().st_size > 10_000
     # a full leaderboard (here: one with a simulator that is not installed) is kept
-    # (written as ours: a leaderboard of another machine, listed in the folder's manifest)
+    # (written as ours: a record of another machine, listed in the folder's manifest)
     from tissuebench.workflows.output import write_owned
 
-    text = (tmp_path / "leaderboard.csv").read_text() + "rod-small,elsewhere:fast\n"
-    write_owned(tmp_path / "leaderboard.csv", lambda tmp: tmp.write_text(text))
+    record = json.loads((tmp_path / "leaderboard.json").read_text())
+    elsewhere = dict(record["cases"][0]["rows"][-1], label="elsewhere:fast", source="Elsewhere")
+    record["cases"][0]["rows"].append(elsewhere)
+    write_owned(tmp_path / "leaderboard.json", lambda tmp: tmp.write_text(json.dumps(record)))
     with pytest.raises(leaderboard.OutputError, match="elsewhere, which cannot run here"):
         leaderboard.main(args)
 
@@ -162,7 +164,7 @@ def test_leaderboard_across_mesh_sizes_runs_the_chosen_variants(tmp_path, monkey
               **common),
     ]  # fmt: skip
     monkeypatch.setattr(leaderboard, "BOARDS", boards)
-    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False)
+    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False, rerun=[])
     assert leaderboard.main(args) == 0
     with open(tmp_path / "leaderboard.csv", newline="") as f:
         rows = list(csv.DictReader(f))

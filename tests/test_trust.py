@@ -1,6 +1,6 @@
 """Nothing read is trusted (issue 23, item 4). The leaderboard reads users' compare folders,
 its own earlier table and the mesh-sensitivity study's report; the study reads the rows it
-saved. Checked: a user folder graded on another case, and a row with a bad label, status,
+saved. Checked: a user folder graded on another case (its reference's fingerprint), and a row with a bad label, status,
 wall time or metric, is left out with one line naming it, before anything runs, and the rest
 is written; every text read is escaped in leaderboard.md; a user's label never names a
 simulator; a NaN never ranks; a saved rows file that does not parse is recomputed, serial
@@ -60,8 +60,14 @@ def series(study: Path, name: str) -> Path:
 @pytest.fixture(scope="module")
 def graded(study):
     """A user's compare folder, graded on ROD's case (rank 0 writes; serial tests only)."""
+    from helpers import tissuebench
+
     folder = study / "graded"
-    compare(series(study, "implicit"), series(study, "explicit-lumped"), folder,
+    ref = study / "reference"  # a run folder of ours: compare records its case (issue 26)
+    r = tissuebench("run", "rod", "--mesh-size", "4", "--material", "MP3", "--end-time", "0.2",
+                    "--algorithms", "implicit", "--out", ref)  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    compare(ref / "implicit.xdmf", series(study, "explicit-lumped"), folder,
             label="my-solver", wall_time=0.25, comm=MPI.COMM_SELF)  # fmt: skip
     return folder
 
@@ -91,10 +97,10 @@ MALFORMED = {  # folder name -> (change to its run or summary, what the line say
     "text-end-time": (lambda r, s: s.update(end_time="10"), "no positive numbers h and end_time"),
     "negative-end-time": (lambda r, s: s.update(end_time=-0.2), "no positive numbers h"),
     "other-steps": (lambda r, s: s.update(steps=12), "graded over 12 steps"),
-    "no-reference": (lambda r, s: s.update(reference={}), "names no reference file"),
-    "gone-reference": (
-        lambda r, s: s.update(reference={"file": "/nonexistent/ref.xdmf"}),
-        "its reference /nonexistent/ref.xdmf cannot be read",
+    "no-reference": (lambda r, s: s.update(reference={}), "records no fingerprint of its"),
+    "unknown-reference": (  # graded against a file of no run folder or export of ours
+        lambda r, s: s["reference"]["fingerprint"].update(source="file", benchmark=None),
+        "so its case is not known: compare against the reference `tissuebench export` writes",
     ),
     "not-compare": (lambda r, s: s.update(kind="run"), "its summary.json is not compare's"),
 }
@@ -139,10 +145,12 @@ def test_a_run_of_another_case_is_refused(graded, tmp_path):
     rows, skipped = ranking.user_rows(BLOCK, user)
     assert rows == [] and len(skipped) == 1
     assert skipped[0].startswith(f"{user / 'rod-run'}: left out: graded against ")
-    assert "3D with 225 nodes; the case's reference is 2D with 441 nodes" in skipped[0]
+    assert "3D, 225 nodes, not this case (block-tiny: block MP1 linear" in skipped[0]
+    assert skipped[0].endswith("2D, 441 nodes): compare against block-tiny's reference, or "
+                               "move the folder under its own case")  # fmt: skip
     finer = Board("rod-n6", "rod", "MP3", "linear", simulators=(), mesh_size=6, end_time=0.2)
     rows, skipped = ranking.user_rows(finer, user)
-    assert rows == [] and "the case's reference is 3D with 637 nodes" in skipped[0]
+    assert rows == [] and "3D, 637 nodes): compare against rod-n6's" in skipped[0]
     longer = Board("rod-1s", "rod", "MP3", "linear", simulators=(), mesh_size=4, end_time=1.0)
     rows, skipped = ranking.user_rows(longer, user)
     assert rows == [] and "the case is 30 steps of h = 0.0333333 s to T = 1 s" in skipped[0]
@@ -370,7 +378,7 @@ def test_leaderboard_leaves_out_bad_user_folders_before_it_runs(
         return run_board(board, *args, **kw)
 
     monkeypatch.setattr(leaderboard, "run_board", recorded)
-    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False)
+    args = argparse.Namespace(out=tmp_path, solver="direct", petsc="", force=False, rerun=[])
     assert leaderboard.main(args) == 0
     kinds = [kind for kind, _ in events]
     assert kinds == ["warn"] * 7 + ["run"], events

@@ -8,7 +8,11 @@ join a table of ours: `kind` "compare", the `reference` and `candidate` files wi
 read from each, `notes` (how the series were read), `h`, `steps`, `end_time`, and `runs`
 {label: {status, diverged_step, diverged_time, steps, wall_time_s, <metric>_max,
 <metric>_mean for every metric}}; the candidate's label and wall time are `--label` and
-`--wall-time`.
+`--wall-time`. `reference.fingerprint` says what the reference is (reference_fingerprint: its
+benchmark, case, options, material, model, h, T, mesh size, nodes and dimension, as its run
+folder or the export beside it says, or the truth case), and `candidate.mesh` the candidate's
+mesh (mesh_of: cell type, cells, nodes, dofs): the leaderboard takes a compare folder only
+under the case it was graded against.
 """
 
 from __future__ import annotations
@@ -206,8 +210,21 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
     truth = {"truth": g.summary()} if isinstance(g, TruthGrading) else {}
     return {
         "kind": "compare",
-        "reference": {"file": str(reference), "field": g.fields[0]},
-        "candidate": {"file": str(candidate), "field": g.fields[1], "label": g.label},
+        "reference": {
+            "file": str(reference),
+            "field": g.fields[0],
+            "fingerprint": {
+                **(getattr(g, "reference_fingerprint", None) or {}),
+                "h": float(times[1] - times[0]) if steps else None,
+                "end_time": float(times[-1]),
+            },
+        },
+        "candidate": {
+            "file": str(candidate),
+            "field": g.fields[1],
+            "label": g.label,
+            "mesh": getattr(g, "candidate_mesh", None),
+        },
         "notes": g.notes,
         "h": float(times[1] - times[0]) if steps else None,
         "steps": steps,
@@ -293,7 +310,11 @@ def grade(
     ref, cand = read_on_rank0(
         comm, (reference, reference_field or field), (candidate, candidate_field or field)
     )
-    return grade_series(ref, cand, comm, label=label)
+    g = grade_series(ref, cand, comm, label=label)
+    if comm.rank == 0:  # rank 0 writes the summary
+        g.reference_fingerprint = reference_fingerprint(reference, ref)
+        g.candidate_mesh = mesh_of(cand)
+    return g
 
 
 def grade_against_truth(
@@ -308,4 +329,110 @@ def grade_against_truth(
     truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
     and for an unreadable file."""
     (cand,) = read_on_rank0(comm, (candidate, field))
-    return grade_truth(truth, cand, comm, label=label)
+    g = grade_truth(truth, cand, comm, label=label)
+    if comm.rank == 0:  # rank 0 writes the summary
+        g.reference_fingerprint = truth_fingerprint(truth.case)
+        g.candidate_mesh = mesh_of(cand)
+    return g
+
+
+# --- what was graded against what ---------------------------------------------------------------
+
+
+def mesh_of(series) -> dict | None:
+    """The mesh of a series (metrics.series.Series): {"cell_type", "cells", "nodes",
+    "dimension", "dofs"}, dofs = nodes x dimension (a first-order displacement field)."""
+    if series is None:
+        return None
+    return {
+        "cell_type": str(series.cell_type),
+        "cells": int(len(series.cells)),
+        "nodes": int(len(series.points)),
+        "dimension": int(series.dim),
+        "dofs": int(series.points.size),
+    }
+
+
+def truth_fingerprint(case: str) -> dict:
+    """What the truth case (SPEC 10) poses: benchmark, material, model, options."""
+    from tissuebench.solvers.truth.cases import CASES
+
+    benchmark, material, model, scale, width = CASES[case]
+    options = {"load_scale": scale} | ({} if width is None else {"needle_width": width})
+    return {
+        "source": "truth",
+        "truth": case,
+        "benchmark": benchmark,
+        "case": None,
+        "options": options,
+        "material": material,
+        "model": model,
+        "mesh_size": None,
+        "nodes": None,
+        "dimension": 2 if benchmark == "block" else 3,
+    }
+
+
+def reference_fingerprint(reference: str | Path, series) -> dict:
+    """What a reference series file is: its dimension and nodes (read), and, as the folder it
+    is in says, its benchmark, case, options, material, model and mesh size: a run folder of
+    ours (summary.json with a run of the file's name) or an export (STEM.json beside
+    STEM.reference.xdmf). "source" names which ("run folder", "export", or "file" when
+    neither: the benchmark is then unknown)."""
+    path = Path(reference)
+    found = {
+        "source": "file",
+        "truth": None,
+        "benchmark": None,
+        "case": None,
+        "options": None,
+        "material": None,
+        "model": None,
+        "mesh_size": None,
+    }
+    try:
+        found |= folder_fingerprint(path)
+    except Exception:  # anything a file can hold: the folder says nothing
+        pass
+    return found | {"nodes": int(len(series.points)), "dimension": int(series.dim)}
+
+
+def folder_fingerprint(path: Path) -> dict:
+    """reference_fingerprint's fields that the reference's folder states ({} when none)."""
+    summary = path.parent / SUMMARY
+    if summary.is_file():
+        s = json.loads(summary.read_text())
+        run = (s.get("runs") or {}).get(path.stem)
+        if s.get("kind") != "compare" and isinstance(run, dict) and s.get("benchmark"):
+            material = next(
+                (
+                    r["material"]["name"]
+                    for r in (s.get("inputs") or {}).get("runs", [])
+                    if r.get("label") == path.stem
+                ),
+                None,
+            )
+            return {
+                "source": "run folder",
+                "benchmark": s["benchmark"],
+                "case": s.get("case"),
+                "options": dict((s.get("inputs") or {}).get("options") or {}),
+                "material": material,
+                "model": run.get("model"),
+                "mesh_size": s.get("mesh_size"),
+            }
+    stem = path.name.split(".")[0]
+    export = path.parent / f"{stem}.json"
+    if path.name.startswith(f"{stem}.reference.") and export.is_file():
+        d = json.loads(export.read_text())
+        if d.get("schema") == "tissuebench.benchmark":
+            return {
+                "source": "export",
+                "benchmark": d["benchmark"],
+                "case": stem,
+                "options": dict(d.get("options") or {}),
+                "material": (d.get("material") or {}).get("name"),
+                "model": d.get("model"),
+                "mesh_size": d.get("mesh_size"),
+            }
+    return {}

@@ -15,7 +15,8 @@ OUT/leaderboard.md, OUT/leaderboard.csv, OUT/leaderboard/CASE.png: the leaderboa
 
 Nothing read is trusted: a user's folder is checked against its case (dimension and nodes of
 the reference it was graded against, h, steps, end time) and each of its rows for its label,
-status, wall time and metrics; what fails is left out with one line saying why. Every text
+status, wall time and metrics; its reference's fingerprint (compare's summary.json) must be
+the case's; what fails is left out with one line saying why. Every text
 that was read is escaped for Markdown and HTML in leaderboard.md (md) and for matplotlib in
 the figures (plain); a user's label is never taken for a simulator's name. A NaN or infinite
 cost or error never ranks.
@@ -66,6 +67,8 @@ class Board:
     variants: dict[str, tuple[str, ...]] = field(default_factory=dict)
     skip_note: str = ""
     sizes: str | None = None  # the series of mesh sizes it belongs to (size_table), if any
+    session: str = ""  # when its runs were timed ("" : the session writing the leaderboard)
+    machine: str = ""  # where (machine(); "": this machine)
 
 
 @dataclass
@@ -226,42 +229,100 @@ def board_case(board: Board) -> dict:
     }
 
 
-def reference_problem(summary: dict, case: dict) -> str | None:
+DEFAULT_OPTIONS = {"load_scale": 1.0, "needle_width": 0.0}  # an option not given is this
+
+
+def same_options(a: dict, b: dict) -> bool:
+    """Whether two benchmark option sets pose the same case (an option not given is its
+    default, DEFAULT_OPTIONS; numbers compared to TOLERANCE)."""
+    for key in {*a, *b} | set(DEFAULT_OPTIONS):
+        x, y = a.get(key, DEFAULT_OPTIONS.get(key)), b.get(key, DEFAULT_OPTIONS.get(key))
+        if real(x) and real(y):
+            if not math.isclose(x, y, rel_tol=TOLERANCE, abs_tol=1e-12):
+                return False
+        elif x != y:
+            return False
+    return True
+
+
+RERUN_COMPARE = "rerun tissuebench compare (with --force) into it"
+
+
+def reference_problem(summary: dict, case: dict, board: Board | None = None) -> str | None:
     """Why a compare summary was not graded on the case (None: it was): its h, steps and end
-    time, and the dimension and nodes of the reference it names, against the case's."""
+    time, and the fingerprint of its reference (grading.reference_fingerprint: benchmark,
+    options, material, model, mesh size, dimension and nodes, or the truth case) against the
+    case's. Each reason ends with what to do."""
     h, steps, end = (summary.get(k) for k in ("h", "steps", "end_time"))
     if not (finite(h) and h > 0 and finite(end) and end > 0):
-        return "its summary.json has no positive numbers h and end_time"
+        return f"its summary.json has no positive numbers h and end_time: {RERUN_COMPARE}"
     if not (isinstance(steps, int) and not isinstance(steps, bool) and steps > 0):
-        return "its summary.json has no positive whole number of steps"
+        return f"its summary.json has no positive whole number of steps: {RERUN_COMPARE}"
     close = [
         math.isclose(a, b, rel_tol=TOLERANCE) for a, b in ((h, case["h"]), (end, case["end_time"]))
     ]
     if steps != case["steps"] or not all(close):
         return (
             f"graded over {steps} steps of h = {h:.6g} s to T = {end:.6g} s; the case is "
-            f"{case['steps']} steps of h = {case['h']:.6g} s to T = {case['end_time']:.6g} s"
+            f"{case['steps']} steps of h = {case['h']:.6g} s to T = {case['end_time']:.6g} s: "
+            "run your simulator with that h and T and compare again"
         )
     reference = summary.get("reference")
-    file = reference.get("file") if isinstance(reference, dict) else None
-    if not isinstance(file, str) or not file:
-        return "its summary.json names no reference file"
-    try:
-        from tissuebench.workflows.io.series import read_series
-
-        series = read_series(file)
-        dim, nodes = series.dim, len(series.points)
-    except Exception as exc:  # anything a file can do to a reader: it cannot be checked
+    fp = reference.get("fingerprint") if isinstance(reference, dict) else None
+    if not isinstance(fp, dict) or "source" not in fp:
         return (
-            f"its reference {one_line(file)} cannot be read to check that it is the case's "
-            f"({type(exc).__name__}: {one_line(' '.join(str(exc).split()))[:200]})"
+            "graded by an older compare, which records no fingerprint of its reference: "
+            f"{RERUN_COMPARE}"
         )
-    if dim != case["gdim"] or nodes != case["nodes"]:
+    if board is None:
+        return None
+    where = f"this case ({board.name}: {board.benchmark} {board.material} {board.model}"
+    where += f", {board.options or 'default options'}, {case['gdim']}D, {case['nodes']} nodes)"
+    move = f"compare against {board.name}'s reference, or move the folder under its own case"
+    if fp.get("source") == "truth":
+        if fp.get("truth") != board.truth:
+            has = f"the truth {board.truth}" if board.truth else "no truth"
+            return f"graded against the truth {one_line(fp.get('truth'))[:40]}; {where} has {has}: {move}"
+        return None
+    if fp.get("benchmark") is None:
         return (
-            f"graded against {one_line(file)}, {dim}D with {nodes} nodes; the case's "
-            f"reference is {case['gdim']}D with {case['nodes']} nodes"
+            f"its reference {one_line(reference.get('file'))[:200]} is neither in a run folder "
+            "of ours nor an export's (NAME.reference.xdmf beside NAME.json), so its case is "
+            f"not known: compare against the reference `tissuebench export` writes for {board.name}"
         )
+    got = (
+        f"{fp.get('benchmark')} {fp.get('material')} {fp.get('model')}, "
+        f"{fp.get('options') or 'default options'}, {fp.get('dimension')}D, {fp.get('nodes')} nodes"
+    )
+    size = board.mesh_size or get_entry(board.benchmark).mesh_size
+    if (
+        fp.get("benchmark") != board.benchmark
+        or fp.get("material") != board.material
+        or fp.get("model") != board.model
+        or not same_options(fp.get("options") or {}, board.options)
+        or fp.get("dimension") != case["gdim"]
+        or fp.get("nodes") != case["nodes"]
+        or (fp.get("mesh_size") is not None and fp.get("mesh_size") != size)
+    ):
+        return f"graded against {one_line(got)[:160]}, not {where}: {move}"
     return None
+
+
+def user_mesh(summary: dict) -> tuple[str, int]:
+    """A user's run's mesh ("TYPE: C cells, N nodes") and dofs, as compare recorded them
+    ("?", 0 when it did not)."""
+    cand = summary.get("candidate")
+    mesh = cand.get("mesh") if isinstance(cand, dict) else None
+    if not isinstance(mesh, dict):
+        return "?", 0
+    cells, nodes, dofs = (mesh.get(k) for k in ("cells", "nodes", "dofs"))
+    kind = mesh.get("cell_type")
+    if not (
+        isinstance(kind, str) and all(isinstance(x, int) and x > 0 for x in (cells, nodes, dofs))
+    ):
+        return "?", 0
+    plural = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}.get(kind, f"{kind}s")
+    return f"{one_line(plural)[:40]}: {cells:,} cells, {nodes:,} nodes", dofs
 
 
 def run_problem(label, run) -> str | None:
@@ -313,7 +374,7 @@ def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
         if summary.get("kind") != "compare":
             skipped.append(f"{where}: left out: its summary.json is not compare's")
             continue
-        problem = reference_problem(summary, case)
+        problem = reference_problem(summary, case, board)
         runs = summary.get("runs")
         if problem is None and (not isinstance(runs, dict) or not runs):
             problem = "its summary.json has no runs"
@@ -325,20 +386,29 @@ def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
             if problem:
                 skipped.append(f"{where}: run {one_line(label)[:80]} left out: {problem}")
                 continue
+            mesh, dofs = user_mesh(summary)
+            errors = {k: None if run[k] is None else float(run[k]) for k in error_keys()}
+            truth = {}
+            fp = summary["reference"]["fingerprint"]
+            if fp.get("source") == "truth":  # graded against the truth: those are its columns
+                truth = {k: errors[k] for k in TRUTH_KEYS}
+                errors = dict.fromkeys(errors)
             rows.append(
                 Row(
                     board.name,
                     label,
                     "user",
-                    f"graded by compare ({sub.name})",
-                    "?",
-                    0,
+                    f"graded by compare ({sub.name}) against "
+                    + (f"the truth {fp.get('truth')}" if truth else "the case's reference"),
+                    mesh,
+                    dofs,
                     run["status"],
                     None,
-                    {k: None if run[k] is None else float(run[k]) for k in error_keys()},
+                    errors,
                     None if run["wall_time_s"] is None else float(run["wall_time_s"]),
                     float(summary["end_time"]),
                     "reported by the user",
+                    truth=truth,
                     **candidate_of(summary),
                 )
             )
@@ -781,6 +851,19 @@ def machine() -> str:
     )
 
 
+def sessions_line(boards: list[Board], session: str) -> str:
+    """Where and when the wall times were measured: one session, or each case's (its section
+    names it: a case rerun alone, `--rerun CASE`, is timed in its own)."""
+    sessions = {b.session or session for b in boards}
+    machines = {b.machine or machine() for b in boards}
+    where = (
+        f"on {next(iter(machines))}" if len(machines) == 1 else "on the machine its section names"
+    )
+    if len(sessions) == 1:
+        return f"measured in one session ({next(iter(sessions))}) {where}"
+    return f"measured case by case, each in the session its section names, {where}"
+
+
 def markdown(
     boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, list[str]], session: str
 ) -> str:
@@ -794,7 +877,7 @@ def markdown(
         "error; time-mean and maximum over steps 1..N. Cost is the wall time per simulated "
         "second, and per dof.",
         "",
-        f"Wall times: measured in one session ({session}) on {machine()}; serial (1 rank, 1 "
+        f"Wall times: {sessions_line(boards, session)}; serial (1 rank, 1 "
         "thread). Ours: assembly of M, K and f, the integrator's setup (factorisations) and "
         "its time loop, in process. CalculiX: the whole `ccx` process, including its reading "
         "of the deck and writing of .frd and .dat. SfePy and Newton: their setup and time "
@@ -814,6 +897,9 @@ def markdown(
             board.description,
             "",
             truth_header(board, rows[board.name]),
+            "",
+            f"Timed in the session of {md(board.session or session)}"
+            + (f" on {md(board.machine)}." if board.machine else "."),
             "",
             f"![{board.name}](leaderboard/{board.name}.png)",
             "",

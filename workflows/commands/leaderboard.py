@@ -5,9 +5,12 @@ session: OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case (workflow
 
 from __future__ import annotations
 
+import argparse
 import csv
+import json
 import re
 import sys
+from dataclasses import asdict, fields
 from pathlib import Path
 
 from mpi4py import MPI
@@ -16,6 +19,7 @@ from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
+from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.commands.arguments import add_common, check_common
 from tissuebench.workflows.output import (
     OutputError,
@@ -33,10 +37,12 @@ from tissuebench.workflows.ranking import (
     finite,
     mark_truth_pareto,
     external_rows,
+    machine,
     mark_pareto,
     markdown,
     our_rows,
     plot_case,
+    truth_error,
     user_rows,
     write_csv,
 )
@@ -128,48 +134,86 @@ BOARDS = [
 ]
 
 
-def add_parser(sub):
+def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "leaderboard",
-        help="accuracy against cost of our algorithms and outside simulators, one session",
-        description="Run every algorithm and model of ours and every variant of every outside "
-        "simulator installed here that poses the case (CalculiX, SfePy, Newton) on each "
-        "leaderboard case, grade each against the case's reference, and write "
-        "OUT/leaderboard.md, OUT/leaderboard.csv and OUT/leaderboard/CASE.png. Runs that a "
-        "user graded with `tissuebench compare --label NAME --wall-time S --out "
-        "OUT/leaderboard/CASE/user/NAME` join their case. Everything is rerun and timed in "
-        "this session.",
+        help="accuracy against cost of our algorithms, outside simulators and users' runs",
+        description="Render OUT/leaderboard.md, OUT/leaderboard.csv and OUT/leaderboard/CASE.png "
+        "from the record OUT/leaderboard.json, with the runs that users graded with "
+        "`tissuebench compare --label NAME --wall-time S --out OUT/leaderboard/CASE/user/NAME` "
+        "(read, checked against their case, graded against its truth: seconds, nothing is "
+        "rerun). --rerun runs and times every algorithm and model of ours and every variant of "
+        "every outside simulator installed here on each case (or on the cases named) in this "
+        "session, grades each against the case's reference and its truth, and writes the "
+        "record; the cases not named keep their recorded rows.",
     )
     p.add_argument(
         "--out", type=Path, default=Path("results"), help="output folder (default results)"
+    )
+    p.add_argument(
+        "--rerun",
+        nargs="*",
+        metavar="CASE",
+        help=f"rerun and re-time these cases (none named: all; {', '.join(b.name for b in BOARDS)})"
+        " instead of taking their rows from the record",
     )
     add_common(p)
     p.set_defaults(func=main)
 
 
-def check_target(out: Path, available: set[str], force: bool) -> None:
-    """Refuse to replace a leaderboard.md we did not write, or, without force, one with rows of
-    a simulator that is not installed here (a partial run never replaces a full one)."""
+def check_target(
+    out: Path,
+    available: set[str],
+    force: bool,
+    record: tuple | None = None,
+    rerun: list[str] | None = None,
+) -> None:
+    """Refuse to replace a leaderboard.md we did not write; a partial rerun where there is a
+    leaderboard but no record of the other cases; and, without force, a rerun of cases whose
+    recorded rows (or, without a record, leaderboard.csv's) include a simulator that is not
+    installed here (a rerun never drops what it cannot run again)."""
     md = out / "leaderboard.md"
     if md.exists() and not md.read_text(errors="replace").startswith(MARKER):
-        raise OutputError(f"{md}: exists and was not written by tissuebench leaderboard")
+        raise OutputError(
+            f"{md}: exists and was not written by tissuebench leaderboard; move it or choose "
+            "another --out"
+        )
     old = out / "leaderboard.csv"
-    if force or not old.is_file():
+    partial = rerun is not None and len(rerun) < len(BOARDS)
+    if record is None and partial and old.is_file() and not force:
+        raise OutputError(
+            f"{out / 'leaderboard.json'}: no record of the cases not named, which a partial "
+            "rerun would drop from the leaderboard: `--rerun` with no case reruns them all "
+            "(or pass --force to write the named cases alone)"
+        )
+    if force:
         return
-    with open(old, newline="", errors="replace") as f:
-        try:  # a simulator's rows only: a user's label or ours never names a simulator
-            labels = [
-                row.get("label") or ""
-                for row in csv.DictReader(f)
-                if row.get("source") not in ("user", "tissuebench")
-            ]
-        except csv.Error:
-            labels = []  # not a leaderboard's table: nothing in it to keep
+    if record is not None:
+        labels = [
+            r.label
+            for name, rows in record[1].items()
+            if rerun is None or name in rerun
+            for r in rows
+            if r.source not in ("user", "tissuebench")
+        ]
+    elif old.is_file():
+        with open(old, newline="", errors="replace") as f:
+            try:  # a simulator's rows only: a user's label or ours never names a simulator
+                labels = [
+                    row.get("label") or ""
+                    for row in csv.DictReader(f)
+                    if row.get("source") not in ("user", "tissuebench")
+                ]
+            except csv.Error:
+                labels = []  # not a leaderboard's table: nothing in it to keep
+    else:
+        return
     lost = sorted({lab.split(":")[0] for lab in labels if ":" in lab} - available)
     if lost:
         raise OutputError(
-            f"{old}: has rows of {', '.join(lost)}, which cannot run here; install it "
-            "(make external-tools) or pass --force to replace the leaderboard without them"
+            f"{out}: the leaderboard has rows of {', '.join(lost)}, which cannot run here: "
+            "install it (make external-tools), or rerun only the cases without it (--rerun "
+            "CASE), or pass --force to replace those rows"
         )
 
 
@@ -393,19 +437,20 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
         del truth
 
 
-def error_budget(rows: list[Row]) -> None:
+def error_budget(rows: list[Row], only: list[Row] | None = None) -> None:
     """The error budget (SPEC 10) of every row of a case graded against the truth, in
     row.budget (time-mean E_i, m^gdim): total (the row against the truth), discretisation
     (our implicit on the row's mesh against the truth), algorithm (the row against our
     implicit on its mesh: the same-mesh column on our grid; graded here on our simplices),
-    model (none: the linear case's model is the truth's). Rank 0."""
+    model (none: the linear case's model is the truth's). Only the rows of `only` when it is
+    given (the others keep theirs). Rank 0."""
     from tissuebench.workflows.grading import grade
 
     reference = next((r for r in rows if r.reference and r.truth), None)
     if reference is None:
         return
     implicit = {r.mesh.split(":")[0]: r for r in rows if r.label.startswith(f"{reference.label} (")}
-    for row in rows:
+    for row in rows if only is None else only:
         if not row.truth:
             continue
         b = {"total": row.truth.get(f"{E_I}_mean")}
@@ -424,7 +469,7 @@ def error_budget(rows: list[Row]) -> None:
                 "our implicit on our tetrahedron grid (6 per hexahedron on the same nodes; "
                 "the diagonals may differ)"
             )
-        elif row.source == "user":
+        elif row.source == "user" and row.mesh == "?":  # compare recorded no mesh
             how = "its mesh is not known here"
         else:
             how = "no run of our implicit on its mesh in this case"
@@ -465,40 +510,179 @@ def warn(line: str) -> None:
     print(f"tissuebench leaderboard: {line}", file=sys.stderr)
 
 
-def main(args) -> int:
+# --- the record --------------------------------------------------------------------------------
+
+RECORD = "leaderboard.json"
+RECORD_SCHEMA = "tissuebench.leaderboard"
+RECORD_VERSION = 1
+OWNED = ["leaderboard.md", "leaderboard.csv", RECORD]
+
+
+class LeaderboardError(UserError):
+    """A leaderboard that cannot be made as asked (no record, an unknown case): one line."""
+
+
+def board_of(d: dict) -> Board:
+    """A Board from its record (lists back to tuples)."""
+    known = {f.name for f in fields(Board)}
+    b = Board(**{k: v for k, v in d.items() if k in known})
+    b.models, b.simulators = tuple(b.models), tuple(b.simulators)
+    b.variants = {k: tuple(v) for k, v in (b.variants or {}).items()}
+    return b
+
+
+def row_of(d: dict) -> Row:
+    """A Row from its record."""
+    known = {f.name for f in fields(Row)}
+    return Row(**{k: v for k, v in d.items() if k in known})
+
+
+def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, list[str]]) -> dict:
+    """leaderboard.json: every case's Board (what renders it: description, truth, its band and
+    note, sizes, session, machine), its notes (the run's; the users' refusals are not kept: they
+    are read again) and every Row with all its fields (errors in m^gdim or relative, wall times
+    in s, truth columns, Pareto flags, error budget)."""
+    return {
+        "schema": RECORD_SCHEMA,
+        "version": RECORD_VERSION,
+        "cases": [
+            {
+                "board": asdict(b),
+                "notes": list(notes.get(b.name, [])),
+                "rows": [asdict(r) for r in rows[b.name]],
+            }
+            for b in boards
+        ],
+    }
+
+
+def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
+    """The record OUT/leaderboard.json as (boards, {case: rows}, {case: notes}); None when there
+    is none. LeaderboardError when it cannot be read. Rank 0."""
+    path = out / RECORD
+    if not path.is_file():
+        return None
+    redo = f"`tissuebench leaderboard --out {out} --rerun` writes a new one"
+    try:
+        doc = json.loads(path.read_text())
+        if doc.get("schema") != RECORD_SCHEMA or doc.get("version") != RECORD_VERSION:
+            raise ValueError(f"not a {RECORD_SCHEMA} record of version {RECORD_VERSION}")
+        boards, rows, notes = [], {}, {}
+        for case in doc["cases"]:
+            board = board_of(case["board"])
+            boards.append(board)
+            rows[board.name] = [row_of(r) for r in case["rows"]]
+            notes[board.name] = [str(n) for n in case.get("notes", [])]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise LeaderboardError(
+            f"{path}: cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())[:160]}); "
+            f"{redo}"
+        ) from None
+    return boards, rows, notes
+
+
+def grade_users(boards: list[Board], rows: dict[str, list[Row]], users: dict) -> None:
+    """The users' rows joined to their cases, graded against each case's truth where it has one
+    (its cached truth loaded once per case; a user's row graded by compare against the truth
+    keeps its columns), the Pareto fronts marked again and the users' error budgets. Rank 0."""
+    from tissuebench.solvers.truth.store import load_cached
+
+    truths = {}
+    for board in boards:
+        mine = list(users.get(board.name, []))
+        rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
+        if board.truth is not None and any(not r.truth for r in mine):
+            if board.truth not in truths:
+                truths[board.truth] = load_cached(board.truth, comm=MPI.COMM_SELF)
+            truth = truths[board.truth]
+            for row in mine:
+                if truth is None:
+                    row.truth_note = f"the truth {board.truth} is not computed on this machine"
+                elif not row.truth:
+                    grade_row_truth(truth, row)
+        mark_pareto(rows[board.name])
+        if any(truth_error(r, k) is not None for r in rows[board.name] for k in ("mean", "max")):
+            mark_truth_pareto(rows[board.name])
+            error_budget(rows[board.name], only=mine)
+
+
+def check_rerun(names: list[str] | None) -> list[str] | None:
+    """The cases to rerun (None: none; all of BOARDS when --rerun names none); an unknown name
+    is refused in one line that lists the cases."""
+    if names is None:
+        return None
+    known = [b.name for b in BOARDS]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise LeaderboardError(
+            f"--rerun {unknown[0]}: no such case; name some of {', '.join(known)}, or none for all"
+        )
+    return list(dict.fromkeys(names)) or known
+
+
+def main(args: argparse.Namespace) -> int:
+    """Render the leaderboard from its record with the users' rows, or rerun (--rerun) the
+    cases named; write OUT/leaderboard.md, .csv, .json and the figures (rank 0)."""
     import time
 
     check_common(args)
     comm = MPI.COMM_WORLD
     out = args.out
-    check_writable(out, comm, owned=["leaderboard.md", "leaderboard.csv"])
-    available = set()
-    for board in BOARDS:
-        for name in board.simulators:
-            if comm.rank == 0 and get_simulator(name).available() is None:
-                available.add(name)
-    collective(comm, lambda: check_target(out, available, args.force))
-    session = time.strftime("%Y-%m-%d %H:%M %Z")
-    # what is read is read and checked before anything runs (rank 0 reads and writes)
-    users, left_out = read_users(out, BOARDS) if comm.rank == 0 else ({}, {})
-    studied = leaderboard_boards(out, log=warn) if comm.rank == 0 else []
-    rows, notes = {}, {}
-    interrupt.will_write(  # named on a signal: the old ones stay as they were
-        [out / "leaderboard.md", out / "leaderboard.csv", out / FOLDER / "*.png"]
-    )
-    for board in BOARDS:
-        rows[board.name], notes[board.name] = run_board(
-            board, out, args.solver, args.petsc, comm, users=users.get(board.name)
+    rerun = check_rerun(getattr(args, "rerun", None))
+    check_writable(out, comm, owned=OWNED)
+    record = collective(comm, lambda: read_record(out))
+    if record is None and rerun is None:
+        raise LeaderboardError(
+            f"{out / RECORD}: no leaderboard record here: `tissuebench leaderboard --out {out} "
+            "--rerun` runs and times every case and writes one (10 minutes or more)"
         )
-        notes[board.name] += left_out.get(board.name, [])
-    boards = list(BOARDS)
+    if rerun is not None:
+        available = set()
+        for board in BOARDS:
+            for name in board.simulators:
+                if comm.rank == 0 and get_simulator(name).available() is None:
+                    available.add(name)
+        collective(comm, lambda: check_target(out, available, args.force, record, rerun))
+    session = time.strftime("%Y-%m-%d %H:%M %Z")
+    kept_boards, kept_rows, kept_notes = record or ([], {}, {})
+    kept = {b.name: b for b in kept_boards}
+    rows, notes, boards = {}, {}, []
+    fresh = []
+    for board in BOARDS:
+        if rerun is not None and board.name in rerun:
+            board.session, board.machine = session, machine()
+            fresh.append(board)
+            boards.append(board)
+        elif board.name in kept:
+            boards.append(kept[board.name])
+            rows[board.name] = kept_rows[board.name]
+            notes[board.name] = kept_notes[board.name]
+    studied = []
+    if rerun is not None and len(rerun) == len(BOARDS):  # everything anew: the study read again
+        studied = leaderboard_boards(out, log=warn) if comm.rank == 0 else []
+    else:  # the other cases of the record (the mesh-sensitivity study's), as recorded
+        names = {b.name for b in BOARDS}
+        for board in kept_boards:
+            if board.name not in names:
+                boards.append(board)
+                rows[board.name], notes[board.name] = kept_rows[board.name], kept_notes[board.name]
+    # what is read is read and checked before anything runs (rank 0 reads and writes)
+    cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
+    users, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
+    interrupt.will_write(  # named on a signal: the old ones stay as they were
+        [out / name for name in OWNED] + [out / FOLDER / "*.png"]
+    )
+    for board in fresh:
+        rows[board.name], notes[board.name] = run_board(board, out, args.solver, args.petsc, comm)
     for board, board_rows in studied:
         mark_pareto(board_rows)  # the mesh-sensitivity study's runs
         study_series(out, board, board_rows)
+        board.session, board.machine = session, machine()
         boards.append(board)
         rows[board.name], notes[board.name] = board_rows, []
     if comm.rank == 0:  # against the truth: serial, on rank 0, which writes
-        grade_truths(boards, rows)
+        grade_truths(fresh + [b for b, _ in studied], rows)
+        grade_users(boards, rows, users)
 
     def write():
         (out / FOLDER).mkdir(parents=True, exist_ok=True)
@@ -508,12 +692,19 @@ def main(args) -> int:
                 lambda tmp, board=board: plot_case(tmp, board, rows[board.name]),
             )
         every = [r for board in boards for r in rows[board.name]]
+        record = record_of(boards, rows, notes)
+        write_owned(out / RECORD, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
         write_owned(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
-        text = markdown(boards, rows, notes, session)
+        shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
+        text = markdown(boards, rows, shown, session)
         write_owned(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
 
     collective(comm, write, out)
     interrupt.will_write([])  # all written
     if comm.rank == 0:
-        print(f"wrote {out / 'leaderboard.md'}, {out / 'leaderboard.csv'} and {out / FOLDER}/*.png")
+        what = "rerun " + ", ".join(rerun) if rerun else "from the record"
+        print(
+            f"wrote {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, {out / RECORD} and "
+            f"{out / FOLDER}/*.png ({what}; {sum(len(v) for v in users.values())} user rows)"
+        )
     return 0
