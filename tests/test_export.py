@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from helpers import tissuebench
+from recipe_solver import region_mask as predicate
 from tissuebench.meshes.block import needle_motion
 from tissuebench.workflows.io.calculix import read_frd, to_float
 from tissuebench.metrics.compare import COLUMNS
@@ -20,7 +21,7 @@ from tissuebench.metrics.series import InputError
 from tissuebench.workflows.io.series import read_series
 from tissuebench.solvers.materials import get_material
 from tissuebench.meshes.errors import UserError
-from tissuebench.workflows.posing import build, export
+from tissuebench.workflows.posing import build, export, truth_case
 from tissuebench.workflows.io.calculix import inp_text, kinks
 from tissuebench.workflows.io.exported import read_json
 from tissuebench.workflows.grading import compare
@@ -109,8 +110,40 @@ def test_json_round_trips_and_holds_the_benchmark(tmp_path):
         check(got.motions["needle"][0][60, 0] == pytest.approx(-0.08 * 1.5 * 2), "g(2)")
         check(all(not np.any(m) for name in ("left", "top") for m in got.motions[name]), "fixed")
         doc = json.loads(out.read_text())
-        check(doc["schema"] == "tissuebench.benchmark" and doc["version"] == 1, "schema")
+        check(doc["schema"] == "tissuebench.benchmark" and doc["version"] == 2, "schema")
         check(doc["reference"]["file"] == "block.reference.xdmf", "reference file")
+
+        # self-describing (version 2): each region's predicate, read by a parser of our own,
+        # picks exactly the set's nodes; units and the reference's Newmark parameters
+        geometry = doc["geometry"]
+        check(geometry["extents"] == [[0.0, 1.0], [0.0, 1.0]], "extents")
+        for c in doc["constraints"]:
+            on = np.flatnonzero(predicate(c["region"], x, geometry["tolerance"]))
+            check(np.array_equal(on, got.node_sets[c["set"]]), f"region of {c['set']}")
+            check(c["fixed"] == (c["set"] != "needle"), f"fixed {c['set']}")
+        check(doc["constraints"][0]["region"] == "x = 1 and |y - 0.5| <= 0.125", "needle text")
+        units = doc["units"]
+        check(units["body_force.gravity"] == "m/s^2" and units["constraints.a"] == "m/s^2", "acc")
+        check(units["metrics.E_i"] == "m^2" and units["material.beta"] == "s", "units")
+        numbers = {k for k in units if "." in k and not k.startswith(("metrics.", "probe."))}
+        for key in numbers - {"body_force.density", "reference.wall_time_s"}:
+            head, _, tail = key.partition(".")
+            check(tail in doc[head] or any(tail in c for c in doc[head]), f"unit of {key}")
+        algorithm = doc["algorithm"]
+        check((algorithm["newmark_beta"], algorithm["newmark_gamma"]) == (0.25, 0.5), "Newmark")
+        check(
+            algorithm["mass"] == "consistent" and doc["damping"]["C"] == "alpha M + beta K_0", "C"
+        )
+        check(doc["probe"] is None and got.probe is None, "probe")
+        # s = 1.5, w = 0.25 m is no truth case; the same block at s = 1, w = 0.2 m is one
+        check(doc["truth"]["case"] is None and "truth cases" in doc["truth"]["why"], "no truth")
+        check(got.truth == doc["truth"] and got.geometry == geometry, "round trip")
+        check(
+            truth_case("block", {"needle_width": 0.2}, get_material("MP1"), "linear", H, 300,
+                       "strain", "dynamic")["case"] == "block-MP1-w0.2", "truth case")  # fmt: skip
+        check(
+            "point" in truth_case("block", {"needle_width": 0.0}, get_material("MP1"), "linear",
+                                  H, 300, "strain", "dynamic")["why"], "point needle")  # fmt: skip
     problems = comm.bcast(problems, root=0)
     assert problems == []
 
@@ -120,8 +153,8 @@ def test_json_reader_refuses_other_files(tmp_path):
     for text, message in [
         ("{", "not a readable JSON"),
         ('{"schema": "x"}', "not a tissuebench.benchmark JSON"),
-        ('{"schema": "tissuebench.benchmark", "version": 2}', "version 2"),
-        ('{"schema": "tissuebench.benchmark", "version": 1}', "KeyError"),
+        ('{"schema": "tissuebench.benchmark", "version": 1}', "version 1.*export .* again"),
+        ('{"schema": "tissuebench.benchmark", "version": 2}', "KeyError"),
     ]:
         (tmp_path / "bad.json").write_text(text)
         with pytest.raises(InputError, match=message) as info:

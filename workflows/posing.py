@@ -70,6 +70,115 @@ def sample_motion(motion, times: np.ndarray, dim: int) -> tuple[np.ndarray, ...]
     return values[0], values[1], values[2]
 
 
+TOLERANCE = 1e-9  # m: a region's predicates hold within this (the meshes' nodes are exact)
+
+
+def number(value: float) -> str:
+    """A coordinate in a predicate: the shortest text that reads back as the float (0.5, 0)."""
+    text = repr(float(value))
+    return text[:-2] if text.endswith(".0") else text
+
+
+def geometry(benchmark: str, options: dict) -> dict | None:
+    """The undeformed body and each constrained node set's region as a predicate on the
+    coordinates (the JSON's `geometry`, schema in workflows/io/exported.py), from the
+    benchmark's own constants; None for a benchmark not described here."""
+    from tissuebench.meshes import block, rod
+
+    if benchmark == "block":
+        side = block.LENGTH
+        x, y = block.NEEDLE
+        width = float(options.get("needle_width", 0.0))
+        needle = (
+            f"x = {number(x)} and |y - {number(y)}| <= {number(width / 2)}"
+            if width > 0
+            else f"x = {number(x)} and y = {number(y)}"
+        )
+        extents = [[0.0, side], [0.0, side]]
+        regions = {
+            "needle": needle,
+            "left": "x = 0",
+            "bottom": "y = 0",
+            "top": f"y = {number(side)}",
+        }
+    elif benchmark == "rod":
+        extents = [[0.0, length] for length in rod.SIZE]
+        regions = {"clamped": "x = 0"}
+    else:
+        return None
+    return {
+        "domain": "box",
+        "axes": ["x", "y", "z"][: len(extents)],
+        "extents": extents,
+        "regions": regions,
+        "tolerance": TOLERANCE,
+    }
+
+
+def truth_case(
+    benchmark: str,
+    options: dict,
+    material: Material,
+    model: str,
+    h: float,
+    steps: int,
+    plane: str | None,
+    procedure: str,
+) -> dict:
+    """The JSON's `truth`: the SPEC 10 case this export is (its converged reference, graded by
+    `tissuebench compare truth:CASE`), or {"case": None, "why": ...}."""
+    from tissuebench.meshes import get_entry
+    from tissuebench.solvers.materials import MATERIALS, FIELDS
+    from tissuebench.solvers.truth.cases import CASES
+
+    entry = get_entry(benchmark)
+    width = float(options.get("needle_width", 0.0))
+    scale = float(options.get("load_scale", 1.0))
+    names = ", ".join(CASES)
+    if procedure != "dynamic":
+        return {"case": None, "why": "the truth is dynamic; this export is quasi-static"}
+    if benchmark == "block" and width == 0:
+        return {
+            "case": None,
+            "why": "the needle is a point (w = 0): a prescribed point displacement has infinite "
+            "energy in 2D, so refinement converges to no solution; the block's truth cases "
+            "take w = 0.2 m",
+        }
+    for case, (bench, mat, case_model, s, w) in CASES.items():
+        same_material = all(getattr(material, f) == getattr(MATERIALS[mat], f) for f in FIELDS)
+        if (
+            bench == benchmark
+            and same_material
+            and case_model == model
+            and s == scale
+            and (w is None or w == width)
+            and plane in (None, "strain")
+        ):
+            if not (math.isclose(h, entry.dt) and math.isclose(h * steps, entry.end_time)):
+                return {
+                    "case": None,
+                    "why": f"the truth {case} is computed at h = {entry.dt:.6g} s to "
+                    f"T = {entry.end_time:g} s; this export has h = {h:.6g} s, "
+                    f"T = {h * steps:.6g} s",
+                }
+            unit = f"m^{entry.gdim}"
+            target = 1e-5 if entry.gdim == 3 else 2e-5
+            return {
+                "case": case,
+                "compare": f"tissuebench compare truth:{case} CANDIDATE --out DIR",
+                "what": "a converged solution of the continuum problem: second-order "
+                "displacement (Taylor-Hood Q2-Q1 for nu >= 0.45 and neo-Hookean), the "
+                "trapezoidal rule with consistent mass, on three refined grids and h/2",
+                "own_error": "its E_i max, estimated from its grids and h/2 and stated beside "
+                f"every grade against it (target {target:g} {unit}; results/truth.md)",
+            }
+    return {
+        "case": None,
+        "why": f"no truth case is this benchmark, material, model, load scale and needle "
+        f"width (the truth cases: {names})",
+    }
+
+
 def build(
     benchmark: str,
     mesh_size: int,
@@ -116,6 +225,17 @@ def build(
         motions={c.name: sample_motion(c.motion, times, dim) for c in bench.constraints},
         gravity=np.asarray(bench.gravity, dtype=np.float64)[:dim],
         probe=tuple(bench.probe) if bench.probe is not None else None,
+        geometry=geometry(benchmark, bench.options),
+        truth=truth_case(
+            benchmark,
+            bench.options,
+            material,
+            model,
+            h,
+            steps,
+            plane if dim == 2 else None,
+            procedure,
+        ),
     )
     return data, bench, V
 

@@ -2,36 +2,59 @@
 and the mesh alone as .vtu or .msh (write_mesh). The CalculiX deck is io/calculix.py's;
 posing a benchmark for export, workflows/posing.py.
 
-JSON schema "tissuebench.benchmark", version 1
+JSON schema "tissuebench.benchmark", version 2
 ----------------------------------------------
-SI units throughout (m, s, kg, Pa). One object:
+SI units throughout (m, s, kg, Pa), and the file says so. The benchmark itself is defined in
+meshes/BENCHMARKS.md; this file states it as data, so that a simulator can be set up from the
+JSON alone. One object:
 
-- `schema`: "tissuebench.benchmark"; `version`: 1 (a reader refuses other versions).
-- `benchmark`: "block" or "rod" (SPEC sections 4 and 5); `mesh_size`: N or n; `options`: the
-  benchmark's own options ({"needle_width": w, "load_scale": s} for the block,
-  {"load_scale": s} for the rod); `dimension`: 2 or 3; `plane`: "strain" or "stress" in 2D,
-  null in 3D.
+- `schema`: "tissuebench.benchmark"; `version`: 2 (a reader refuses other versions, saying
+  to export again); `description`: one line naming the benchmark and meshes/BENCHMARKS.md.
+- `benchmark`: "block" or "rod"; `mesh_size`: N or n; `options`: the benchmark's own options
+  ({"needle_width": w (m), "load_scale": s} for the block, {"load_scale": s} for the rod);
+  `dimension`: 2 or 3; `plane`: "strain" or "stress" in 2D, null in 3D.
+- `units`: {quantity: unit} for every number in the file, by its path ("nodes": "m",
+  "constraints.a": "m/s^2", "body_force.gravity": "m/s^2", "material.beta": "s", ...) and for
+  the metrics a grade reports ("metrics.E_i": "m^3" in 3D, "m^2" in 2D; E_n and E_s "1").
+- `geometry`: {"domain": "box", "axes": ["x", "y"(, "z")], "extents": [[min, max] per axis]
+  (m), "regions": {set name: predicate}, "tolerance": m}: the undeformed body and, for every
+  node set, the region it covers as a predicate on the coordinates ("x = 0",
+  "x = 1 and |y - 0.5| <= 0.1"; terms joined by "and", each "c = v", "c <= v", "c >= v" or
+  "|c - v| <= r", holding within the tolerance), so that any mesh of the box can find its
+  constrained nodes. null for a benchmark whose geometry is not written here.
 - `nodes`: [[x, y(, z)], ...], m; node i is row i (0-based; the deck numbers it i + 1).
 - `cells`: {"type": "quadrilateral" | "hexahedron", "order": "vtk", "connectivity":
   [[n0, n1, ...], ...]}: first-order cells, corners in VTK order (a quadrilateral
   counter-clockwise; a hexahedron's face 0-1-2-3 then 4-5-6-7 above it), positive measure.
 - `node_sets`: {name: [node, ...]}: every constrained set (the block: "needle", "left",
-  "bottom", "top"; the rod: "clamped"), sorted node indices.
-- `constraints`: [{"set": name, "fixed": bool, "u": [[...] per t_i], "v": ..., "a": ...}, ...]
-  in the solver's order: every component of every node of the set follows the prescribed
-  displacement u (m), velocity v (m/s) and acceleration a (m/s^2) at each t_i (arrays of
-  shape (steps + 1, dimension), exact at the t_i; "fixed": all zero). A node in several sets
-  follows the last of them (the fixed edges of the block share corners, with equal motion).
+  "bottom", "top"; the rod: "clamped"), sorted node indices: the nodes of `nodes` on the
+  set's region.
+- `constraints`: [{"set": name, "region": predicate, "fixed": bool, "u": [[...] per t_i],
+  "v": ..., "a": ...}, ...] in the solver's order; `constraint_semantics` says in words what
+  they mean: every component of every node of the set follows the prescribed displacement u
+  (m), velocity v (m/s) and acceleration a (m/s^2) at each t_i (arrays of shape (steps + 1,
+  dimension), exact at the t_i); "fixed": true when all three are zero at every t_i (a
+  clamp), false when the set moves (false never means free). A node in several sets follows
+  the last of them (the fixed edges of the block share corners, with equal motion).
 - `time`: {"h": s, "end_time": s, "steps": N, "t": [t_0 = 0, ..., t_N]} with t_i = i h.
-- `body_force`: {"gravity": [g_x, ...] m/s^2, from t = 0 on, constant; the force density is
-  rho g}.
-- `material`: {"name", "E" (Pa), "nu", "rho" (kg/m^3), "alpha" (1/s), "beta" (s)}: Rayleigh
-  damping C = alpha M + beta K_0 (SPEC sections 1, 2, 8).
-- `model`: "linear", "svk", "neo-hookean" or "corotational" (SPEC section 8); `procedure`:
-  "dynamic" (the reference is `implicit`, trapezoidal Newmark) or "static" (quasi-static:
-  K u_i = f_i at every t_i).
-- `initial_state`: "zero": u = v = 0 at t = 0 on the free nodes (SPEC section 3).
-- `probe`: the rod's tip (m) or null.
+- `body_force`: {"gravity": [g_x, ...] m/s^2, "meaning": words}: an acceleration, from
+  t = 0 on, constant; the force per volume is rho g (N/m^3).
+- `material`: {"name", "E" (Pa), "nu", "rho" (kg/m^3), "alpha" (1/s), "beta" (s)};
+  `damping`: {"C": "alpha M + beta K_0", "K_0": words, ...}: Rayleigh damping with K_0 the
+  linear stiffness at rest, for every model (the nonlinear ones too).
+- `model`: "linear", "svk", "neo-hookean" or "corotational"; `procedure`: "dynamic" or
+  "static".
+- `algorithm`: our reference's integrator, which `reference` ran: for "dynamic" {"name":
+  "implicit", "scheme", "newmark_beta": 0.25, "newmark_gamma": 0.5, "update", "equation",
+  "mass": "consistent", "damping", "initial_acceleration", "nonlinear_solve"}; for "static"
+  {"name": "quasi-static", "equation", "mass": "none", ...}.
+- `initial_state`: "zero": u = v = 0 at t = 0 on the free nodes.
+- `probe`: null, or {"point": [x, y, z] (m), "meaning": words}: the rod's tip, a point (not a
+  node) where the displacement is interpolated and reported; not a metric.
+- `metrics`: {"E_n", "E_s", "E_i": definition and unit}: what `tissuebench compare` grades.
+- `truth`: {"case": name, "compare": the command, "what", "own_error"} when a converged
+  reference of this case exists (rod, rod-nh-s1, rod-nh-s3, block-MP1-w0.2, block-MP2-w0.2,
+  block-MP1-nh-s2-w0.2, at the benchmark's h and T), else {"case": null, "why": words}.
 - `reference`: null, or {"file": the XDMF beside the JSON, "field": "displacement",
   "run": its run label, "status": "ok" | "diverged", "steps": last step kept,
   "wall_time_s": s}: our run's displacement at every t_i on these nodes.
@@ -53,7 +76,7 @@ from tissuebench.solvers.materials import Material
 from tissuebench.meshes.errors import UserError
 
 SCHEMA = "tissuebench.benchmark"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 ZERO = 1e-300  # a motion whose every value is at most this (m, m/s) is no motion
 
 
@@ -86,6 +109,8 @@ class Exported:
     gravity: np.ndarray
     probe: tuple | None = None
     reference: dict | None = None
+    geometry: dict | None = None  # see the module docstring; posing.geometry builds it
+    truth: dict | None = None  # {"case": name, ...} or {"case": None, "why": ...}
 
     @property
     def dim(self) -> int:
@@ -120,23 +145,152 @@ class Exported:
 # --- building ---------------------------------------------------------------------------------
 
 
+AXES = ("x", "y", "z")
+
+CONSTRAINT_SEMANTICS = {
+    "prescribed": "every component of every node of the set is prescribed (a Dirichlet "
+    "condition on all components): at t_i its displacement, velocity and acceleration are "
+    "u[i], v[i] and a[i] exactly; the other nodes are free and solve the equation of motion "
+    "with these values moved to the right-hand side",
+    "fixed": "true when u, v and a are zero at every t_i (a clamp); false when the set moves "
+    "as u, v and a say. Either way every component is prescribed: false never means free",
+    "u": "prescribed displacement (m) at each t_i: (steps + 1) rows of dimension components",
+    "v": "prescribed velocity (m/s) at each t_i, the right derivative of u where u has a kink "
+    "(the block's needle stops at t = 2 s: v = 0 from t_60 on)",
+    "a": "prescribed acceleration (m/s^2) at each t_i",
+    "overlap": "a node in several sets follows the last of them in this list (the block's "
+    "fixed edges share corners, with equal motion)",
+    "free": "a node in no set is free: u = v = 0 at t = 0, then the equation of motion",
+}
+
+DAMPING = {
+    "C": "alpha M + beta K_0",
+    "K_0": "the linear stiffness at rest (at u = 0), for every model: a nonlinear model damps "
+    "with beta K_0 v too, not with its tangent, so that models differ by elasticity alone",
+    "M": "the scheme's mass matrix (the reference's: consistent)",
+    "continuum": "per unit volume alpha rho v . w + beta sigma_lin(v) : eps(w), sigma_lin the "
+    "linear elastic law",
+    "mass_damping_only": "dropping beta (C = alpha M, as many explicit codes do) is a "
+    "departure from this benchmark, graded as such: meshes/BENCHMARKS.md gives its measured "
+    "cost",
+}
+
+
+def units(dim: int) -> dict[str, str]:
+    """{JSON path: unit} of every number the file holds, and of the metrics a grade reports
+    (E_i: m^3 in 3D, m^2 in 2D; "1": dimensionless)."""
+    return {
+        "length": "m",
+        "time": "s",
+        "mass": "kg",
+        "stress": "Pa",
+        "nodes": "m",
+        "geometry.extents": "m",
+        "geometry.tolerance": "m",
+        "options.needle_width": "m",
+        "options.load_scale": "1",
+        "constraints.u": "m",
+        "constraints.v": "m/s",
+        "constraints.a": "m/s^2",
+        "time.h": "s",
+        "time.end_time": "s",
+        "time.t": "s",
+        "body_force.gravity": "m/s^2",
+        "body_force.density": "N/m^3 (rho g)",
+        "material.E": "Pa",
+        "material.nu": "1",
+        "material.rho": "kg/m^3",
+        "material.alpha": "1/s",
+        "material.beta": "s",
+        "probe.point": "m",
+        "reference.wall_time_s": "s",
+        "metrics.E_n": "1",
+        "metrics.E_s": "1",
+        "metrics.E_i": f"m^{dim}",
+    }
+
+
+def metrics(dim: int) -> dict[str, str]:
+    """What `tissuebench compare` grades, each with its unit (in words)."""
+    body = "area" if dim == 2 else "volume"
+    return {
+        "E_n": "relative displacement error ||u' - u|| / ||u||, Euclidean norms of all nodal "
+        "displacement components at the reference's nodes (u' evaluated there); "
+        "dimensionless; NaN where u = 0 (step 0)",
+        "E_s": f"surface error |Omega_t xor Omega'_t| / |Omega_t|, the {body} of the "
+        "symmetric difference of the two deformed bodies over the reference's; dimensionless",
+        "E_i": f"interior error |Omega_0|^(-1/{dim}) integral over Omega_0 of ||u'(X) - u(X)|| "
+        f"dX, by Gauss quadrature on the reference's cells; m^{dim}",
+        "summaries": "the maximum and the time-mean of each curve over steps 1..N",
+    }
+
+
+def algorithm(procedure: str) -> dict:
+    """Our reference's integrator for a procedure ("dynamic": implicit, "static":
+    quasi-static), its Newmark parameters in the usual notation (beta = SPEC's beta_N / 2)
+    taken from the solvers' registry."""
+    from tissuebench.solvers import ALGORITHMS
+
+    if procedure == "static":
+        return {
+            "name": "quasi-static",
+            "equation": "f_int(u_i) = f_i at every t_i (K u_i = f_i for the linear model): no "
+            "inertia, no damping, no history; v and a reported as zero",
+            "mass": ALGORITHMS["quasi-static"].mass,
+            "nonlinear_solve": "Newton (PETSc SNES, line search) to a relative residual of "
+            "1e-10, from the previous step's solution, the load step halved up to 6 times "
+            "when Newton fails",
+        }
+    entry = ALGORITHMS["implicit"]
+    return {
+        "name": "implicit",
+        "scheme": "Newmark's trapezoidal rule (average acceleration), unconditionally stable",
+        "newmark_beta": entry.beta_N / 2,
+        "newmark_gamma": entry.gamma,
+        "update": "u_{i+1} = u_i + h v_i + h^2 ((1/2 - beta) a_i + beta a_{i+1}); "
+        "v_{i+1} = v_i + h ((1 - gamma) a_i + gamma a_{i+1})",
+        "equation": "M a_{i+1} + C v_{i+1} + f_int(u_{i+1}) = f_{i+1} at every t_{i+1} = "
+        "(i + 1) h (f_int = K u for the linear model)",
+        "mass": entry.mass,
+        "damping": DAMPING["C"] + ", K_0 the linear stiffness at rest",
+        "initial_acceleration": "a_0 on the free nodes solves the equation of motion at t = 0 "
+        "with u = v = 0 there and the prescribed u, v, a on the constrained nodes",
+        "nonlinear_solve": "Newton (PETSc SNES, line search) to a relative residual of 1e-10 "
+        "per step",
+    }
+
+
 def to_json(data: Exported) -> dict:
     """The JSON object of the schema in the module docstring."""
+    d = data.dim
+    regions = (data.geometry or {}).get("regions", {})
+    probe = None
+    if data.probe is not None:
+        probe = {
+            "point": list(data.probe),
+            "meaning": "the rod's tip, the middle of the top edge of the free end: a point, "
+            "not a node; its displacement is the finite-element displacement interpolated "
+            "there (tip.csv of a run); reported, not graded",
+        }
     return {
         "schema": SCHEMA,
         "version": SCHEMA_VERSION,
+        "description": f"the tissuebench benchmark {data.benchmark!r} as data; defined in "
+        "meshes/BENCHMARKS.md of the tissuebench project",
         "benchmark": data.benchmark,
         "mesh_size": data.mesh_size,
         "options": dict(sorted(data.options.items())),
-        "dimension": data.dim,
+        "dimension": d,
         "plane": data.plane,
-        "units": {"length": "m", "time": "s", "mass": "kg", "stress": "Pa"},
+        "units": units(d),
+        "geometry": data.geometry,
         "nodes": data.nodes.tolist(),
         "cells": {"type": data.cell_type, "order": "vtk", "connectivity": data.cells.tolist()},
         "node_sets": {name: nodes.tolist() for name, nodes in data.node_sets.items()},
         "constraints": [
             {
                 "set": name,
+                "region": regions.get(name),
                 "fixed": bool(all(np.all(np.abs(x) <= ZERO) for x in motion)),
                 "u": motion[0].tolist(),
                 "v": motion[1].tolist(),
@@ -144,18 +298,27 @@ def to_json(data: Exported) -> dict:
             }
             for name, motion in data.motions.items()
         ],
+        "constraint_semantics": CONSTRAINT_SEMANTICS,
         "time": {
             "h": data.h,
             "end_time": data.end_time,
             "steps": data.steps,
             "t": data.times.tolist(),
         },
-        "body_force": {"gravity": data.gravity.tolist()},
+        "body_force": {
+            "gravity": data.gravity.tolist(),
+            "meaning": "an acceleration (m/s^2), on from t = 0 and constant; the force per "
+            "volume is rho g (N/m^3), the load vector the integral of rho g . w",
+        },
         "material": asdict(data.material),
+        "damping": DAMPING,
         "model": data.model,
         "procedure": data.procedure,
+        "algorithm": algorithm(data.procedure),
         "initial_state": "zero",
-        "probe": list(data.probe) if data.probe is not None else None,
+        "probe": probe,
+        "metrics": metrics(d),
+        "truth": data.truth,
         "reference": data.reference,
     }
 
@@ -193,7 +356,7 @@ def read_json(path: str | Path) -> Exported:
     if doc.get("version") != SCHEMA_VERSION:
         raise InputError(
             f"{path}: {SCHEMA} version {doc.get('version')!r}; this tissuebench reads version "
-            f"{SCHEMA_VERSION}"
+            f"{SCHEMA_VERSION} only: export the benchmark again with `tissuebench export`"
         )
     try:
         dim = int(doc["dimension"])
@@ -220,8 +383,10 @@ def read_json(path: str | Path) -> Exported:
             node_sets={k: np.array(v, dtype=np.int64) for k, v in doc["node_sets"].items()},
             motions=motions,
             gravity=np.array(doc["body_force"]["gravity"], dtype=np.float64),
-            probe=tuple(doc["probe"]) if doc.get("probe") is not None else None,
+            probe=tuple(doc["probe"]["point"]) if doc.get("probe") is not None else None,
             reference=doc.get("reference"),
+            geometry=doc["geometry"],
+            truth=doc["truth"],
         )
     except UserError as exc:
         raise InputError(f"{path}: {exc}") from None

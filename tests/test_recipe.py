@@ -1,0 +1,103 @@
+"""The README's "grade your own simulator" recipe, run as written (issue 26, item 5).
+
+The lines are parsed out of README.md's code block under that heading and run verbatim in a
+fresh folder, with two substitutions only: `python my_solver.py` becomes this Python running
+tests/recipe_solver.py (a small simulator of our own that reads only the exported JSON, with
+numpy and scipy, on its own tetrahedra), and `results` is a copy of the project's committed
+results/ (what a clone holds), so that the README cannot go stale without this test failing.
+It ends with the user's row on the leaderboard.
+"""
+
+import csv
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from helpers import job
+
+ROOT = Path(__file__).resolve().parents[1]
+HEADING = "### Grade your own simulator"
+SOLVER = Path(__file__).with_name("recipe_solver.py")
+
+
+def recipe() -> list[list[str]]:
+    """The commands of the README's recipe, each as its argv: the first ```sh block after the
+    heading, continuation lines joined, comments dropped."""
+    text = (ROOT / "README.md").read_text()
+    assert HEADING in text, f"README.md has no section {HEADING!r}"
+    section = text[text.index(HEADING) :]
+    start = section.index("```sh\n") + len("```sh\n")
+    block = section[start : section.index("```", start)]
+    return [shlex.split(line, comments=True) for line in block.replace("\\\n", " ").splitlines()]
+
+
+def committed_results(to: Path) -> None:
+    """Copy the files of results/ that git tracks (a clone's results/) to `to`."""
+    listed = subprocess.run(
+        ["git", "-C", str(ROOT), "ls-files", "-z", "results"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split("\0")
+    for name in filter(None, listed):
+        target = to / Path(name).relative_to("results")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ROOT / name, target)
+
+
+@pytest.mark.serial
+def test_the_readme_recipe_puts_a_users_run_on_the_leaderboard(tmp_path):
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("needs the project's git checkout (its committed results/)")
+    commands = recipe()
+    assert [c[:2] for c in commands] == [
+        ["tissuebench", "export"],
+        ["python", "my_solver.py"],
+        ["tissuebench", "compare"],
+        ["tissuebench", "leaderboard"],
+    ], commands
+    committed_results(tmp_path / "results")
+    _, env = job([])
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    times = []
+    for argv in commands:
+        if argv[:2] == ["python", "my_solver.py"]:
+            argv = [sys.executable, str(SOLVER), *argv[2:]]
+        start = time.perf_counter()
+        done = subprocess.run(
+            argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        )
+        times.append(time.perf_counter() - start)
+        assert done.returncode == 0, f"{shlex.join(argv)}:\n{done.stdout}\n{done.stderr}"
+
+    # the export is the self-describing JSON the solver read, and the solver used its own mesh
+    doc = json.loads((tmp_path / "rod.json").read_text())
+    assert doc["version"] == 2 and doc["truth"]["case"] == "rod"
+    assert doc["units"]["metrics.E_i"] == "m^3" and doc["geometry"]["regions"]["clamped"] == "x = 0"
+    compare = commands[2]
+    out = tmp_path / compare[compare.index("--out") + 1]
+    label = compare[compare.index("--label") + 1]
+    summary = json.loads((out / "summary.json").read_text())
+    mesh = summary["candidate"]["mesh"]
+    assert mesh["cell_type"] == "tetrahedron" and mesh["nodes"] != len(doc["nodes"])
+    graded = summary["runs"][label]
+    assert graded["status"] == "ok" and 0 < graded["interior_error_max"] < 0.01  # m^3
+
+    # the row on the leaderboard, with the numbers compare graded
+    board = (tmp_path / "results" / "leaderboard.md").read_text()
+    assert label in board
+    with open(tmp_path / "results" / "leaderboard.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["case"] == "rod-MP3" and label in r["label"]]
+    assert len(rows) == 1, f"{len(rows)} rows of {label} on rod-MP3 in leaderboard.csv"
+    row = rows[0]
+    assert row["status"] == "ok" and int(row["dofs"]) == 3 * mesh["nodes"]
+    for metric in ("interior_error_max", "relative_error_max", "surface_error_mean"):
+        assert float(row[metric]) == pytest.approx(graded[metric], rel=1e-9), metric
+    print(f"recipe steps (s): {', '.join(f'{t:.1f}' for t in times)}; total {sum(times):.1f}")
