@@ -52,7 +52,7 @@ external-tools: setup
 	else echo "ccx (CalculiX) is missing and cannot be installed here: install calculix-ccx (Debian/Ubuntu) or put ccx on PATH; the CalculiX runs and tests are skipped"; fi
 
 leaderboard: external-tools
-	$(BIN)/tissuebench leaderboard --out results
+	$(BIN)/tissuebench leaderboard --out results --rerun
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

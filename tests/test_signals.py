@@ -383,7 +383,10 @@ def test_paper_names_what_it_did_not_write(tmp_path):
 
 @pytest.mark.parametrize(
     "command, ranks, sig",
-    [(("leaderboard",), 1, signal.SIGINT), (("sensitivity", "--quick"), 2, signal.SIGTERM)],
+    [
+        (("leaderboard", "--rerun"), 1, signal.SIGINT),
+        (("sensitivity", "--quick"), 2, signal.SIGTERM),
+    ],
 )
 def test_signal_during_leaderboard_and_sensitivity(tmp_path, command, ranks, sig):
     """Before: SIGINT to a leaderboard run, and SIGTERM to `mpiexec -n 2 tissuebench

@@ -51,7 +51,7 @@ def check_label(label: str | None) -> None:
         shown = repr(label)[:40] + ("..." if len(repr(label)) > 40 else "")
         raise GradingError(
             f"--label must be printable text of 1 to {MAX_LABEL} characters without leading "
-            f"or trailing spaces, got {shown}"
+            f"or trailing spaces, got {shown}: name the run, for example --label my-solver"
         )
 
 
@@ -65,7 +65,8 @@ def check_wall_time(wall_time) -> float | None:
         value = math.nan
     if not (math.isfinite(value) and value >= 0):
         raise GradingError(
-            f"--wall-time must be a finite number of seconds >= 0, got {wall_time!r}"
+            f"--wall-time must be a finite number of seconds >= 0, got {wall_time!r}: give "
+            "the run's wall time in seconds, for example --wall-time 12.5"
         )
     return value
 

@@ -331,28 +331,32 @@ def run_problem(label, run) -> str | None:
     infinite one only for a run that did not finish)."""
     problem = label_problem(label)
     if problem:
-        return problem
+        return f"{problem}: rerun compare with --label NAME (and --force)"
     if not isinstance(run, dict):
-        return "not a run (an object) in summary.json"
+        return f"not a run (an object) in summary.json: {RERUN_COMPARE}"
     if run.get("status") not in STATUSES:
         return (
-            f"status {one_line(repr(run.get('status')))[:40]} is not one of {', '.join(STATUSES)}"
+            f"status {one_line(repr(run.get('status')))[:40]} is not one of "
+            f"{', '.join(STATUSES)}: {RERUN_COMPARE}"
         )
     if "wall_time_s" not in run:
-        return "no wall_time_s"
+        return f"no wall_time_s: {RERUN_COMPARE}"
     wall = run["wall_time_s"]
     if wall is not None and not (finite(wall) and wall >= 0):
-        return f"wall_time_s {one_line(repr(wall))[:40]} is not a finite number of seconds >= 0"
+        return (
+            f"wall_time_s {one_line(repr(wall))[:40]} is not a finite number of seconds >= 0: "
+            "rerun compare with --wall-time SECONDS (and --force)"
+        )
     for key in error_keys():
         if key not in run:
-            return f"no {key}"
+            return f"no {key}: {RERUN_COMPARE}"
         value = run[key]
         if value is None:
             continue
         if not real(value) or math.isnan(value) or value < 0:
-            return f"{key} {one_line(repr(value))[:40]} is not a number >= 0"
+            return f"{key} {one_line(repr(value))[:40]} is not a number >= 0: {RERUN_COMPARE}"
         if math.isinf(value) and run["status"] == "ok":
-            return f"{key} is infinite in a run whose status is ok"
+            return f"{key} is infinite in a run whose status is ok: {RERUN_COMPARE}"
     return None
 
 
@@ -369,15 +373,21 @@ def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
         where = one_line(sub)
         summary = read_summary(sub)
         if summary is None:
-            skipped.append(f"{where}: left out: no readable summary.json of compare")
+            skipped.append(
+                f"{where}: left out: no readable summary.json of compare: grade the run with "
+                f"`tissuebench compare REFERENCE CANDIDATE --out {where}`"
+            )
             continue
         if summary.get("kind") != "compare":
-            skipped.append(f"{where}: left out: its summary.json is not compare's")
+            skipped.append(
+                f"{where}: left out: its summary.json is not compare's: put only folders that "
+                "`tissuebench compare --out` wrote under user/"
+            )
             continue
         problem = reference_problem(summary, case, board)
         runs = summary.get("runs")
         if problem is None and (not isinstance(runs, dict) or not runs):
-            problem = "its summary.json has no runs"
+            problem = f"its summary.json has no runs: {RERUN_COMPARE}"
         if problem:
             skipped.append(f"{where}: left out: {problem}")
             continue
@@ -386,6 +396,11 @@ def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
             if problem:
                 skipped.append(f"{where}: run {one_line(label)[:80]} left out: {problem}")
                 continue
+            if run["wall_time_s"] is None:
+                skipped.append(
+                    f"{where}: run {one_line(label)[:80]} is listed but not ranked: compare was "
+                    "given no wall time; rerun it with --wall-time SECONDS (and --force)"
+                )
             mesh, dofs = user_mesh(summary)
             errors = {k: None if run[k] is None else float(run[k]) for k in error_keys()}
             truth = {}
