@@ -57,7 +57,7 @@ def gmsh_block(
     on_right = [p1, *(geo.addPoint(1.0, y, 0.0, size) for y in right_y[1:-1]), p3]
     needle = on_right[right_y.index(NEEDLE[1])]
     bottom = geo.addLine(p0, p1)
-    right = [geo.addLine(a, b) for a, b in zip(on_right[:-1], on_right[1:])]
+    right = [geo.addLine(a, b) for a, b in zip(on_right[:-1], on_right[1:])]  # noqa: B905
     top = geo.addLine(p3, p4)
     left = geo.addLine(p4, p0)
     loop = geo.addCurveLoop([bottom, *right, top, left])

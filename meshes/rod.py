@@ -1,5 +1,6 @@
 """The 3D rod of benchmark B (SPEC section 5): [0, 0.5] x [0, 0.25] x [0, 0.25] m,
-2n x n x n hexahedra, or tetrahedra on that grid or unstructured (SPEC 9). Physical group "clamped": the face x = 0; "free_end": the face x = 0.5.
+2n x n x n hexahedra, or tetrahedra on that grid or unstructured (SPEC 9). Physical group
+"clamped": the face x = 0; "free_end": the face x = 0.5.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ def gmsh_rod(n: int, cell: str = "hexahedron", mesh: str = "structured") -> None
     lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
     rect = geo.addPlaneSurface([geo.addCurveLoop(lines)])
     if structured:
-        for curve, cells in zip(lines, [2 * n, n, 2 * n, n]):
+        for curve, cells in zip(lines, [2 * n, n, 2 * n, n]):  # noqa: B905
             geo.mesh.setTransfiniteCurve(curve, cells + 1)
         geo.mesh.setTransfiniteSurface(rect)
         hexahedra = cell == "hexahedron"

@@ -3,8 +3,9 @@ surface error.
 
 In 2D the boundary is a set of edges (a, b) oriented with the domain on their left; in 3D a
 set of quadrilateral faces (a, b, c, d) (hexahedra) or triangles (a, b, c) (tetrahedra), a
-cycle around the face counter-clockwise seen from outside. Nodes are numbered by their position in `nodes`, the sorted global indices of the
-boundary nodes of V. Orientation is decided once, on the undeformed mesh.
+cycle around the face counter-clockwise seen from outside. Nodes are numbered by their
+position in `nodes`, the sorted global indices of the boundary nodes of V. Orientation is
+decided once, on the undeformed mesh.
 """
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)

@@ -126,7 +126,8 @@ def check_times(ref: Series, cand: Series) -> None:
     within time_tolerance."""
     if len(cand.times) > len(ref.times):
         raise InputError(
-            f"{cand.path}: {len(cand.times)} time steps, more than the {len(ref.times)} of {ref.path}"
+            f"{cand.path}: {len(cand.times)} time steps, more than the {len(ref.times)} of "
+            f"{ref.path}"
         )
     t_ref = ref.times[: len(cand.times)]
     tolerance = time_tolerance(t_ref, smallest_step(ref.times))

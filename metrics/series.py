@@ -130,7 +130,7 @@ def series_of(
     if np.any(np.diff(times) <= 0):
         raise InputError(f"{path}: time stamps are not increasing")
     displacements = []
-    for t, u in zip(times, values):
+    for t, u in zip(times, values, strict=True):
         u = real(path, u, f"field {field!r} at time {t:g}")
         if u.ndim != 2 or u.shape[0] != n or u.shape[1] < dim or u.shape[1] > 3:
             raise InputError(
@@ -253,7 +253,8 @@ def check_cells(
         c = repeated[0]
         node = ordered[c, 1:][ordered[c, 1:] == ordered[c, :-1]][0]
         raise InputError(
-            f"{path}: {len(repeated)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
+            f"{path}: {len(repeated)} degenerate cell(s): cell {c} "
+            f"(nodes {' '.join(map(str, cells[c]))}) "
             f"repeats node {node}"
         )
     dim = points.shape[1]
@@ -264,7 +265,8 @@ def check_cells(
         c = flat[0]
         what = "area" if dim == 2 else "volume"
         raise InputError(
-            f"{path}: {len(flat)} degenerate cell(s): cell {c} (nodes {' '.join(map(str, cells[c]))}) "
+            f"{path}: {len(flat)} degenerate cell(s): cell {c} "
+            f"(nodes {' '.join(map(str, cells[c]))}) "
             f"has zero {what} ({measures[c]:.3g}; its nodes are collinear or coplanar or coincide)"
         )
 
@@ -304,7 +306,10 @@ def check_boundary(
         )
     boundary = facets[counts[inverse] == 1]
     touching = f"{path}: the mesh boundary touches itself at"
-    why = f"the boundary {'loops' if dim == 2 else 'surface'} that the surface error E_s needs would be ambiguous"
+    why = (
+        f"the boundary {'loops' if dim == 2 else 'surface'} that the surface error E_s needs "
+        "would be ambiguous"
+    )
     if dim == 2:
         degree = np.bincount(boundary.ravel(), minlength=len(points))
         if np.any(degree > 2):

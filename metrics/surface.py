@@ -34,7 +34,7 @@ def signed_area(points: np.ndarray) -> float:
 
 def loops(edges: np.ndarray) -> list[np.ndarray]:
     """The closed loops (arrays of node positions) traced by oriented edges (a, b)."""
-    following = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist()))
+    following = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist(), strict=True))
     if len(following) != len(edges):
         raise ValueError("the boundary touches itself at a node: its loops are ambiguous")
     result = []
@@ -157,8 +157,9 @@ def surface_error(
     cand_shape: Polygon | Solid | None = None,
 ) -> float:
     """E_s of a Polygon or Solid for deformed boundary nodes x_ref, x_cand; NaN if either is
-    not finite or the reference domain is empty or of zero area (2D) or volume (3D). The candidate's domain is bounded by
-    `cand_shape` through x_cand when given (its own boundary), else by `shape`."""
+    not finite or the reference domain is empty or of zero area (2D) or volume (3D). The
+    candidate's domain is bounded by `cand_shape` through x_cand when given (its own
+    boundary), else by `shape`."""
     if not (np.isfinite(x_ref).all() and np.isfinite(x_cand).all()):
         return np.nan
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -276,7 +276,8 @@ def _grade(truth: TruthSamples, cand: Series, label: str | None, log) -> TruthGr
     times = ref.times
     if log is not None:
         log(
-            f"graded {graded - 1} steps against {name} in {seconds['locate'] + seconds['steps']:.1f} s"
+            f"graded {graded - 1} steps against {name} in "
+            f"{seconds['locate'] + seconds['steps']:.1f} s"
         )
     return TruthGrading(
         label,
@@ -379,14 +380,15 @@ def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | Non
 def _grid(n: tuple[int, ...], lengths: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
     """A structured grid of quadrilaterals or hexahedra (VTK order): points and cells."""
     d = len(n)
-    axes = [np.linspace(0.0, L, k + 1) for k, L in zip(n, lengths)]
+    axes = [np.linspace(0.0, L, k + 1) for k, L in zip(n, lengths, strict=True)]
     points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
     index = np.arange(len(points)).reshape([k + 1 for k in n])
     corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
     if d == 3:
         corners = [(*c, 0) for c in corners] + [(*c, 1) for c in corners]
     cells = np.stack(
-        [index[tuple(slice(o, o + k) for o, k in zip(c, n))].ravel() for c in corners], axis=1
+        [index[tuple(slice(o, o + k) for o, k in zip(c, n, strict=True))].ravel() for c in corners],
+        axis=1,
     )
     return points, cells
 

@@ -77,7 +77,11 @@ def orders(refinements: Sequence[float], errors: Sequence[float]) -> list[float]
     """p = log(e_a / e_b) / log(s_b / s_a) for consecutive refinements s (1/h or cells per unit
     length); NaN where an error is not finite and positive."""
     out = []
-    for (sa, ea), (sb, eb) in zip(zip(refinements, errors), zip(refinements[1:], errors[1:])):
+    for (sa, ea), (sb, eb) in zip(
+        zip(refinements, errors, strict=True),
+        zip(refinements[1:], errors[1:], strict=True),
+        strict=False,
+    ):
         ok = all(math.isfinite(e) and e > 0 for e in (ea, eb))
         out.append(math.log(ea / eb) / math.log(sb / sa) if ok else math.nan)
     return out
@@ -178,7 +182,8 @@ def space_study(
 ) -> dict[str, dict[str, list[dict[str, float]]]]:
     """For each problem, the errors of the solutions at time t on every mesh but the finest
     against the finest, and the differences between consecutive meshes, all measured on the
-    finest mesh. {problem: {"errors": [...], "differences": [...]}}, lists of dicts keyed by METRICS."""
+    finest mesh. {problem: {"errors": [...], "differences": [...]}}, lists of dicts keyed by
+    METRICS."""
     systems = [
         System(get_benchmark(benchmark, mesh_size=size, comm=comm, **options), material)
         for size in sizes

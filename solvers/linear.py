@@ -27,8 +27,8 @@ SOLVERS = {
     # Cholesky (ICC(0), one block per rank). The step matrices with a mass term are mass-
     # dominated: on the rod ICC(0) takes 19 (n = 16) to 56 (n = 48) iterations, each far
     # cheaper than a multigrid cycle, and beats "gamg" 1.4 to 2x at n = 16 to 32 (tissuebench
-    # bench). On the nearly incompressible block (MP1) it weakens with the mesh and with the ranks (N =
-    # 214: 106 iterations on 1 rank, 523 on 2; N = 324, 2 ranks: no convergence in 1000):
+    # bench). On the nearly incompressible block (MP1) it weakens with the mesh and with the
+    # ranks (N = 214: 106 iterations on 1 rank, 523 on 2; N = 324, 2 ranks: no convergence in 1000):
     # take "gamg" there. SBAIJ storage would save 1.3 to 1.6x per step on the rod, but its
     # block ICC(0) breaks down on the block under mpiexec -n 2 (indefinite preconditioner),
     # shift or not. K alone (quasi-static) takes "gamg".
@@ -103,7 +103,10 @@ def mumps_failure(ksp: PETSc.KSP) -> str | None:
     if infog1 >= 0:
         return None
     infog2 = pc.getFactorMatrix().getMumpsInfog(2)
-    return f"MUMPS factorisation failed for {ksp.getOptionsPrefix()}: INFOG(1) = {infog1}, INFOG(2) = {infog2}"
+    return (
+        f"MUMPS factorisation failed for {ksp.getOptionsPrefix()}: INFOG(1) = {infog1}, "
+        f"INFOG(2) = {infog2}"
+    )
 
 
 @contextmanager

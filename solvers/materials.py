@@ -137,7 +137,8 @@ def material_from_toml(path: str | Path) -> Material:
         raise MaterialError(f"material file {path} does not exist")
     if path.stat().st_size > MAX_FILE:
         raise MaterialError(
-            f"material file {path} is {path.stat().st_size:,} bytes; a material takes at most {MAX_FILE:,}"
+            f"material file {path} is {path.stat().st_size:,} bytes; a material takes at most "
+            f"{MAX_FILE:,}"
         )
     try:
         data = tomllib.loads(path.read_text())

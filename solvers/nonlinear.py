@@ -271,7 +271,8 @@ class QuasiStaticModel:
             if halvings > MAX_HALVINGS:
                 raise SolveError(
                     f"Newton did not converge at t = {t:.4g} s, even with the load in "
-                    f"increments of 1/{2**MAX_HALVINGS} (SNES reason {self.snes.getConvergedReason()})"
+                    f"increments of 1/{2**MAX_HALVINGS} "
+                    f"(SNES reason {self.snes.getConvergedReason()})"
                 )
             increment /= 2
         self._load = end_load

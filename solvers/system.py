@@ -42,8 +42,9 @@ class System:
 
     K and M are PETSc matrices of `matrix_type` (None, the default: DOLFINx's AIJ, which the
     factorisations and preconditioners take; "baij" for gdim x gdim blocks). The products in
-    the time loops use the compiled block-CSR copies K_csr and M_csr. Vectors are PETSc Vecs over the owned dofs of V (vector Q1, block size gdim); a dof's
-    local index in a Vec is its local index in V. `constrained` holds the local indices of
+    the time loops use the compiled block-CSR copies K_csr and M_csr. Vectors are PETSc Vecs
+    over the owned dofs of V (vector Q1, block size gdim); a dof's local index in a Vec is its
+    local index in V. `constrained` holds the local indices of
     the owned constrained dofs and `component` their displacement component.
     """
 

@@ -128,7 +128,7 @@ def hierarchy(
     """Compute a SPEC 10 case on `levels` (at least three mesh sizes, each twice the previous)
     with the benchmark's h and, on the finest, h/2, for `steps` steps of h (default: to the
     benchmark's end time). `log(message)` is told what was done and how long it took."""
-    if len(levels) < 3 or any(b != 2 * a for a, b in zip(levels, levels[1:])):
+    if len(levels) < 3 or any(b != 2 * a for a, b in zip(levels, levels[1:])):  # noqa: B905
         raise ValueError(f"levels must be three or more mesh sizes, each twice the last: {levels}")
     runs = []
     for n in levels:
@@ -140,7 +140,7 @@ def hierarchy(
     half = truth.run(bench.dt / 2, 2 * count, keep=2)  # the finest level's Truth, h/2
     if log:
         log(f"{case} n={levels[-1]} h/2: {half.wall:.1f} s")
-    level_ei = [interior_difference(a, b) for a, b in zip(runs, runs[1:])]
+    level_ei = [interior_difference(a, b) for a, b in zip(runs, runs[1:])]  # noqa: B905
     time_ei = interior_difference(runs[-1], half)  # half keeps every second step: those of h
     estimate = estimate_error([d.max() for d in level_ei], time_ei.max())
     return Hierarchy(case, tuple(levels), runs, half, level_ei, time_ei, estimate)
