@@ -95,7 +95,10 @@ def test_a_user_row_joins_without_a_rerun(recorded, tmp_path, monkeypatch):
     compare(folder / "ours" / "implicit.xdmf", tets, folder / "user" / "mine",
             label="my-tets", wall_time=0.05)  # fmt: skip
     before = {(r["case"], r["label"]): r for r in table(out)}
+    figures = {c: (out / "leaderboard" / f"{c}.png").read_bytes() for c in ("rod-a", "rod-b")}
     assert run(out, monkeypatch) == 0
+    assert (out / "leaderboard" / "rod-a.png").read_bytes() != figures["rod-a"]  # redrawn
+    assert (out / "leaderboard" / "rod-b.png").read_bytes() == figures["rod-b"]
     rows = table(out)
     mine = next(r for r in rows if r["label"] == "my-tets")
     ours = before[("rod-a", "implicit (tetrahedron grid)")]
@@ -118,6 +121,9 @@ def test_a_user_row_joins_without_a_rerun(recorded, tmp_path, monkeypatch):
             assert {k: r[k] for k in same} == {k: old[k] for k in same}, r["label"]
     text = (out / "leaderboard.md").read_text()
     assert "my-tets" in text and "tetrahedra: 12 cells, 12 nodes, 36" in text
+    written = {n: (out / n).read_bytes() for n in leaderboard.OWNED}
+    assert run(out, monkeypatch) == 0  # the user's row now in the record: read again, the same
+    assert all((out / n).read_bytes() == written[n] for n in leaderboard.OWNED)
 
 
 def test_rerun_of_one_case_keeps_the_others(recorded, tmp_path, monkeypatch):

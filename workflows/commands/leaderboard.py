@@ -25,6 +25,8 @@ from tissuebench.workflows.output import (
     OutputError,
     check_writable,
     collective,
+    file_hash,
+    read_manifest,
     read_summary,
     write_owned,
 )
@@ -581,16 +583,31 @@ def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
     return boards, rows, notes
 
 
-def grade_users(boards: list[Board], rows: dict[str, list[Row]], users: dict) -> None:
+def user_key(row: Row) -> str:
+    """What makes a user's row the same run graded the same way: case, label, series, field,
+    same-mesh grades and wall time."""
+    return json.dumps(
+        [row.case, row.label, row.series, row.series_field, row.errors, row.wall_time_s]
+    )
+
+
+def grade_users(
+    boards: list[Board], rows: dict[str, list[Row]], users: dict, graded: dict | None = None
+) -> None:
     """The users' rows joined to their cases, graded against each case's truth where it has one
     (its cached truth loaded once per case; a user's row graded by compare against the truth
-    keeps its columns), the Pareto fronts marked again and the users' error budgets. Rank 0."""
+    keeps its columns; one the record holds already graded, `graded` {user_key: Row}, keeps the
+    record's), the Pareto fronts marked again and the users' error budgets. Rank 0."""
     from tissuebench.solvers.truth.store import load_cached
 
     truths = {}
     for board in boards:
         mine = list(users.get(board.name, []))
         rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
+        for row in mine:
+            before = (graded or {}).get(user_key(row))
+            if before is not None and before.truth and not row.truth:
+                row.truth, row.truth_note = dict(before.truth), before.truth_note
         if board.truth is not None and any(not r.truth for r in mine):
             if board.truth not in truths:
                 truths[board.truth] = load_cached(board.truth, comm=MPI.COMM_SELF)
@@ -604,6 +621,13 @@ def grade_users(boards: list[Board], rows: dict[str, list[Row]], users: dict) ->
         if any(truth_error(r, k) is not None for r in rows[board.name] for k in ("mean", "max")):
             mark_truth_pareto(rows[board.name])
             error_budget(rows[board.name], only=mine)
+
+
+def unchanged(path: Path) -> bool:
+    """Whether a file of ours is in place as we wrote it (listed in its folder's manifest with
+    its present hash)."""
+    listed = read_manifest(path.parent, "files") or {}
+    return path.is_file() and listed.get(path.name) == file_hash(path)
 
 
 def check_rerun(names: list[str] | None) -> list[str] | None:
@@ -645,6 +669,8 @@ def main(args: argparse.Namespace) -> int:
         collective(comm, lambda: check_target(out, available, args.force, record, rerun))
     session = time.strftime("%Y-%m-%d %H:%M %Z")
     kept_boards, kept_rows, kept_notes = record or ([], {}, {})
+    drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
+    drawn = {name: json.dumps(c) for name, c in drawn.items()}  # what each figure was drawn of
     kept = {b.name: b for b in kept_boards}
     rows, notes, boards = {}, {}, []
     fresh = []
@@ -682,17 +708,24 @@ def main(args: argparse.Namespace) -> int:
         rows[board.name], notes[board.name] = board_rows, []
     if comm.rank == 0:  # against the truth: serial, on rank 0, which writes
         grade_truths(fresh + [b for b, _ in studied], rows)
-        grade_users(boards, rows, users)
+        graded = {  # users' rows of the record graded against the truth of a case not rerun
+            user_key(r): r
+            for b in kept_boards
+            if b.name not in (rerun or [])
+            for r in kept_rows[b.name]
+            if r.source == "user"
+        }
+        grade_users(boards, rows, users, graded)
 
     def write():
         (out / FOLDER).mkdir(parents=True, exist_ok=True)
-        for board in boards:
-            write_owned(
-                out / FOLDER / f"{board.name}.png",
-                lambda tmp, board=board: plot_case(tmp, board, rows[board.name]),
-            )
-        every = [r for board in boards for r in rows[board.name]]
         record = record_of(boards, rows, notes)
+        for board, case in zip(boards, record["cases"]):
+            png = out / FOLDER / f"{board.name}.png"
+            if drawn.get(board.name) == json.dumps(case) and unchanged(png):
+                continue  # drawn of the same rows, and still as drawn: seconds saved per case
+            write_owned(png, lambda tmp, board=board: plot_case(tmp, board, rows[board.name]))
+        every = [r for board in boards for r in rows[board.name]]
         write_owned(out / RECORD, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
         write_owned(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
