@@ -97,13 +97,13 @@ def check(need: Need, out: Path, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         disk = free_disk(out)
         if memory is not None and need.memory > memory:
             error = (
-                f"this case needs at least {gb(need.memory)} of memory ({size}) and {gb(memory)} is "
-                "available: use a smaller mesh, fewer steps or fewer algorithms"
+                f"this case needs at least {gb(need.memory)} of memory ({size}) and {gb(memory)} "
+                "is available: use a smaller mesh, fewer steps or fewer algorithms"
             )
         elif need.disk > disk:
             error = (
-                f"this case writes at least {gb(need.disk)} ({size}) and {out} has {gb(disk)} free: "
-                "use a smaller mesh, fewer steps or fewer algorithms, or another --out"
+                f"this case writes at least {gb(need.disk)} ({size}) and {out} has {gb(disk)} "
+                "free: use a smaller mesh, fewer steps or fewer algorithms, or another --out"
             )
     error = comm.bcast(error, root=0)
     if error is not None:

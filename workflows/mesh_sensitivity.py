@@ -226,7 +226,8 @@ def reference_run(
     collective(comm, lambda: write_series(target, gathered, np.arange(steps + 1) * h), folder)
     if comm.rank == 0:
         log(
-            f"{study.name} reference: implicit on the grid of size {2 * size}, {run.wall_time_s:.1f} s"
+            f"{study.name} reference: implicit on the grid of size {2 * size}, "
+            f"{run.wall_time_s:.1f} s"
         )
     return {
         "V": system.V,
@@ -482,7 +483,8 @@ def markdown(studies: list[Study], results: dict, quick: bool, ranks: int) -> st
             "",
             f"![{study.name}]({NAME}-{study.name}.png)",
             "",
-            "| algorithm | mesh | size | nodes | E_n max | E_i max | E_i time-mean | cost (s/s) | status |",
+            "| algorithm | mesh | size | nodes | E_n max | E_i max | E_i time-mean | cost (s/s) "
+            "| status |",
             "|---|---|---|---|---|---|---|---|---|",
         ]
         for r in sorted(
@@ -548,9 +550,9 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
 
     fig = Figure(figsize=(15, 5.4), layout="constrained")
     axes = fig.subplots(1, 3)
-    colours = dict(zip(ALGORITHMS, ["C0", "C1", "C2", "C3", "C4"]))
+    colours = {name: f"C{k}" for k, name in enumerate(ALGORITHMS)}
     shape_names = list(dict.fromkeys(r["shape"] for r in rows))
-    line = dict(zip(shape_names, LINES))
+    line = dict(zip(shape_names, LINES, strict=False))
     keys = ("interior_error_max", "interior_error_mean", "interior_error_max")
     for algorithm in ALGORITHMS:
         for shape in shape_names:
@@ -563,7 +565,7 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
                 key=lambda r: r["spacing_m"],
             )
             xs = ([r["spacing_m"] for r in mine],) * 2 + ([r["cost_s_per_s"] for r in mine],)
-            for ax, key, x in zip(axes, keys, xs):
+            for ax, key, x in zip(axes, keys, xs, strict=True):
                 ax.plot(
                     x,
                     [r[key] for r in mine],
@@ -579,7 +581,9 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
         if r["algorithm"] == REFERENCE and r["shape"] == grid and r["size"] == study.size
     )
     spacings = sorted({r["spacing_m"] for r in rows})
-    for ax, key, what in zip(axes, keys, ("max over time", "time-mean", "max over time")):
+    for ax, key, what in zip(
+        axes, keys, ("max over time", "time-mean", "max over time"), strict=True
+    ):
         ax.axhline(implicit_n[key], color="0.5", lw=1.2, zorder=0)
         ax.text(
             0.01,

@@ -183,7 +183,8 @@ def run_case(
         if folder.prepare(inputs, force) == "complete":
             if rank0:
                 log(
-                    f"{out_dir}: complete results for the same inputs exist, skipped (--force reruns)"
+                    f"{out_dir}: complete results for the same inputs exist, skipped (--force "
+                    "reruns)"
                 )
             return {
                 **comm.bcast(read_summary(folder.path) if rank0 else None, root=0),

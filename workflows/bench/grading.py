@@ -223,7 +223,8 @@ def main(argv: list[str] | None = None) -> None:
     print("|---|---:|---:|---:|---:|---:|---:|")
     for name, nodes, cells, seconds, ratio, e_n, e_i in rows:
         print(
-            f"| {name} | {nodes:,} | {cells} | {seconds:.2f} | {ratio:.2f}x | {e_n:.4g} | {e_i:.4g} |"
+            f"| {name} | {nodes:,} | {cells} | {seconds:.2f} | {ratio:.2f}x | {e_n:.4g} | "
+            f"{e_i:.4g} |"
         )
     print()
     print(f"point location, rod n = {args.n} in rod n = {args.n - 1}")

@@ -94,7 +94,7 @@ def markdown_table(header: list[str], rows: list[list]) -> str:
 def text_table(header: list[str], rows: list[list]) -> str:
     cells = [header] + [[fmt(c) for c in row] for row in rows]
     widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    return "\n".join("  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in cells)
+    return "\n".join("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in cells)
 
 
 def assembly_rows(records: list[dict]) -> Table:
@@ -614,7 +614,7 @@ def plot(records: list[dict], path: Path) -> None:
         ("implicit", "superlu"): "C7",
         ("implicit", "pyamg"): "C2",
     }
-    for ax, bench in zip(axes, ("rod", "block")):
+    for ax, bench in zip(axes, ("rod", "block"), strict=True):
         recs = [r for r in records if r["benchmark"] == bench]
         for side, dash, marker, label in OURS_LINES:
             for case, color in styles.items():
@@ -625,7 +625,7 @@ def plot(records: list[dict], path: Path) -> None:
                 ]
                 if pts and (side == "ours1" or case in MAIN_CASES):
                     ax.loglog(
-                        *zip(*pts),
+                        *zip(*pts, strict=True),
                         dash,
                         color=color,
                         marker=marker,
@@ -641,7 +641,7 @@ def plot(records: list[dict], path: Path) -> None:
             ]
             if pts:
                 ax.loglog(
-                    *zip(*pts),
+                    *zip(*pts, strict=True),
                     dash,
                     color=color,
                     marker=marker,

@@ -32,12 +32,18 @@ def add_common(p: argparse.ArgumentParser) -> None:
         "--petsc",
         default="",
         metavar="OPTIONS",
-        help='PETSc options, prefixed per integrator, e.g. "-implicit_ksp_type cg -implicit_pc_type gamg"',
+        help=(
+            'PETSc options, prefixed per integrator, e.g. "-implicit_ksp_type cg '
+            '-implicit_pc_type gamg"'
+        ),
     )
     p.add_argument(
         "--force",
         action="store_true",
-        help="rerun and replace results that tissuebench wrote, even complete ones or ones of other inputs",
+        help=(
+            "rerun and replace results that tissuebench wrote, even complete ones or ones of "
+            "other inputs"
+        ),
     )
 
 
@@ -46,7 +52,8 @@ def parse_algorithms(text: str) -> list[str]:
     unknown = [a for a in names if a not in ALGORITHMS]
     if unknown or not names:
         raise UserError(
-            f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use {', '.join(ALGORITHMS)}"
+            f"unknown algorithm(s) {', '.join(unknown) or '(none given)'}: use "
+            f"{', '.join(ALGORITHMS)}"
         )
     return names
 

@@ -5,8 +5,8 @@ For the rod (n = 2 .. 48) and the block on matching numbers of degrees of freedo
 measures, side by side: the assembly time of K and M; the setup time (everything before the
 first step: step matrix, factorisation or preconditioner, initial acceleration) and the time
 per step (median after a warm-up) of every algorithm; the peak memory (resident set, summed
-over ranks) during each; the same on 2 ranks; the peer (workflows/bench/peer_skfem.py) doing the same
-steps on the same mesh; whether both give the same displacement; a STREAM-like triad and the
+over ranks) during each; the same on 2 ranks; the peer (workflows/bench/peer_skfem.py) doing the
+same steps on the same mesh; whether both give the same displacement; a STREAM-like triad and the
 bytes an explicit-lumped step must move, giving measured / limit. With the elastic models of
 SPEC 8: the explicit-lumped step with neo-hookean and with corotational beside the linear one
 (ratios), its real-time capacity, and the Newton iterations per implicit step of svk,

@@ -45,7 +45,8 @@ from tissuebench.solvers.system import System
 from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.output import check_writable, collective, write_owned
 
-# every benchmark at its defaults (time), and on its study meshes with its refinement options (space)
+# every benchmark at its defaults (time), and on its study meshes with its refinement options
+# (space)
 TIME_CASES = [(name, e.material, e.mesh_size) for name, e in BENCHMARKS.items()]
 SPACE_CASES = [
     (name, e.material, e.study_sizes, e.refinement_options) for name, e in BENCHMARKS.items()
@@ -107,10 +108,10 @@ def plot(
 
     fig = Figure(figsize=(11, 3.4 * len(panels)), layout="constrained")
     axes = fig.subplots(len(panels), len(METRICS), squeeze=False)
-    for row, (name_of_case, x, results) in zip(axes, panels):
+    for row, (name_of_case, x, results) in zip(axes, panels, strict=True):
         n = len(next(iter(results.values()))["errors"])
         x = np.asarray(x[:n])
-        for ax, name in zip(row, METRICS):
+        for ax, name in zip(row, METRICS, strict=True):
             lowest = math.inf
             for run, r in results.items():
                 e = np.array([v[name] for v in r["errors"]])
@@ -150,12 +151,13 @@ def markdown(
         "",
         f"### Time (h = {h:.4g} s down to h/8, against implicit with h/{REFINEMENT})",
         "",
-        f"Runs end at T = {end_time:g} s, not the benchmarks' 10 s, to keep the h/{REFINEMENT} reference "
-        "affordable. Error: each metric's maximum over the times t_j = j h that all runs share. "
-        "Orders: between consecutive halvings of h; 'from differences' uses the differences between "
-        "a scheme's own runs at consecutive steps, so it measures the scheme's order even where "
-        "its error against the consistent-mass reference stops falling (the lumped schemes converge "
-        "to the lumped-mass solution, not to the reference). '—': a run diverged.",
+        f"Runs end at T = {end_time:g} s, not the benchmarks' 10 s, to keep the h/{REFINEMENT} "
+        "reference affordable. Error: each metric's maximum over the times t_j = j h that all "
+        "runs share. Orders: between consecutive halvings of h; 'from differences' uses the "
+        "differences between a scheme's own runs at consecutive steps, so it measures the "
+        "scheme's order even where its error against the consistent-mass reference stops falling "
+        "(the lumped schemes converge to the lumped-mass solution, not to the reference). '—': a "
+        "run diverged.",
         "",
     ]
     for case, results in time_results.items():
@@ -167,9 +169,11 @@ def markdown(
             results,
             f"h/{REFINEMENT}",
         )
+        critical = " and ".join(
+            f"{r:.2f} × the critical step of {name}" for name, r in ratios[case].items()
+        )
         lines += [
-            f"On this mesh h = {h:.4g} s is {' and '.join(f'{r:.2f} × the critical step of {name}' for name, r in ratios[case].items())}"
-            " (`tissuebench stability`).",
+            f"On this mesh h = {h:.4g} s is {critical} (`tissuebench stability`).",
             "",
         ]
     lines += [
@@ -178,16 +182,17 @@ def markdown(
         f"### Space (solutions at t = {SPACE_TIME:g} s, against the finest mesh)",
         "",
         "Every solution is interpolated onto the finest mesh (nested meshes: exact) with "
-        "Function.interpolate_nonmatching and measured there. Quasi-static: one solve of "
-        f"K u = f at t = {SPACE_TIME:g} s; implicit: h = {h:.4g} s from t = 0. The block uses a needle "
-        "tip width w = 0.2 m (the nodes with |y − 0.5| ≤ 0.1 on x = 1 move with the needle), so that "
-        "every mesh has the same load. Orders: between consecutive meshes, against the finest one "
-        "(the last one is biased by the finest mesh's own error) and from consecutive differences.",
+        "Function.interpolate_nonmatching and measured there. Quasi-static: one solve of K u = f "
+        f"at t = {SPACE_TIME:g} s; implicit: h = {h:.4g} s from t = 0. The block uses a needle "
+        "tip width w = 0.2 m (the nodes with |y − 0.5| ≤ 0.1 on x = 1 move with the needle), so "
+        "that every mesh has the same load. Orders: between consecutive meshes, against the "
+        "finest one (the last one is biased by the finest mesh's own error) and from consecutive "
+        "differences.",
         "",
-        "Orders below 2 are what the singular points of these problems allow: at the ends of the block's "
-        "needle segment the prescribed motion meets the traction-free right edge (a displacement "
-        "∼ r^(1/2)), and the fixed edges meet the free edge at corners; the rod's clamped face meets "
-        "its free faces along edges.",
+        "Orders below 2 are what the singular points of these problems allow: at the ends of the "
+        "block's needle segment the prescribed motion meets the traction-free right edge (a "
+        "displacement ∼ r^(1/2)), and the fixed edges meet the free edge at corners; the rod's "
+        "clamped face meets its free faces along edges.",
         "",
     ]
     for (bench, material, sizes), results in space_results.items():
@@ -283,6 +288,7 @@ def main(args: argparse.Namespace) -> int:
     collective(comm, write, out)  # rank 0 writes; its failure is raised on every rank
     if comm.rank == 0:
         print(
-            f"wrote {out / 'convergence.md'}, convergence_time.png, convergence_space.png ({wall:.1f} s)"
+            f"wrote {out / 'convergence.md'}, convergence_time.png, convergence_space.png "
+            f"({wall:.1f} s)"
         )
     return 0

@@ -53,7 +53,7 @@ def main(args: argparse.Namespace) -> int:
     if comm.rank == 0:
         m = bench.mesh.topology
         print(
-            f"{args.out}: {m.index_map(0).size_global} nodes, {m.index_map(m.dim).size_global} cells, "
-            f"physical groups {', '.join(bench.tagged.groups)}"
+            f"{args.out}: {m.index_map(0).size_global} nodes, {m.index_map(m.dim).size_global} "
+            f"cells, physical groups {', '.join(bench.tagged.groups)}"
         )
     return 0

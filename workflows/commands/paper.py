@@ -56,7 +56,9 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
             names,
             solver=solver,
             petsc=petsc,
-            description="Block and needle, MP1: the five algorithms against implicit MP1 (paper Figs. 5-7)",
+            description=(
+                "Block and needle, MP1: the five algorithms against implicit MP1 (paper Figs. 5-7)"
+            ),
         ),
         algorithm_case(
             "block-MP2",
@@ -65,7 +67,9 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
             names,
             solver=solver,
             petsc=petsc,
-            description="Block and needle, MP2 (human prostate): the five algorithms against implicit MP2",
+            description=(
+                "Block and needle, MP2 (human prostate): the five algorithms against implicit MP2"
+            ),
         ),
         algorithm_case(
             "rod-MP3",
@@ -74,7 +78,9 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
             names,
             solver=solver,
             petsc=petsc,
-            description="Bending rod, MP3: the five algorithms against implicit MP3 (paper Figs. 8-10)",
+            description=(
+                "Bending rod, MP3: the five algorithms against implicit MP3 (paper Figs. 8-10)"
+            ),
         ),
         Case(
             "block-MP2-vs-MP1",
@@ -83,7 +89,9 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
             "implicit-MP2",
             solver=solver,
             petsc=petsc,
-            description="Block: every MP1 run and quasi-static MP2 against implicit MP2 (paper Fig. 11)",
+            description=(
+                "Block: every MP1 run and quasi-static MP2 against implicit MP2 (paper Fig. 11)"
+            ),
         ),
         # Beyond the paper's 10 s, on the same meshes: the checks of claims 3 and 6 (SPEC section 7)
         algorithm_case(
@@ -94,8 +102,10 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
             end_time=40.0,
             solver=solver,
             petsc=petsc,
-            description="Block and needle, MP1, as block-MP1 but run to 40 s: do all schemes settle "
-            "on the quasi-static solution? (claim 3)",
+            description=(
+                "Block and needle, MP1, as block-MP1 but run to 40 s: do all schemes settle on "
+                "the quasi-static solution? (claim 3)"
+            ),
         ),
         # the reference and its static deflection only: the rod's surface error costs ~10 ms a step
         algorithm_case(
@@ -106,8 +116,10 @@ def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
             end_time=30.0,
             solver=solver,
             petsc=petsc,
-            description="Bending rod, MP3, implicit and quasi-static as in rod-MP3 but run to 30 s: "
-            "the oscillation about the static shape (claim 6)",
+            description=(
+                "Bending rod, MP3, implicit and quasi-static as in rod-MP3 but run to 30 s: the "
+                "oscillation about the static shape (claim 6)"
+            ),
         ),
     ]
 

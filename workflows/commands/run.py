@@ -28,7 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "run",
         help="run one benchmark with the chosen algorithms",
-        description="Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to DIR.",
+        description=(
+            "Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to DIR."
+        ),
     )
     p.add_argument("benchmark", help=f"{', '.join(BENCHMARKS)}")
     p.add_argument(

@@ -90,7 +90,7 @@ def plot(path: Path, cases: list[dict], benchmark_dt: float = 1 / 30) -> None:
     for bench, material, _ in SWEEP:
         rows = [c for c in cases if c["benchmark"] == bench and c["material"] == material]
         x = [c["cell_size"] for c in rows]
-        for name, style in zip(EXPLICIT, ["o-", "s--"]):
+        for name, style in zip(EXPLICIT, ["o-", "s--"], strict=False):
             ax.plot(
                 x,
                 [c["algorithms"][name]["critical_dt"] for c in rows],
@@ -130,8 +130,8 @@ def markdown(case: dict, checks: list[dict], cases: list[dict], wall: float) -> 
         lines += [
             "### Default meshes and materials",
             "",
-            "| benchmark | mesh | material | ω_max, M (rad/s) | ω_max, M_L (rad/s) | explicit h_c (s) "
-            "| explicit-lumped h_c (s) | implicit, implicit-lumped |",
+            "| benchmark | mesh | material | ω_max, M (rad/s) | ω_max, M_L (rad/s) | explicit "
+            "h_c (s) | explicit-lumped h_c (s) | implicit, implicit-lumped |",
             "|---|---|---|---|---|---|---|---|",
         ]
         for bench, material, size in DEFAULTS:
@@ -157,8 +157,8 @@ def markdown(case: dict, checks: list[dict], cases: list[dict], wall: float) -> 
     ]
     for name, r in a.items():
         lines.append(
-            f"| {name} | {r['mass']} | {r['damping']} | {r['omega_min']:.5g} | {r['omega_max']:.5g} | "
-            f"{fmt(r['critical_dt'])} |"
+            f"| {name} | {r['mass']} | {r['damping']} | {r['omega_min']:.5g} | "
+            f"{r['omega_max']:.5g} | {fmt(r['critical_dt'])} |"
         )
     lines += [
         "",
@@ -168,7 +168,8 @@ def markdown(case: dict, checks: list[dict], cases: list[dict], wall: float) -> 
         "end time T. Largest displacement: over the steps kept (a diverged run stops before its "
         "last step).",
         "",
-        "| algorithm | h (s) | h / h_c | growth per step | steps | result | largest displacement (m) |",
+        "| algorithm | h (s) | h / h_c | growth per step | steps | result | largest displacement "
+        "(m) |",
         "|---|---|---|---|---|---|---|",
     ]
     for r in checks:
@@ -188,26 +189,28 @@ def markdown(case: dict, checks: list[dict], cases: list[dict], wall: float) -> 
     if end is not None:
         lines += [
             "",
-            f"{end['algorithm']} at {end['ratio']:.3f} h_c diverges only at t = {end['diverged_time']:.4g} s, "
-            f"after the benchmark's end time T = {system_end(case):g} s: its fastest mode, heavily damped "
-            "by βK, grows by a factor of only "
-            f"{end['growth_per_step']:.6f} per step, so a run to T stays finite although the step is unstable.",
+            f"{end['algorithm']} at {end['ratio']:.3f} h_c diverges only at t = "
+            f"{end['diverged_time']:.4g} s, after the benchmark's end time T = "
+            f"{system_end(case):g} s: its fastest mode, heavily damped by βK, grows by a factor "
+            f"of only {end['growth_per_step']:.6f} per step, so a run to T stays finite although "
+            "the step is unstable.",
         ]
     if case["material"] == "MP2" and case["benchmark"] == "block":
         e, el = a["explicit"]["critical_dt"], a["explicit-lumped"]["critical_dt"]
         lines += [
             "",
-            "The paper's own words on explicit integration with MP2 are not available to us, so no "
-            "critical step is quoted from it here. What we have is SPEC section 7, our paraphrase of the "
-            'paper: "Block, MP2 at h = 1/30: the explicit schemes diverge; implicit and quasi-static '
-            f'run." On the default {case["mesh_size"]} × {case["mesh_size"]} block the limit is {e:.3g} s '
-            f"for explicit and {el:.3g} s for explicit-lumped.",
+            "The paper's own words on explicit integration with MP2 are not available to us, so "
+            "no critical step is quoted from it here. What we have is SPEC section 7, our "
+            'paraphrase of the paper: "Block, MP2 at h = 1/30: the explicit schemes diverge; '
+            f'implicit and quasi-static run." On the default {case["mesh_size"]} × '
+            f"{case['mesh_size']} block the limit is {e:.3g} s for explicit and {el:.3g} s for "
+            "explicit-lumped.",
         ]
         if max(e, el) < 1 / 30:
             lines[-1] += (
                 f" Both are far below the benchmark's h = 1/30 s ({1 / 30 / max(e, el):.0f} times "
-                "smaller at most), so both explicit schemes diverge at h = 1/30 s, as SPEC section 7 "
-                "says."
+                "smaller at most), so both explicit schemes diverge at h = 1/30 s, as SPEC "
+                "section 7 says."
             )
     if cases:
         lines += [
@@ -216,14 +219,16 @@ def markdown(case: dict, checks: list[dict], cases: list[dict], wall: float) -> 
             "",
             "![critical step against cell size](stability.png)",
             "",
-            "| benchmark | material | mesh size | cell (m) | explicit h_c (s) | explicit-lumped h_c (s) |",
+            "| benchmark | material | mesh size | cell (m) | explicit h_c (s) | explicit-lumped "
+            "h_c (s) |",
             "|---|---|---|---|---|---|",
         ]
         for c in cases:
             a = c["algorithms"]
             lines.append(
                 f"| {c['benchmark']} | {c['material']} | {c['mesh_size']} | {c['cell_size']:.4g} | "
-                f"{fmt(a['explicit']['critical_dt'])} | {fmt(a['explicit-lumped']['critical_dt'])} |"
+                f"{fmt(a['explicit']['critical_dt'])} | "
+                f"{fmt(a['explicit-lumped']['critical_dt'])} |"
             )
         lines += [
             "",
@@ -268,7 +273,8 @@ def main(args: argparse.Namespace) -> int:
     if comm.rank == 0:
         for name, r in case["algorithms"].items():
             print(
-                f"{name:16s} omega_max {r['omega_max']:.6g} rad/s  critical h {fmt(r['critical_dt'])} s"
+                f"{name:16s} omega_max {r['omega_max']:.6g} rad/s  critical h "
+                f"{fmt(r['critical_dt'])} s"
             )
         for r in checks:
             print(

@@ -520,9 +520,10 @@ def check_element(element: str, dim: int, plane: str | None) -> None:
             f"{', '.join(e for e, (d, _) in ELEMENTS.items() if d == dim)}"
         )
     if dim == 2 and eplane != (plane or "strain"):
+        same = [e for e, (d, p) in ELEMENTS.items() if d == 2 and p == (plane or "strain")]
         raise ExportError(
             f"element {element} is plane {eplane} and the export is plane {plane or 'strain'}: use "
-            f"{', '.join(e for e, (d, p) in ELEMENTS.items() if d == 2 and p == (plane or 'strain'))}"
+            f"{', '.join(same)}"
         )
 
 

@@ -5,9 +5,9 @@ DOLFINx's XDMFFile rewrites its whole XML file at every write_function, which ma
 300-step series cost O(steps^2); a run's history is in memory anyway, so it is gathered to
 rank 0 and written in one go. The HDF5 file is built in memory and written by Python, so
 that a full disk raises OSError (HDF5 itself crashes the process on ENOSPC). Every DataItem
-states its number type and precision (ParaView reads float64 as float32 otherwise). Layout as DOLFINx writes it (/Mesh/mesh/geometry,
-/Mesh/mesh/topology, /Function/<name>/<step>), one temporal collection holding every field
-at every time; ParaView opens it with its XDMF readers.
+states its number type and precision (ParaView reads float64 as float32 otherwise). Layout as
+DOLFINx writes it (/Mesh/mesh/geometry, /Mesh/mesh/topology, /Function/<name>/<step>), one
+temporal collection holding every field at every time; ParaView opens it with its XDMF readers.
 """
 
 from __future__ import annotations
@@ -120,11 +120,14 @@ def write_series(
         '<Xdmf Version="3.0" xmlns:xi="http://www.w3.org/2001/XInclude">',
         "  <Domain>",
         '    <Grid Name="mesh" GridType="Uniform">',
-        f'      <Topology TopologyType="{TOPOLOGY[cell_type]}" NumberOfElements="{n_cells}" NodesPerElement="{per_cell}">',
-        f'        <DataItem Dimensions="{n_cells} {per_cell}" NumberType="Int" Precision="8" Format="HDF">{h5name}:/Mesh/mesh/topology</DataItem>',
+        f'      <Topology TopologyType="{TOPOLOGY[cell_type]}" NumberOfElements="{n_cells}" '
+        f'NodesPerElement="{per_cell}">',
+        f'        <DataItem Dimensions="{n_cells} {per_cell}" NumberType="Int" Precision="8" '
+        f'Format="HDF">{h5name}:/Mesh/mesh/topology</DataItem>',
         "      </Topology>",
         '      <Geometry GeometryType="XYZ">',
-        f'        <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" Format="HDF">{h5name}:/Mesh/mesh/geometry</DataItem>',
+        f'        <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" '
+        f'Format="HDF">{h5name}:/Mesh/mesh/geometry</DataItem>',
         "      </Geometry>",
         "    </Grid>",
         '    <Grid Name="series" GridType="Collection" CollectionType="Temporal">',
@@ -141,7 +144,8 @@ def write_series(
         for name in fields:
             lines += [
                 f'        <Attribute Name="{name}" AttributeType="Vector" Center="Node">',
-                f'          <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" Format="HDF">{h5name}:/Function/{name}/{i}</DataItem>',
+                f'          <DataItem Dimensions="{N} 3" NumberType="Float" Precision="8" '
+                f'Format="HDF">{h5name}:/Function/{name}/{i}</DataItem>',
                 "        </Attribute>",
             ]
         lines.append("      </Grid>")
@@ -241,7 +245,8 @@ def read_xdmf(path: Path, names: Sequence[str]) -> FieldData:
         cell_type = topology.get("TopologyType", topology.get("Type", "")).lower()
         if geometry.get("GeometryType", geometry.get("Type", "XYZ")).upper() not in ("XY", "XYZ"):
             raise InputError(
-                f"{path}: geometry type {geometry.get('GeometryType')!r} is not supported (XY or XYZ)"
+                f"{path}: geometry type {geometry.get('GeometryType')!r} is not supported (XY or "
+                "XYZ)"
             )
         points = hdf.read(geometry.find("DataItem"), "the geometry")
         cells = hdf.read(topology.find("DataItem"), "the topology")

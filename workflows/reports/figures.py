@@ -53,7 +53,7 @@ def crossings(t: np.ndarray, y: np.ndarray, level: float) -> list[float]:
     t, d = t[keep], d[keep]
     signed = np.flatnonzero(d != 0)
     result = []
-    for a, b in zip(signed[:-1], signed[1:]):
+    for a, b in zip(signed[:-1], signed[1:], strict=False):
         if d[a] * d[b] > 0:
             continue
         if b == a + 1:
@@ -89,7 +89,7 @@ def error_figure(case: CaseView, summary: dict, times: np.ndarray, curves: dict)
     axes = fig.subplots(len(shown), 1, sharex=True, squeeze=False)[:, 0]
     labels = [label for label in curves if label != case.reference]
     every = max(1, (len(times) - 1) // 8)
-    for ax, (name, title) in zip(axes, shown):
+    for ax, (name, title) in zip(axes, shown, strict=True):
         values = []
         for k, label in enumerate(labels):
             run = summary["runs"][label]
@@ -168,7 +168,7 @@ def tip_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> 
     )
     others = [label for label in tips if label not in (ref, static)]
     shifts = [0.0] if level is None else [0.0, level]
-    for ax, shift in zip(axes, shifts):
+    for ax, shift in zip(axes, shifts, strict=True):
         ax.plot(
             times[: len(tips[ref])],
             tips[ref][:, 1] - shift,
@@ -211,7 +211,7 @@ def tip_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> 
         d = tip[1:, 1] - level
         peaks = [
             np.abs(d[(times[1 : len(tip)] > a) & (times[1 : len(tip)] < b)]).max(initial=0.0)
-            for a, b in zip([0.0, *cross], [*cross, times[len(tip) - 1] + 1])
+            for a, b in zip([0.0, *cross], [*cross, times[len(tip) - 1] + 1], strict=True)
         ]
         peaks = [x for x in peaks if x > 0]
         linthresh = max(min(peaks, default=1.0) / 10, 1e-15)
@@ -228,7 +228,7 @@ def tip_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> 
         axes[1].yaxis.set_minor_formatter(NullFormatter())
         axes[1].set_ylabel("u_y - static deflection (m)\nsymmetric log scale")
         for j, tc in enumerate(cross):
-            for ax, y in zip(axes, (level, 0.0)):
+            for ax, y in zip(axes, (level, 0.0), strict=True):
                 ax.axvline(
                     tc,
                     color="0.25",
@@ -480,7 +480,7 @@ def animation(
             anchor="md",
         )
     pictures = []
-    for pics, title in zip(frames, titles):
+    for pics, title in zip(frames, titles, strict=True):
         frame = template.copy()
         for k, pic in enumerate(pics):
             picture = Image.fromarray(pic)

@@ -144,7 +144,7 @@ def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict)
     rows = np.atleast_1d(fig.subfigures(len(models), 1))
     every = max(1, (len(times) - 1) // 8)
     axes = np.empty((len(models), len(shown)), dtype=object)
-    for r, (row, model) in enumerate(zip(rows, models)):
+    for r, (row, model) in enumerate(zip(rows, models, strict=True)):
         axes[r] = np.atleast_1d(row.subplots(1, len(shown), sharex=True))
         diverged = []
         for k, a in enumerate(algorithms):
@@ -154,7 +154,7 @@ def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict)
             run = summary["runs"][label]
             if run["status"] == "diverged":
                 diverged.append(f"{a} at t = {run['diverged_time']:.3g} s")
-            for ax, name in zip(axes[r], shown):
+            for ax, name in zip(axes[r], shown, strict=True):
                 y = np.asarray(curves[label][name], dtype=float)
                 color = plot_curve(ax, times, y, k, len(algorithms), every, small=True)
                 if run["status"] == "diverged":

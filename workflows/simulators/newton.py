@@ -354,7 +354,7 @@ def _builder(data, variant: str, tets: np.ndarray):
             radius=[PARTICLE_RADIUS] * len(nodes),
         )
         edges, stiffness = spring_network(nodes, tets, m.E)
-        for (i, j), k in zip(edges, stiffness):
+        for (i, j), k in zip(edges, stiffness, strict=True):
             builder.add_spring(int(i), int(j), float(k), float(m.beta * k), 0.0)
     for sets in data.effective_sets().values():
         for i in sets:

@@ -346,7 +346,7 @@ def build_problem(data: Exported, variant: str, workdir: Path):
             values = {"u.all": 0.0, "du.all": 0.0, "ddu.all": 0.0}
         else:
             values = {}
-            for var, series in zip(("u", "du", "ddu"), motion):
+            for var, series in zip(("u", "du", "ddu"), motion, strict=True):
 
                 def prescribed(ts, coors, series=series, var=var, **kwargs):
                     t = ts.time
