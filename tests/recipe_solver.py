@@ -71,8 +71,8 @@ def kuhn_mesh(extents: list, per_metre: float) -> tuple[np.ndarray, np.ndarray]:
     lows = np.array([e[0] for e in extents], dtype=float)
     highs = np.array([e[1] for e in extents], dtype=float)
     d = len(extents)
-    counts = [max(1, round((hi - lo) * per_metre)) for lo, hi in zip(lows, highs)]
-    axes = [np.linspace(lo, hi, n + 1) for lo, hi, n in zip(lows, highs, counts)]
+    counts = [max(1, round((hi - lo) * per_metre)) for lo, hi in zip(lows, highs, strict=True)]
+    axes = [np.linspace(lo, hi, n + 1) for lo, hi, n in zip(lows, highs, counts, strict=True)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
     points = grid.reshape(-1, d)
     shape = [n + 1 for n in counts]
@@ -156,7 +156,7 @@ def write_xdmf(path: Path, points, cells, times, displacements) -> None:
         "    </Grid>",
         '    <Grid Name="series" GridType="Collection" CollectionType="Temporal">',
     ]
-    for t, u in zip(times, displacements):
+    for t, u in zip(times, displacements, strict=True):
         lines += [
             '      <Grid GridType="Uniform">',
             f'        <Time Value="{t!r}" />',
