@@ -46,7 +46,10 @@ def fields(V, times=TIMES):
         t * np.c_[0.3 * X[:, 1] * X[:, 0], -0.2 * X[:, 0] ** 2, 0.1 * X[:, 2]][:, :dim]
         for t in times
     ]
-    cand = [u * (1 + 0.3 * t) + t**2 * 0.01 * np.sin(3 * X[:, :dim]) for t, u in zip(times, ref)]
+    cand = [
+        u * (1 + 0.3 * t) + t**2 * 0.01 * np.sin(3 * X[:, :dim])
+        for t, u in zip(times, ref, strict=True)
+    ]
     return ref, cand
 
 
@@ -72,14 +75,14 @@ def write_meshio_xdmf(path, points, cells, cell_type, values, times=TIMES, field
         meshio.xdmf.TimeSeriesWriter(Path(path).name) as writer,
     ):
         writer.write_points_cells(points, [(cell_type, cells)])
-        for t, u in zip(times, values):
+        for t, u in zip(times, values, strict=False):
             writer.write_data(t, point_data={field: pad(u)})
 
 
 def write_pvd(path, points, cells, cell_type, values, times=TIMES, field="displacement"):
     path = Path(path)
     entries = []
-    for k, (t, u) in enumerate(zip(times, values)):
+    for k, (t, u) in enumerate(zip(times, values, strict=False)):
         vtu = path.with_name(f"{path.stem}_{k:03d}.vtu")
         meshio.write(vtu, meshio.Mesh(points, [(cell_type, cells)], point_data={field: pad(u)}))
         entries.append(f'    <DataSet timestep="{t!r}" part="0" file="{vtu.name}"/>')
@@ -156,7 +159,7 @@ def test_dolfinx_xdmf_against_pvd(tmp_path):
     u = fem.Function(V, name="displacement")
     with io.XDMFFile(MPI.COMM_SELF, tmp_path / "implicit.xdmf", "w") as f:
         f.write_mesh(V.mesh)
-        for t, values in zip(TIMES, ref):
+        for t, values in zip(TIMES, ref, strict=True):
             u.x.array[:] = values.ravel()
             f.write_function(u, t)
     points, cells, cell_type = mesh_data(V)
@@ -379,7 +382,8 @@ def test_non_finite_candidate_is_diverged_from_its_first_bad_step(diverging, mon
     assert (
         list(summary)[0] == "candidate" and "reference" not in summary and "candidate" not in clean
     )
-    # the summaries grade steps 1..2 only: E_n's max is the clean run's at step 2, below its max at step 6
+    # the summaries grade steps 1..2 only: E_n's max is the clean run's at step 2, below its max
+    # at step 6
     peak = float(summary["relative_error"].split("max ")[1].split(",")[0])
     assert peak == pytest.approx(good[2, 2], rel=1e-3) and peak < 0.5 * good[6, 2]
     assert "steps 1..2 of 1..6" in summary["relative_error"]
@@ -568,7 +572,8 @@ def test_fields_per_side_and_common_names(tmp_path):
 
     with pytest.raises(
         InputError,
-        match=r"a.xdmf: no point field 'displacement' \(nor U, DISP, Displacement\); fields: disp_ref; name the displacement field",
+        match=r"a.xdmf: no point field 'displacement' \(nor U, DISP, Displacement\); fields: "
+        r"disp_ref; name the displacement field",
     ):
         compare(tmp_path / "a.xdmf", tmp_path / "b.pvd", tmp_path / "out")
     with pytest.raises(InputError, match="b_000.vtu: no point field 'displacement'; fields: U"):

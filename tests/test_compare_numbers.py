@@ -52,7 +52,7 @@ def write_xdmf(path, points, cells, cell_type, values, times=TIMES, step_points=
     grids = []
     with h5py.File(h5, "w") as f:
         f["topology"] = cells
-        for k, (t, u, x) in enumerate(zip(times, values, step_points)):
+        for k, (t, u, x) in enumerate(zip(times, values, step_points, strict=False)):
             f[f"geometry{k}"] = x
             f[f"u{k}"] = np.asarray(u, dtype=dtype or np.float64)
             n, width = x.shape

@@ -52,7 +52,7 @@ def grid(counts, lengths):
     """A structured Q1 mesh of the box [0, lengths]: (points (N, d), cells in VTK order,
     cell type)."""
     d = len(counts)
-    axes = [np.linspace(0.0, L, n + 1) for n, L in zip(counts, lengths)]
+    axes = [np.linspace(0.0, L, n + 1) for n, L in zip(counts, lengths, strict=True)]
     points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
     index = np.arange(len(points)).reshape([n + 1 for n in counts])
     first = np.stack(np.meshgrid(*[np.arange(n) for n in counts], indexing="ij"), -1)
@@ -260,7 +260,7 @@ def write_pvd(path, mesh, s):
         cell_type, cell_type
     )
     entries = []
-    for k, (t, u) in enumerate(zip(s.times, s.displacements)):
+    for k, (t, u) in enumerate(zip(s.times, s.displacements, strict=True)):
         vtu = path.with_name(f"{path.stem}_{k:03d}.vtu")
         meshio.write(
             vtu, meshio.Mesh(pad(points), [(name, cells)], point_data={"displacement": pad(u)})

@@ -252,7 +252,7 @@ def test_external_fingerprint_holds_petsc(tmp_path):
     assert fresh_e != loose_e  # the reference changed with the tolerance
 
 
-# --- argument errors -------------------------------------------------------------------------------
+# --- argument errors ---------------------------------------------------------------------------
 
 
 @pytest.mark.serial

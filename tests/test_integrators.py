@@ -78,7 +78,9 @@ def test_trapezoidal_rule_conserves_energy(name):
     run = simulate(get_integrator(name, system, 1 / 30), 300, 0.5, name)
     M = dense(system.M) if SCHEMES[name][0] else np.diag(system.ML.array)
     K, f = dense(system.K), system.f.array
-    energy = np.array([0.5 * v @ M @ v + 0.5 * u @ K @ u - f @ u for u, v in zip(run.u, run.v)])
+    energy = np.array(
+        [0.5 * v @ M @ v + 0.5 * u @ K @ u - f @ u for u, v in zip(run.u, run.v, strict=True)]
+    )
     strain = max(0.5 * u @ K @ u for u in run.u)
     assert strain > 0
     assert np.abs(energy).max() < 1e-11 * strain
@@ -180,5 +182,5 @@ def test_explicit_lumped_loop_equals_the_general_newmark_step():
     general = Newmark(system, h, scheme, "general_")
     fast = simulate(get_integrator("explicit-lumped", system, h), 90, bench.extent).u
     slow = simulate(general, 90, bench.extent).u
-    for a, b in zip(fast, slow):
+    for a, b in zip(fast, slow, strict=True):
         assert np.linalg.norm(a - b) <= 1e-12 * max(np.linalg.norm(b), 1e-30)

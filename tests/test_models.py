@@ -207,7 +207,7 @@ def asymptotic_pairs(residual_norms, top=0.1, floor=1e-12):
     (rho_k <= top, beyond the line search's global phase) and above round-off
     (rho_{k+1} > floor, about 1e4 machine epsilons)."""
     rho = np.asarray(residual_norms) / residual_norms[0]
-    return [(a, b) for a, b in zip(rho[:-1], rho[1:]) if a <= top and b > floor]
+    return [(a, b) for a, b in zip(rho[:-1], rho[1:], strict=False) if a <= top and b > floor]
 
 
 @pytest.mark.parametrize(
@@ -255,9 +255,10 @@ def test_newton_converges_quadratically_for_hyperelastic_models(name, options, a
 def test_explicit_neo_hookean_conserves_energy_to_second_order(algorithm):
     """Undamped rod (MP3 without damping) at load scale 3 from rest, gravity switched on at
     t = 0, for 8 s (over one period of the bending motion, whose largest displacement is
-    about the rod's length, 0.5 m: far from linear): E = 1/2 v.M v + int psi(F) dX - f.u, zero at t = 0, drifts by O(h^2) in
-    the central-difference scheme (velocity Verlet, symplectic), so halving h divides the
-    largest drift by 4 (accepted 3.5 to 4.5: the next term is O(h^4), relative (h w)^2)."""
+    about the rod's length, 0.5 m: far from linear): E = 1/2 v.M v + int psi(F) dX - f.u, zero
+    at t = 0, drifts by O(h^2) in the central-difference scheme (velocity Verlet, symplectic),
+    so halving h divides the largest drift by 4 (accepted 3.5 to 4.5: the next term is O(h^4),
+    relative (h w)^2)."""
     material = Material("undamped", E=7000.0, nu=0.2, rho=10_000.0, alpha=0.0, beta=0.0)
     bench = get_benchmark("rod", mesh_size=1, load_scale=3.0)
     system = System(bench, material)

@@ -34,7 +34,9 @@ def cantilever(mesh_size: int = 2, comm: MPI.Comm = MPI.COMM_WORLD, msh_path=Non
         ]
         lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
         surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        for line, cells in zip(lines, [4 * mesh_size, mesh_size, 4 * mesh_size, mesh_size]):
+        for line, cells in zip(
+            lines, [4 * mesh_size, mesh_size, 4 * mesh_size, mesh_size], strict=True
+        ):
             geo.mesh.setTransfiniteCurve(line, cells + 1)
         geo.mesh.setTransfiniteSurface(surface)
         geo.mesh.setRecombine(2, surface)

@@ -58,7 +58,10 @@ def box(n=(4, 2, 2), size=(0.5, 0.25, 0.25)):
     seen from outside (built here, independently of metrics/boundary.py)."""
     nx, ny, nz = n
     grid = np.stack(
-        np.meshgrid(*(np.linspace(0, s, k + 1) for s, k in zip(size, n)), indexing="ij"), axis=-1
+        np.meshgrid(
+            *(np.linspace(0, s, k + 1) for s, k in zip(size, n, strict=True)), indexing="ij"
+        ),
+        axis=-1,
     )
     X = grid.reshape(-1, 3)
     index = np.arange(len(X)).reshape(nx + 1, ny + 1, nz + 1)

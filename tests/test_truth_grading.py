@@ -148,8 +148,9 @@ def test_a_shifted_candidate(dim):
     mesh = MESHES[dim]["reference"]
     truth = make_truth(mesh, u)
     other = "triangles" if dim == 2 else "tetrahedra"
-    curves = same_on_every_rank(grade_truth(truth, candidate(MESHES[dim][other],
-                                                             lambda X, t: u(X, t) + c)))  # fmt: skip
+    curves = same_on_every_rank(
+        grade_truth(truth, candidate(MESHES[dim][other], lambda X, t: u(X, t) + c))
+    )
     n_v = len(mesh[0])
     norms = np.array([np.linalg.norm(u(mesh[0], t)) for t in TIMES[1:]])
     np.testing.assert_allclose(
