@@ -282,7 +282,8 @@ def reference_problem(summary: dict, case: dict, board: Board | None = None) -> 
     if fp.get("source") == "truth":
         if fp.get("truth") != board.truth:
             has = f"the truth {board.truth}" if board.truth else "no truth"
-            return f"graded against the truth {one_line(fp.get('truth'))[:40]}; {where} has {has}: {move}"
+            truth = one_line(fp.get("truth"))[:40]
+            return f"graded against the truth {truth}; {where} has {has}: {move}"
         return None
     if fp.get("benchmark") is None:
         return (
