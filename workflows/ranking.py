@@ -6,12 +6,15 @@ cost (wall time per simulated second), with the Pareto front marked.
 
 Cost. Ours: M, K and f assembled (System), the integrator set up (factorisations) and its time
 loop, in process, 1 rank. CalculiX: the `ccx` process, 1 thread, its file output included.
-SfePy and Newton: their setup and time loop in process (see each entry's `timing`). All in
-one session on one machine; a user's run carries the wall time they gave compare.
+SfePy and Newton: their setup and time loop in process (see each entry's `timing`). A case's
+runs in one session on one machine (Board.session; `--rerun CASE` re-times one case alone); a
+user's run carries the wall time they gave compare.
 
 OUT/leaderboard/CASE/ours, OUT/leaderboard/CASE/SIMULATOR: the case's folders (ours);
 OUT/leaderboard/CASE/user/NAME: compare folders a user put there (read only);
-OUT/leaderboard.md, OUT/leaderboard.csv, OUT/leaderboard/CASE.png: the leaderboard.
+OUT/leaderboard.md, OUT/leaderboard.csv, OUT/leaderboard/CASE.png: the leaderboard;
+OUT/leaderboard.json: its record (workflows/commands/leaderboard.py), from which it is
+rendered again.
 
 Nothing read is trusted: a user's folder is checked against its case (dimension and nodes of
 the reference it was graded against, h, steps, end time) and each of its rows for its label,

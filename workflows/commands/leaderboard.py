@@ -1,6 +1,10 @@
-"""`tissuebench leaderboard --out results`: every algorithm and model of ours and every
-outside simulator that poses each case, graded against one reference and timed in one
-session: OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case (workflows/ranking.py).
+"""`tissuebench leaderboard --out results`: OUT/leaderboard.md, OUT/leaderboard.csv and a
+figure per case (workflows/ranking.py), rendered from the record OUT/leaderboard.json with the
+users' compare folders read, checked against their case and graded against its truth (no
+rerun: seconds). `--rerun [CASE ...]`: every algorithm and model of ours and every outside
+simulator that poses those cases (all when none is named) run, graded against one reference
+and timed in this session; the other cases keep their recorded rows and say when they were
+timed.
 """
 
 from __future__ import annotations
