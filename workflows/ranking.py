@@ -792,6 +792,8 @@ def truth_lines(board: Board, rows: list[Row]) -> list[str]:
             "the case is linear and so is the truth). The parts are not additive (the total is "
             "at most their sum).",
             "",
+            f"![{board.name}: error budget](leaderboard/{board.name}-budget.png)",
+            "",
             *budget_table(rows),
         ]
     return out + [""]
