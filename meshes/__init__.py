@@ -4,6 +4,8 @@ A benchmark is one file here with a `benchmark(mesh_size, comm=..., msh_path=...
 function and an `ENTRY` (meshes.benchmark.Entry: its defaults and options), registered below.
 """
 
+from mpi4py import MPI  # noqa: F401 (loads libmpi before PETSc and DOLFINx do)
+
 from tissuebench.meshes import block, rod
 from tissuebench.meshes.benchmark import Benchmark, Entry
 from tissuebench.meshes.gmshio import MeshError

@@ -116,7 +116,6 @@ LOAD_SCALE_HELP = "load scale s > 0: the prescribed motion and gravity times s (
 def check_load_scale(s: object) -> None:
     """Refuse a load scale that is not a finite positive number (MeshError: bad input)."""
     from tissuebench.meshes.gmshio import MeshError
-
     from tissuebench.solvers.materials import LARGEST, SMALLEST, WHY_RANGE
 
     if not (isinstance(s, (int, float)) and not isinstance(s, bool) and 0 < s < float("inf")):

@@ -12,9 +12,10 @@ from pathlib import Path
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
-import gmsh
 import dolfinx.io.gmsh
+import gmsh
 import numpy as np
+
 from tissuebench.meshes.errors import UserError
 
 

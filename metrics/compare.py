@@ -26,10 +26,10 @@ from mpi4py import MPI
 import basix.ufl
 import dolfinx.mesh
 import numpy as np
-from numpy.typing import ArrayLike
 import ufl
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
+from numpy.typing import ArrayLike
 
 from tissuebench.metrics.cells import NAMES, match_points
 from tissuebench.metrics.crossmesh import (
@@ -39,8 +39,8 @@ from tissuebench.metrics.crossmesh import (
     check_same_body,
     note,
 )
-from tissuebench.metrics.table import METRICS, Metrics
 from tissuebench.metrics.series import InputError, Series
+from tissuebench.metrics.table import METRICS, Metrics
 
 
 def columns() -> tuple[str, ...]:

@@ -34,9 +34,9 @@ from tissuebench.metrics.cells import (
     measures,
     shape_functions,
 )
-from tissuebench.metrics.table import METRICS, Metrics
 from tissuebench.metrics.series import InputError, Series
 from tissuebench.metrics.surface import domain, surface_error
+from tissuebench.metrics.table import METRICS, Metrics
 
 BODY_TOLERANCE = 1e-6  # τ: node distances, as a fraction of the reference's extent
 VOLUME_RTOL = 1e-6  # |Ω′_0| within this fraction of |Ω_0|

@@ -25,8 +25,9 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
-from tissuebench.metrics.cells import DIM, FACETS, NAMES
+
 from tissuebench.meshes.errors import UserError
+from tissuebench.metrics.cells import DIM, FACETS, NAMES
 
 # file cell names (XDMF topology types lower-cased, meshio's names) -> (our cell type, nodes
 # per cell)

@@ -60,9 +60,9 @@ from tissuebench.metrics.compare import (
     with_initial_state,
 )
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, Mesh, PointValues, check_same_body
-from tissuebench.metrics.table import METRICS
 from tissuebench.metrics.series import InputError, Series
 from tissuebench.metrics.surface import domain, surface_error
+from tissuebench.metrics.table import METRICS
 from tissuebench.solvers.truth.samples import TruthSamples
 
 GAUSS = 3  # points per direction for the truth's Q1 nodal weights (exact: 2 would do)

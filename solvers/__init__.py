@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from mpi4py import MPI  # noqa: F401 (loads libmpi before PETSc and DOLFINx do)
+
 from tissuebench.solvers import explicit, explicit_lumped, implicit, implicit_lumped, quasi_static
 from tissuebench.solvers.algorithm import Algorithm, Integrator
 from tissuebench.solvers.models import MODELS, get_model

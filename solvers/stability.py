@@ -20,22 +20,21 @@ Units: omega in rad/s, h in s, alpha in 1/s, beta in s.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
 from petsc4py import PETSc
-from slepc4py import SLEPc
-
-import math
 
 import numpy as np
+from slepc4py import SLEPc
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark
 from tissuebench.solvers import ALGORITHMS, get_integrator
-from tissuebench.solvers.simulate import max_nodal_displacement, simulate
 from tissuebench.solvers.algorithm import Algorithm
 from tissuebench.solvers.materials import Material
+from tissuebench.solvers.simulate import max_nodal_displacement, simulate
 from tissuebench.solvers.system import System
 
 

@@ -9,7 +9,6 @@ from mpi4py import MPI
 from tissuebench.meshes import get_benchmark
 from tissuebench.solvers.system import System
 
-
 out, kernel = {}, {}
 for name, size, material in [("block", 8, "MP1"), ("block", 8, "MP2"), ("rod", 2, "MP3")]:
     s = System(get_benchmark(name, mesh_size=size), material)

@@ -7,7 +7,6 @@ import json
 
 from mpi4py import MPI
 
-
 from tissuebench.solvers.system import gather_by_coordinates
 from tissuebench.solvers.truth import case_truth, interior_difference
 

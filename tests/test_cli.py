@@ -5,8 +5,8 @@ import json
 
 import numpy as np
 import pytest
-
 from helpers import tissuebench
+
 from tissuebench.workflows.io.series import read_series
 
 COLUMNS = [

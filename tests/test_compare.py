@@ -11,15 +11,16 @@ from mpi4py import MPI
 import meshio
 import numpy as np
 import pytest
-from dolfinx import fem, io, mesh as dmesh
+from dolfinx import fem, io
+from dolfinx import mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
-
 from helpers import run_script, tissuebench
-from tissuebench.metrics import NAMES, InputError, Metrics
-from tissuebench.workflows.io.series import read_series
+
 from tissuebench.meshes.errors import UserError
-from tissuebench.workflows.grading import compare
+from tissuebench.metrics import NAMES, InputError, Metrics
 from tissuebench.metrics.compare import COLUMNS
+from tissuebench.workflows.grading import compare
+from tissuebench.workflows.io.series import read_series
 
 TIMES = [0.0, 0.1, 0.2, 0.3]
 

@@ -15,9 +15,9 @@ from mpi4py import MPI
 import h5py
 import numpy as np
 import pytest
-
 from helpers import tissuebench
 from test_compare import fields, make_space, mesh_data, shuffled, write_meshio_xdmf, write_pvd
+
 from tissuebench.metrics import InputError, Metrics
 from tissuebench.workflows.grading import grade
 

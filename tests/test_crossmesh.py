@@ -14,7 +14,6 @@ from mpi4py import MPI
 import meshio
 import numpy as np
 import pytest
-
 from helpers import HERE, job
 from test_compare import (
     fields,
@@ -24,12 +23,12 @@ from test_compare import (
     shuffled,
     write_meshio_xdmf,
 )
+
 from tissuebench.metrics import InputError, Metrics
-from tissuebench.workflows.io.series import read_series
 from tissuebench.metrics.compare import function_space, grade_series
-from tissuebench.workflows.grading import grade
 from tissuebench.metrics.series import Series
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.grading import compare, grade
+from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.io.xdmf import write_series
 
 TIMES = np.array([0.0, 0.1, 0.2])

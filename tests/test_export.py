@@ -11,20 +11,19 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-
 from helpers import tissuebench
 from recipe_solver import region_mask as predicate
+
 from tissuebench.meshes.block import needle_motion
-from tissuebench.workflows.io.calculix import read_frd, to_float
+from tissuebench.meshes.errors import UserError
 from tissuebench.metrics.compare import COLUMNS
 from tissuebench.metrics.series import InputError
-from tissuebench.workflows.io.series import read_series
 from tissuebench.solvers.materials import get_material
-from tissuebench.meshes.errors import UserError
-from tissuebench.workflows.posing import build, export, truth_case
-from tissuebench.workflows.io.calculix import inp_text, kinks
-from tissuebench.workflows.io.exported import read_json
 from tissuebench.workflows.grading import compare
+from tissuebench.workflows.io.calculix import inp_text, kinks, read_frd, to_float
+from tissuebench.workflows.io.exported import read_json
+from tissuebench.workflows.io.series import read_series
+from tissuebench.workflows.posing import build, export, truth_case
 
 CCX = shutil.which("ccx")
 needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not on PATH")
@@ -91,7 +90,7 @@ def test_json_round_trips_and_holds_the_benchmark(tmp_path):
         check(list(got.node_sets) == ["needle", "left", "bottom", "top"], "set names")
         for name in got.node_sets:
             check(np.array_equal(got.node_sets[name], built.node_sets[name]), f"set {name}")
-            for a, b in zip(got.motions[name], built.motions[name]):
+            for a, b in zip(got.motions[name], built.motions[name], strict=True):
                 check(np.array_equal(a, b), f"motion {name}")
         check(np.array_equal(got.gravity, [0.0, 0.0]), "gravity")
 
@@ -348,7 +347,7 @@ def test_frd_reader_refuses_in_one_line(tmp_path, cut, message):
     assert "\n" not in str(info.value) and str(info.value).startswith(str(tmp_path / "a.frd"))
 
 
-# --- against CalculiX 2.20 -------------------------------------------------------------------------
+# --- against CalculiX 2.20 -------------------------------------------------------------------
 
 
 @pytest.fixture(scope="module")
@@ -473,8 +472,9 @@ def test_export_and_compare_on_the_command_line(tmp_path):
         f"tissuebench compare {tmp_path / 'rod.reference.xdmf'} {tmp_path / 'rod'}.frd" in r.stdout
     )
     ccx(tmp_path / "rod.inp")
-    r = tissuebench("compare", tmp_path / "rod.reference.xdmf", tmp_path / "rod.frd", "--out",
-                    tmp_path / "graded", "--label", "CalculiX C3D8", "--wall-time", "0.25")  # fmt: skip
+    r = tissuebench("compare", tmp_path / "rod.reference.xdmf", tmp_path / "rod.frd",
+                    "--out", tmp_path / "graded", "--label", "CalculiX C3D8",
+                    "--wall-time", "0.25")  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.splitlines()[0].startswith("candidate rod.frd starts at t = 0.0333333 s = h")
     summary = json.loads((tmp_path / "graded" / "summary.json").read_text())

@@ -11,8 +11,8 @@ import shutil
 
 import numpy as np
 import pytest
-
 from helpers import tissuebench
+
 from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.ranking import Board, pareto

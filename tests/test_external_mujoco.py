@@ -5,9 +5,9 @@ the same tetrahedra, independent of MuJoCo), the departures told apart (integrat
 alpha damping, substeps, geometric nonlinearity), the objectivity of its stiffness damping,
 and a run's files and failures. Serial: MuJoCo runs on one process; about 5 s."""
 
-from mpi4py import MPI
-
 import dataclasses
+
+from mpi4py import MPI
 
 import h5py
 import numpy as np

@@ -12,9 +12,9 @@ import pytest
 
 pytest.importorskip("newton")
 
-from tissuebench.workflows.simulators import newton as nw  # noqa: E402
 from tissuebench.solvers.materials import Material, get_material  # noqa: E402
 from tissuebench.workflows.posing import build, run_reference  # noqa: E402
+from tissuebench.workflows.simulators import newton as nw  # noqa: E402
 
 H = 1 / 30  # the paper's h, s
 LENGTH, HEIGHT, DEPTH = 0.5, 0.25, 0.25  # the rod, m (SPEC section 5)

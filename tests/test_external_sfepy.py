@@ -15,10 +15,10 @@ import pytest
 
 pytest.importorskip("sfepy")
 
-from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
 from tissuebench.solvers.materials import get_material  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.grading import compare  # noqa: E402
+from tissuebench.workflows.posing import build, run_reference  # noqa: E402
+from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
 
 pytestmark = pytest.mark.serial
 
@@ -150,10 +150,10 @@ def test_other_steppers_on_the_block(block, tmp_path):
     """ts.bathe and ts.generalized_alpha (boundary values at their sub-step times) keep the
     needle on its motion at every t_i and stay near the trapezoidal rule; ts.central_difference
     is our `explicit` (consistent mass, C = alpha M + beta K, (M + h C/2) a = ...)."""
+    from tissuebench.meshes import get_benchmark
     from tissuebench.solvers import get_integrator
     from tissuebench.solvers.simulate import simulate
     from tissuebench.solvers.system import System
-    from tissuebench.meshes import get_benchmark
     from tissuebench.workflows.io.xdmf import gather_series, write_series
 
     data, ref = block

@@ -12,9 +12,9 @@ import re
 import shutil
 
 import pytest
-
 from helpers import tissuebench
 from test_cli import curves, statuses
+
 from tissuebench.meshes.benchmark import check_load_scale
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.solvers.materials import LARGEST, SMALLEST, Material, MaterialError

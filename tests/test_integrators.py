@@ -4,8 +4,8 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-
 from helpers import run_script
+
 from tissuebench.meshes import get_benchmark
 from tissuebench.solvers import ALGORITHMS, get_integrator
 from tissuebench.solvers.materials import Material

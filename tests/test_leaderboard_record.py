@@ -12,8 +12,8 @@ import json
 import shutil
 
 import pytest
-
 from helpers import tissuebench
+
 from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.ranking import Board
@@ -137,7 +137,7 @@ def test_rerun_of_one_case_keeps_the_others(recorded, tmp_path, monkeypatch):
     assert (out / "leaderboard.md").read_text().split("## rod-b")[1] == section
     again = record_rows(out, "rod-a")
     assert [r["label"] for r in again] == [r["label"] for r in a]
-    assert any(x["wall_time_s"] != y["wall_time_s"] for x, y in zip(again, a))
+    assert any(x["wall_time_s"] != y["wall_time_s"] for x, y in zip(again, a, strict=True))
 
 
 def test_a_user_folder_of_another_case_is_refused_in_one_line(

@@ -5,11 +5,13 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 import ufl
-from dolfinx import fem, mesh as dmesh
-
+from dolfinx import fem
+from dolfinx import mesh as dmesh
 from helpers import run_script
+
 from tissuebench.meshes.block import block_mesh
-from tissuebench.meshes.rod import SIZE as ROD, rod_mesh
+from tissuebench.meshes.rod import SIZE as ROD
+from tissuebench.meshes.rod import rod_mesh
 from tissuebench.metrics import Metrics, summarize
 
 

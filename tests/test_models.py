@@ -12,8 +12,8 @@ import pytest
 import ufl
 from dolfinx import fem
 from dolfinx.mesh import CellType
-
 from helpers import run_script
+
 from tissuebench.meshes import get_benchmark
 from tissuebench.meshes.benchmark import Benchmark, Constraint, fixed
 from tissuebench.meshes.gmshio import TaggedMesh

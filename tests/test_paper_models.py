@@ -17,10 +17,10 @@ import pytest
 from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import run_label
-from tissuebench.workflows.reports import model_figures as figures_models
+from tissuebench.workflows.commands.paper import cases, model_cases
 from tissuebench.workflows.reports import divergence
 from tissuebench.workflows.reports import large_deformation as part2
-from tissuebench.workflows.commands.paper import cases, model_cases
+from tissuebench.workflows.reports import model_figures as figures_models
 from tissuebench.workflows.study import RunSpec
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms

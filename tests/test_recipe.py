@@ -20,7 +20,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from helpers import job
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -55,9 +54,9 @@ def committed_results(to: Path) -> None:
 
 def tiny_record(results: Path) -> None:
     """When the committed results/ hold no leaderboard record yet: record the rod-MP3 case with
-    our algorithms on its hexahedra only (no simplices, no outside simulator), as `tissuebench leaderboard
-    --rerun` does, so that the recipe's last line renders from a record as it would in a
-    clone. A few seconds instead of the full board's many minutes."""
+    our algorithms on its hexahedra only (no simplices, no outside simulator), as
+    `tissuebench leaderboard --rerun` does, so that the recipe's last line renders from a
+    record as it would in a clone. A few seconds instead of the full board's many minutes."""
     from tissuebench.workflows.commands import leaderboard
     from tissuebench.workflows.ranking import Board
 

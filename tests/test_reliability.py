@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from helpers import job, tissuebench
 from test_cli import curves, statuses
 

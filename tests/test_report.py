@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from tissuebench.metrics.surface import Solid, surface_error
-from tissuebench.workflows.reports import figures
 from tissuebench.workflows.io.tables import write_tip_csv
 from tissuebench.workflows.reports import claims as report
+from tissuebench.workflows.reports import figures
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
 

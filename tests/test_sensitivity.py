@@ -6,8 +6,8 @@ rerun reads the graded meshes back, and a quick run never replaces a full report
 import csv
 
 import pytest
-
 from helpers import tissuebench
+
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows.mesh_sensitivity import MARKER, QUICK
 

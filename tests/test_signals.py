@@ -18,7 +18,6 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-
 from helpers import job, tissuebench
 
 pytestmark = pytest.mark.serial  # signals to this process, and subprocesses

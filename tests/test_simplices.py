@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
-
 from helpers import tissuebench
+
 from tissuebench.meshes import get_benchmark
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.solvers.convergence import difference_orders, space_study

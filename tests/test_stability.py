@@ -7,26 +7,16 @@ import json
 import math
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import numpy as np
 import pytest
 from dolfinx import fem
-from petsc4py import PETSc
-
 from helpers import run_script
+
 from tissuebench.meshes import get_benchmark
+from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import get_integrator
-from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.stability import (
-    critical_dt,
-    explicit_schemes,
-    newmark_schemes,
-    run_check,
-    mode_critical_h,
-    omega_range,
-    stability_limits,
-)
-from tissuebench.solvers.system import System
 from tissuebench.solvers.convergence import (
     METRICS,
     difference_orders,
@@ -34,9 +24,18 @@ from tissuebench.solvers.convergence import (
     orders,
     time_study,
 )
-from tissuebench.workflows.commands import convergence
-from tissuebench.workflows.commands import stability
-from tissuebench.meshes.errors import UserError
+from tissuebench.solvers.materials import get_material
+from tissuebench.solvers.stability import (
+    critical_dt,
+    explicit_schemes,
+    mode_critical_h,
+    newmark_schemes,
+    omega_range,
+    run_check,
+    stability_limits,
+)
+from tissuebench.solvers.system import System
+from tissuebench.workflows.commands import convergence, stability
 
 serial_only = pytest.mark.skipif(
     MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial"

@@ -5,8 +5,8 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 from dolfinx import fem
-
 from helpers import run_script
+
 from tissuebench.meshes import MeshError, get_benchmark
 from tissuebench.meshes.block import block_mesh
 from tissuebench.meshes.rod import rod_mesh

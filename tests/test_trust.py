@@ -1,7 +1,8 @@
 """Nothing read is trusted (issue 23, item 4). The leaderboard reads users' compare folders,
 its own earlier table and the mesh-sensitivity study's report; the study reads the rows it
-saved. Checked: a user folder graded on another case (its reference's fingerprint), and a row with a bad label, status,
-wall time or metric, is left out with one line naming it, before anything runs, and the rest
+saved. Checked: a user folder graded on another case (its reference's fingerprint), and a
+row with a bad label, status, wall time or metric, is left out with one line naming it,
+before anything runs, and the rest
 is written; every text read is escaped in leaderboard.md; a user's label never names a
 simulator; a NaN never ranks; a saved rows file that does not parse is recomputed, serial
 and under mpiexec (the study test is collective)."""
@@ -13,14 +14,14 @@ import math
 import shutil
 from pathlib import Path
 
-import pytest
 from mpi4py import MPI
+
+import pytest
 
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows import ranking
 from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
-from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, markdown, pareto
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     STUDIES,
@@ -28,6 +29,7 @@ from tissuebench.workflows.mesh_sensitivity import (
     leaderboard_boards,
     run_study,
 )
+from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, markdown, pareto
 
 COMM = MPI.COMM_WORLD
 TINY = Study("rod-MP3", "rod", "MP3", 4, end_time=0.2)  # grids 1, 2, 4; 6 steps of 1/30 s

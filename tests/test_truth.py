@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
-
 from helpers import run_script
+
 from tissuebench.solvers.truth import (
     Boundary,
     Problem,

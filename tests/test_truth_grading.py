@@ -13,8 +13,8 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-
 from test_crossmesh import MESHES, ROD, SQUARE, grid, write_xdmf
+
 from tissuebench.metrics.cells import boundary_facets
 from tissuebench.metrics.series import InputError, Series
 from tissuebench.metrics.truth import grade_truth, truth_case

@@ -15,12 +15,12 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-
 from test_crossmesh import MESHES, ROD, write_xdmf
 from test_truth_grading import TIMES, affine, candidate, make_truth
-from tissuebench.workflows.io.series import read_series
+
 from tissuebench.metrics.truth import grade_truth
 from tissuebench.workflows.commands import leaderboard
+from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.ranking import (
     Board,
     Row,

@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
-
 from helpers import run_script, tissuebench
+
 from tissuebench.metrics.cells import boundary_facets, measures
-from tissuebench.solvers.truth import Problem, Truth
-from tissuebench.solvers.truth import store
+from tissuebench.solvers.truth import Problem, Truth, store
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.solver import TruthRun
 from tissuebench.workflows.output import write_owned

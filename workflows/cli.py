@@ -118,8 +118,8 @@ def end(status: int) -> None:
 
     atexit._run_exitfuncs()
     gc.collect()
-    from petsc4py import PETSc
     from mpi4py import MPI
+    from petsc4py import PETSc
 
     PETSc._finalize()
     if not MPI.Is_finalized():
@@ -130,8 +130,8 @@ def end(status: int) -> None:
 
 
 def command_line(argv: list[str] | None = None) -> int:
-    from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
     import petsc4py
+    from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
 
     petsc4py.init([sys.argv[0], "-no_signal_handler"])  # SIGINT and SIGTERM are ours (below)
 

@@ -26,12 +26,12 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.meshes.errors import UserError
 from tissuebench.metrics.compare import Grading, grade_series, summarize
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, load_truth, truth_case
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.truth.samples import TruthSamples
-from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import RunFolder, collective, file_hash, fingerprint
@@ -249,7 +249,7 @@ def write_grading(out: Path, g: Grading, summary: dict) -> None:
         write_metrics_csv(temporary[0], g.times, {g.label: g.curves}, {g.label: g.status})
         plot(temporary[1], g.title, g.times, g.curves)
         temporary[2].write_text(json.dumps(summary, indent=2) + "\n")
-        for tmp, path in zip(temporary, final):
+        for tmp, path in zip(temporary, final, strict=True):
             os.replace(tmp, path)
     finally:
         for tmp in temporary:
@@ -265,8 +265,8 @@ def plot(path, title, times, curves):
     groups = panels()
     fig = Figure(figsize=(7, 2.7 * len(groups)), layout="constrained")
     axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, names in zip(axes, groups):
-        for name, style in zip(names, ["-", "--"]):
+    for ax, names in zip(axes, groups, strict=True):
+        for name, style in zip(names, ["-", "--"], strict=False):
             ax.plot(times, curves[name], style, label=METRICS[name].label)
         if spans_decades(np.concatenate([curves[n] for n in names])):
             ax.set_yscale("log")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mpi4py import MPI
+
 from tissuebench.meshes.errors import UserError
 
 BASE_MEMORY = 400e6  # bytes per process: Python with DOLFINx, PETSc, gmsh, matplotlib, pyvista

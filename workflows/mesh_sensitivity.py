@@ -40,14 +40,14 @@ from tissuebench.metrics.crossmesh import BODY_TOLERANCE, CrossMetrics, Mesh
 from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
 from tissuebench.solvers.simulate import Run, simulate
 from tissuebench.solvers.system import System
-from tissuebench.workflows.ranking import Board, Row, error_keys, finite, fmt, real
+from tissuebench.workflows.io.xdmf import gather_mesh, gather_series, write_series
 from tissuebench.workflows.output import (
     OutputError,
     collective,
     fingerprint,
     write_owned,
 )
-from tissuebench.workflows.io.xdmf import gather_mesh, gather_series, write_series
+from tissuebench.workflows.ranking import Board, Row, error_keys, finite, fmt, real
 
 NAME = "mesh-sensitivity"
 MARKER = "# Mesh sensitivity"

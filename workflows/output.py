@@ -37,13 +37,13 @@ import socket
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from typing import TypeVar
 from pathlib import Path
+from typing import TypeVar
 
 from mpi4py import MPI
 
-from tissuebench.solvers import interrupt
 from tissuebench.meshes.errors import UserError
+from tissuebench.solvers import interrupt
 
 SUMMARY = "summary.json"
 MANIFEST = ".tissuebench.json"  # what we wrote, with hashes

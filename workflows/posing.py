@@ -23,7 +23,7 @@ from tissuebench.workflows.io.calculix import (
     default_element,
     write_inp,
 )
-from tissuebench.workflows.io.exported import ExportError, Exported, write_json, write_mesh
+from tissuebench.workflows.io.exported import Exported, ExportError, write_json, write_mesh
 
 FORMATS = ("json", "inp", "vtu", "msh")
 # procedure -> our reference algorithm (the CalculiX step: dynamic_keyword, STATIC_KEYWORD)
@@ -128,7 +128,7 @@ def truth_case(
     """The JSON's `truth`: the SPEC 10 case this export is (its converged reference, graded by
     `tissuebench compare truth:CASE`), or {"case": None, "why": ...}."""
     from tissuebench.meshes import get_entry
-    from tissuebench.solvers.materials import MATERIALS, FIELDS
+    from tissuebench.solvers.materials import FIELDS, MATERIALS
     from tissuebench.solvers.truth.cases import CASES
 
     entry = get_entry(benchmark)
@@ -257,8 +257,8 @@ def run_reference(
     from tissuebench.solvers.models import run_label
     from tissuebench.solvers.simulate import simulate
     from tissuebench.solvers.system import System
-    from tissuebench.workflows.output import collective
     from tissuebench.workflows.io.xdmf import gather_series, write_series
+    from tissuebench.workflows.output import collective
 
     model, procedure, h, steps, plane = comm.bcast(
         (data.model, data.procedure, data.h, data.steps, data.plane or "strain")

@@ -35,13 +35,12 @@ import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
-
 from tissuebench.meshes import get_entry
 from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import interrupt
-from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.limits import step_count
 from tissuebench.workflows.output import read_summary
+from tissuebench.workflows.simulators import SIMULATORS
 
 E_I = "interior_error"
 E_N = "relative_error"
@@ -483,7 +482,7 @@ def mark_pareto(rows: list[Row]) -> None:
         flags = pareto([(r.cost, ranked_error(r, kind)) for r in ranked])
         for r in rows:
             r.pareto.pop(kind, None)
-        for r, flag in zip(ranked, flags):
+        for r, flag in zip(ranked, flags, strict=True):
             r.pareto[kind] = flag
 
 
@@ -509,7 +508,7 @@ def mark_truth_pareto(rows: list[Row]) -> None:
         flags = pareto([(r.cost, truth_error(r, kind)) for r in ranked])
         for r in rows:
             r.truth_pareto.pop(kind, None)
-        for r, flag in zip(ranked, flags):
+        for r, flag in zip(ranked, flags, strict=True):
             r.truth_pareto[kind] = flag
 
 
@@ -557,7 +556,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     axes = fig.subplots(2 if against_truth else 1, 2, squeeze=False)
     reference = next((r for r in rows if r.reference), None)
     not_shown = [r for r in rows if not r.reference and (r.status != "ok" or r.cost is None)]
-    for ax, kind in zip(axes[0], ("mean", "max")):
+    for ax, kind in zip(axes[0], ("mean", "max"), strict=True):
         _panel(
             ax,
             rows,
@@ -577,7 +576,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
         ax.legend(fontsize=8, loc="best")
     if against_truth:
         band = board.truth_band
-        for ax, kind in zip(axes[1], ("mean", "max")):
+        for ax, kind in zip(axes[1], ("mean", "max"), strict=True):
             _panel(
                 ax,
                 rows,

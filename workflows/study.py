@@ -6,10 +6,10 @@ velocity at every step), and for the case: metrics.csv, summary.json and the fig
 
 import json
 import math
-import time
 import platform
-from dataclasses import asdict, dataclass, field
+import time
 from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
@@ -19,21 +19,21 @@ import numpy as np
 from tqdm import tqdm
 
 from tissuebench.meshes import get_benchmark, get_entry
+from tissuebench.meshes.errors import UserError
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.table import METRICS
-from tissuebench.solvers import REFERENCE, get_integrator
-from tissuebench.solvers import interrupt
+from tissuebench.solvers import REFERENCE, get_integrator, interrupt
+from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.simulate import simulate
-from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System, probe
-from tissuebench.workflows.limits import check as check_limits, estimate, step_count
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
-from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.io.xdmf import gather_series, write_series
+from tissuebench.workflows.limits import check as check_limits
+from tissuebench.workflows.limits import estimate, step_count
+from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
 
 
 class RunSpec(NamedTuple):
@@ -107,12 +107,13 @@ def model_case(
 
 
 def versions() -> dict[str, str]:
-    import dolfinx
+    from importlib.metadata import version
+
     import petsc4py
+
+    import dolfinx
     import gmsh
     import shapely
-
-    from importlib.metadata import version
 
     return {
         "tissuebench": version("tissuebench"),

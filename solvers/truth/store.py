@@ -36,13 +36,13 @@ import numpy as np
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
 
+from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import MIXED_NU, Truth, TruthRun
-from tissuebench.meshes.errors import UserError
 
 SAMPLING = 1  # the version of sample() and compute(): part of the inputs (the cache key)
 QUADRATURE_POINTS = 3  # Gauss-Legendre points per direction (metrics/crossmesh.py's rule)
@@ -105,8 +105,9 @@ def expected_seconds(case: str, quick: bool = False) -> float:
 
 
 def _versions() -> dict:
-    import petsc4py
     from importlib.metadata import version
+
+    import petsc4py
     from petsc4py import PETSc
 
     return {

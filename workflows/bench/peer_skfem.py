@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-
 import skfem
 from skfem.helpers import dot
 from skfem.models.elasticity import linear_elasticity

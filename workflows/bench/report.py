@@ -11,7 +11,6 @@ import platform
 from collections.abc import Iterable
 from pathlib import Path
 
-from tissuebench.workflows.output import write_owned
 from tissuebench.workflows.bench.measure import (
     BUDGET,
     CAPACITY_CASES,
@@ -31,6 +30,7 @@ from tissuebench.workflows.bench.measure import (
     rod_points,
     split_case_label,
 )
+from tissuebench.workflows.output import write_owned
 
 Table = tuple[list[str], list[list]]  # header, rows
 

@@ -4,14 +4,13 @@ UserError). Commands import these; no command imports another command."""
 from __future__ import annotations
 
 import argparse
-
 from typing import NamedTuple
 
 from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
+from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS
 from tissuebench.solvers.options import check_petsc_options
-from tissuebench.meshes.errors import UserError
 
 
 def positive(text: str) -> float:

@@ -28,9 +28,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.bench.measure import measure
 from tissuebench.workflows.bench.report import plot, summary_tables, text_table, write_report
-from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.output import check_writable, write_owned
 
 FILES = ("performance.json", "performance.png", "performance.md")

@@ -5,8 +5,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.workflows.io.series import DEFAULT_FIELDS
 from tissuebench.workflows.grading import compare
+from tissuebench.workflows.io.series import DEFAULT_FIELDS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

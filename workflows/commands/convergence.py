@@ -29,6 +29,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark
+from tissuebench.meshes.errors import UserError
 from tissuebench.metrics import METRICS as ALL_METRICS
 from tissuebench.solvers.convergence import (
     LEVELS,
@@ -42,7 +43,6 @@ from tissuebench.solvers.convergence import (
 )
 from tissuebench.solvers.stability import explicit_schemes, stability_limits
 from tissuebench.solvers.system import System
-from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.output import check_writable, collective, write_owned
 
 # every benchmark at its defaults (time), and on its study meshes with its refinement options

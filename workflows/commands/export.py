@@ -14,9 +14,10 @@ from tissuebench.workflows.commands.arguments import (
     posed,
 )
 from tissuebench.workflows.io.calculix import ELEMENTS
-from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
 from tissuebench.workflows.io.exported import ExportError
-from tissuebench.workflows.limits import check as check_limits, estimate
+from tissuebench.workflows.limits import check as check_limits
+from tissuebench.workflows.limits import estimate
+from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -2,19 +2,18 @@
 outside simulator, run it, and grade it against our reference (workflows/simulators/runner.py)."""
 
 import argparse
-
 from pathlib import Path
 
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS
-from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.commands.arguments import (
     add_common,
     add_posed_options,
     check_common,
     posed,
 )
+from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.simulators.runner import run_external
 
 
@@ -41,8 +40,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from tissuebench.workflows.simulators import get_simulator
     from tissuebench.meshes.errors import UserError
+    from tissuebench.workflows.simulators import get_simulator
 
     comm = MPI.COMM_WORLD
     try:

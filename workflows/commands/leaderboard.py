@@ -19,12 +19,12 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
-from tissuebench.workflows.simulators import get_simulator
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
-from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.commands.arguments import add_common, check_common
+from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
     check_writable,
@@ -34,27 +34,27 @@ from tissuebench.workflows.output import (
     read_summary,
     write_owned,
 )
-from tissuebench.workflows.reports.budget import plot_budget
 from tissuebench.workflows.ranking import (
     E_I,
     E_N,
     Board,
     Row,
     candidate_of,
-    finite,
-    mark_truth_pareto,
     external_rows,
+    finite,
     machine,
     mark_pareto,
+    mark_truth_pareto,
     markdown,
     our_rows,
     plot_case,
-    unit_of,
     truth_error,
+    unit_of,
     user_rows,
     write_csv,
 )
-from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
+from tissuebench.workflows.reports.budget import plot_budget
+from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
 
@@ -292,7 +292,7 @@ def run_board(
             notes.append(str(exc))
             continue
         graded = external_rows(board.name, result)
-        for row, run in zip(graded, result["runs"].values()):
+        for row, run in zip(graded, result["runs"].values(), strict=True):
             row.series, row.series_field = external_series(folder / name, run.get("variant"))
         rows += graded
         for variant, why in (result.get("skipped_variants") or {}).items():
@@ -385,8 +385,8 @@ def summarized(curve) -> tuple[float | None, float | None]:
 def grade_row_truth(truth, row: Row) -> None:
     """Grade a row's own series against the truth (metrics/truth.py), into row.truth; or say in
     row.truth_note why it is not graded. Rank 0 (serial)."""
-    from tissuebench.workflows.io.series import read_series
     from tissuebench.metrics.truth import grade_truth
+    from tissuebench.workflows.io.series import read_series
 
     if not row.series:
         row.truth_note = "no series file of it is recorded"
@@ -727,7 +727,7 @@ def main(args: argparse.Namespace) -> int:
     def write():
         (out / FOLDER).mkdir(parents=True, exist_ok=True)
         record = record_of(boards, rows, notes)
-        for board, case in zip(boards, record["cases"]):
+        for board, case in zip(boards, record["cases"], strict=True):
             png = out / FOLDER / f"{board.name}.png"
             if drawn.get(board.name) == json.dumps(case) and unchanged(png):
                 continue  # drawn of the same rows, and still as drawn: seconds saved per case

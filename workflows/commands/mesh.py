@@ -8,10 +8,11 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
+from tissuebench.meshes.benchmark import shape_options
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.workflows.commands.arguments import add_shape_options
-from tissuebench.meshes.benchmark import shape_options
-from tissuebench.workflows.limits import check as check_limits, estimate
+from tissuebench.workflows.limits import check as check_limits
+from tissuebench.workflows.limits import estimate
 from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
 
 

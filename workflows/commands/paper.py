@@ -19,23 +19,21 @@ schemes on each of their meshes (solvers/stability.py), which says why explicit 
 """
 
 import argparse
-
 from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.solvers import ALGORITHMS, MODELS
-from tissuebench.solvers import interrupt
+from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import paper_truth
-from tissuebench.workflows.reports import paper as report
+from tissuebench.workflows.commands.arguments import add_common, check_common
 from tissuebench.workflows.output import (
     check_owned,
     check_writable,
     collective,
     write_owned,
 )
-from tissuebench.workflows.commands.arguments import add_common, check_common
+from tissuebench.workflows.reports import paper as report
 from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT

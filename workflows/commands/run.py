@@ -2,15 +2,14 @@
 elastic models (SPEC section 8), one material."""
 
 import argparse
-
 from pathlib import Path
 
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
 from tissuebench.solvers import ALGORITHMS, MODELS
-from tissuebench.solvers.models import LINEAR
 from tissuebench.solvers.materials import get_material
+from tissuebench.solvers.models import LINEAR
 from tissuebench.workflows.commands.arguments import (
     add_benchmark_options,
     add_common,

@@ -20,7 +20,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-
 from tissuebench.meshes import BENCHMARKS
 from tissuebench.solvers.stability import (
     DEFAULTS,

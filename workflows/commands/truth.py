@@ -28,6 +28,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.estimate import estimate_error
@@ -43,7 +44,6 @@ from tissuebench.solvers.truth.store import (
     load_cached,
     truth_samples,
 )
-from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 
 if TYPE_CHECKING:

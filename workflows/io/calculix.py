@@ -45,14 +45,14 @@ E_i time-mean 1.7e-4, with or without the initial velocity; the static block: 1e
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from tissuebench.metrics.series import InputError
-from tissuebench.workflows.io.exported import ZERO, ExportError, Exported
+from tissuebench.workflows.io.exported import ZERO, Exported, ExportError
 from tissuebench.workflows.io.fields import FieldData
 
 # .frd element types -> (nodes per element, our cell type or None when not supported)

@@ -68,12 +68,11 @@ import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-
 import numpy as np
 
+from tissuebench.meshes.errors import UserError
 from tissuebench.metrics.series import InputError
 from tissuebench.solvers.materials import Material
-from tissuebench.meshes.errors import UserError
 
 SCHEMA = "tissuebench.benchmark"
 SCHEMA_VERSION = 2
@@ -135,7 +134,8 @@ class Exported:
             nodes = self.node_sets[name]
             for later in names[k + 1 :]:
                 if not all(
-                    np.array_equal(a, b) for a, b in zip(self.motions[name], self.motions[later])
+                    np.array_equal(a, b)
+                    for a, b in zip(self.motions[name], self.motions[later], strict=True)
                 ):
                     nodes = np.setdiff1d(nodes, self.node_sets[later])
             effective[name] = nodes
@@ -391,8 +391,9 @@ def read_json(path: str | Path) -> Exported:
     except UserError as exc:
         raise InputError(f"{path}: {exc}") from None
     except (KeyError, TypeError, ValueError) as exc:
+        said = " ".join(str(exc).split())
         raise InputError(
-            f"{path}: not a valid {SCHEMA} JSON ({type(exc).__name__}: {' '.join(str(exc).split())})"
+            f"{path}: not a valid {SCHEMA} JSON ({type(exc).__name__}: {said})"
         ) from None
     per_cell = {"quadrilateral": 4, "hexahedron": 8}.get(data.cell_type)
     if per_cell is None or cells.ndim != 2 or cells.shape[1] != per_cell:

@@ -18,6 +18,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mpi4py import MPI  # noqa: F401 (loads libmpi before DOLFINx does)
+
 import h5py
 import numpy as np
 from dolfinx.io.utils import cell_perm_vtk

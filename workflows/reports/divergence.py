@@ -12,10 +12,10 @@ from tissuebench.workflows.io.tables import read_curves
 from tissuebench.workflows.reports.common import (
     LARGE_DEFORMATION,
     LOSS_READING,
+    Verdict,
     cases_text,
     loss,
     loss_runs,
-    Verdict,
     place,
 )
 

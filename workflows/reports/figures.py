@@ -12,12 +12,11 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
 from tissuebench.meshes import BENCHMARKS
-from tissuebench.solvers import interrupt
 from tissuebench.metrics.table import METRICS, panels
+from tissuebench.solvers import interrupt
 from tissuebench.workflows.io.tables import spans_decades
 from tissuebench.workflows.reports import model_figures
 from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, CaseView, plot_curve
-
 
 # Plain log tick labels: matplotlib's mathtext parser takes seconds to load. One panel per
 # metric of the table that is no variant, labelled as the table says.

@@ -12,11 +12,11 @@ from tissuebench.solvers.models import run_label
 from tissuebench.workflows.reports.common import (
     LARGE_DEFORMATION,
     LOSS_READING,
+    Verdict,
     loss,
     loss_runs,
     metric_table,
     place,
-    Verdict,
     ratio_text,
     read_deformation,
 )

@@ -23,8 +23,8 @@ paper's figures, which one line per run would crowd with twenty runs:
 from __future__ import annotations
 
 import json
-from typing import TYPE_CHECKING
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -34,6 +34,7 @@ from matplotlib.ticker import LogFormatter, NullLocator
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import LINEAR, split_label
+from tissuebench.workflows.io.tables import spans_decades
 from tissuebench.workflows.reports.style import (
     DIVERGED_FILL,
     HEAT_CMAP,
@@ -43,7 +44,6 @@ from tissuebench.workflows.reports.style import (
     model_style,
     plot_curve,
 )
-from tissuebench.workflows.io.tables import spans_decades
 
 if TYPE_CHECKING:
     from shapely.geometry.base import BaseGeometry
