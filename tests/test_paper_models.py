@@ -13,6 +13,7 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import numpy as np
 import pytest
+from summaries import case_summary, update
 
 from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
@@ -77,7 +78,7 @@ def summary(name, benchmark="block", scale=1.0, width=0.0, means=None, diverged=
     }
     if benchmark == "block":
         s["needle_width"] = width
-    return s
+    return case_summary(s)
 
 
 # --- the cases ----------------------------------------------------------------------------
@@ -166,7 +167,7 @@ def test_error_rows_mark_divergence_in_every_metric_panel():
     s = summary("case", diverged={"implicit+svk": (1.6, "inverted element")})
     times = np.arange(301) * H
     curves = {}
-    for label in s["runs"]:
+    for label in s.runs:
         c = np.linspace(1e-5, 1e-2, 301)
         if label == "implicit+svk":
             c[48:] = np.nan
@@ -239,10 +240,10 @@ def write_metrics(folder, s, growth=None):
     with open(folder / "metrics.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["algorithm", "step", "time", *METRICS, "status"])
-        for label, run in s["runs"].items():
-            last = run["diverged_step"] or 301
+        for label, run in s.runs.items():
+            last = run.diverged_step or 301
             for i in range(301):
-                v = run["interior_error_mean"] if i < last else np.nan
+                v = run.reading("interior_error", "mean") if i < last else np.nan
                 if label in growth and last - 11 < i < last:
                     v *= growth[label] ** (i - (last - 11))
                 w.writerow([label, i, i * H, *([v] * len(METRICS)), "ok"])
@@ -279,7 +280,7 @@ def test_linearisation_is_compared_with_lumping_and_explicit_stepping(tmp_path):
 
 def test_linearisation_not_the_largest_loss_is_said_so(tmp_path):
     large = four_cases()
-    large["rod-s1"]["runs"]["implicit-lumped+neo-hookean"]["interior_error_mean"] = 8e-4
+    update(large["rod-s1"].runs["implicit-lumped+neo-hookean"], interior_error_mean=8e-4)
     text = "\n".join(part2.large_deformation(tmp_path, large))
     assert "linearisation is not the largest of these losses on every case" in text
     assert "The paper's question" not in text
@@ -330,7 +331,7 @@ def test_divergences_give_reasons_times_and_what_the_data_say(tmp_path):
     assert "- **linear**: no run diverged" in text
     v = divergence.judge_linear(large, {})  # no deformation.json: J not judged
     assert v.holds is True and v.checks == {"no run diverged": True} and v.numbers["J"] == {}
-    large["rod-s3"]["runs"]["implicit"].update(status="diverged", diverged_time=0.5)
+    update(large["rod-s3"].runs["implicit"], status="diverged", diverged_time=0.5)
     assert divergence.judge_linear(large, {}).numbers["diverged"] == ["implicit"]
     assert divergence.judge_linear(large, {}).holds is False
 
@@ -364,7 +365,7 @@ def test_deformation_json_gives_the_place_of_the_smallest_j(tmp_path):
             "J_last_step": 0.5,
             "cell_centre_last_step": [0.975, 0.475],
         }
-        for label in large["block-s1"]["runs"]
+        for label in large["block-s1"].runs
     }
     smallest["explicit+neo-hookean"].update(last_step=56, J_last_step=0.02)
     smallest["implicit+corotational"]["J"] = 0.16
@@ -413,12 +414,12 @@ def test_place_names_the_needle_and_the_clamp():
 def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
     large = four_cases()
     s = large["rod-s1"]
-    s["files"] += ["errors.png", "realism.png", "tip_path.png"]
+    s.files += ["errors.png", "realism.png", "tip_path.png"]
     tips = {"linear": [0.034, -0.1223], "neo-hookean": [0.0213, -0.1249]}
     tips["corotational"] = [0.0197, -0.1234]
     for model, tip in tips.items():
-        s["runs"][run_label("quasi-static", model)]["tip_displacement_final"] = [*tip, 0.0]
-    s["runs"]["quasi-static+svk"].update(status="diverged", diverged_step=1, diverged_time=H)
+        update(s.runs[run_label("quasi-static", model)], tip_displacement_final=[*tip, 0.0])
+    update(s.runs["quasi-static+svk"], status="diverged", diverged_step=1, diverged_time=H)
     lines = part2.large_deformation(tmp_path, large)
     assert lines[0].startswith("## Part 2")
     section = "\n".join(part2.model_case_section(tmp_path, "rod-s1", s))

@@ -11,6 +11,7 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import numpy as np
 import pytest
+from summaries import case_summary
 
 from tissuebench.metrics.surface import Solid, surface_error
 from tissuebench.workflows.io.tables import write_tip_csv
@@ -133,15 +134,17 @@ def test_divergence_line_is_at_the_diverged_time_the_legend_gives():
         "material": "MP2",
         "algorithm": "x",
     }
-    summary = {
-        "h": h,
-        "num_dofs": 10,
-        "runs": {
-            "ref": dict(run),
-            "a": dict(run),
-            "b": dict(run, status="diverged", diverged_step=k, diverged_time=k * h),
-        },
-    }
+    summary = case_summary(
+        {
+            "h": h,
+            "num_dofs": 10,
+            "runs": {
+                "ref": dict(run),
+                "a": dict(run),
+                "b": dict(run, status="diverged", diverged_step=k, diverged_time=k * h),
+            },
+        }
+    )
     fig = figures.error_figure(
         SimpleNamespace(name="case", reference="ref"), summary, times, curves
     )
@@ -192,14 +195,16 @@ def write_case(folder, curves, h=1 / 30):
                 float(np.nanmean(v)),
                 float(np.nanmax(v)),
             )
-    return {
-        "reference": next(iter(curves)),
-        "end_time": n * h,
-        "steps": n,
-        "h": h,
-        "mesh_size": 20,
-        "runs": runs,
-    }
+    return case_summary(
+        {
+            "reference": next(iter(curves)),
+            "end_time": n * h,
+            "steps": n,
+            "h": h,
+            "mesh_size": 20,
+            "runs": runs,
+        }
+    )
 
 
 def flat(values, n, first=None):
@@ -230,13 +235,11 @@ def block_curves(n, explicit_first):
 def test_claim_1_states_both_readings_when_they_disagree(tmp_path):
     n = 100  # explicit: E_n 1.0 at step 1, then 0.001: smallest time-mean (0.011), largest maximum
     s = write_case(tmp_path / "block-MP1", block_curves(n, explicit_first=1.0))
-    assert (
-        s["runs"]["explicit"]["relative_error_mean"]
-        < s["runs"]["implicit-lumped"]["relative_error_mean"]
+    assert s.runs["explicit"].reading("relative_error", "mean") < s.runs["implicit-lumped"].reading(
+        "relative_error", "mean"
     )
-    assert (
-        s["runs"]["explicit"]["relative_error_max"]
-        > s["runs"]["quasi-static"]["relative_error_max"]
+    assert s.runs["explicit"].reading("relative_error", "max") > s.runs["quasi-static"].reading(
+        "relative_error", "max"
     )
     text = report.claims(tmp_path, {"block-MP1": s})
     claim1 = text.split("\n2. ")[0]
@@ -329,10 +332,10 @@ def test_claim_4_verdict_is_the_statuses_of_the_four_schemes():
         "explicit-lumped": {"status": "diverged", "diverged_step": 9, "diverged_time": 0.3},
         "quasi-static": {"status": "ok"},
     }
-    v = report.judge_diverge({"runs": runs})
+    v = report.judge_diverge(case_summary({"runs": runs}))
     assert v.claim == 4 and v.holds is True
     runs["explicit-lumped"] = {"status": "ok"}  # one explicit scheme runs: the claim fails
-    v = report.judge_diverge({"runs": runs})
+    v = report.judge_diverge(case_summary({"runs": runs}))
     assert v.holds is False and v.checks == {
         "explicit": True,
         "explicit-lumped": False,
@@ -395,13 +398,14 @@ def test_verdicts_on_the_committed_results_are_those_of_the_committed_readme():
     """The claims judged as data on results/ (the committed summaries and CSV files) agree
     with the verdicts results/README.md states for them, and claim 2's ratio is the one of the
     summaries' time-means."""
-    import json
     from pathlib import Path
+
+    from tissuebench.workflows.summary import read_case_summary
 
     results = Path(__file__).parents[1] / "results"
     readme = (results / "README.md").read_text()
     names = ("block-MP1", "block-MP2", "block-MP2-vs-MP1", "rod-MP3", "rod-MP3-30s")
-    s = {n: json.loads((results / n / "summary.json").read_text()) for n in names}
+    s = {n: read_case_summary(results / n) for n in names}
     verdicts = {v.claim: v for v in report.judge_claims(results, s)}
     assert set(verdicts) == {1, 2, 3, 4, 5, 6}
     assert verdicts[3].holds is None  # block-MP1-40s left out: not judged
@@ -413,12 +417,13 @@ def test_verdicts_on_the_committed_results_are_those_of_the_committed_readme():
         stated = "**holds**" in text
         assert stated != ("**does not hold**" in text)
         assert verdicts[claim].holds is stated, claim
-    runs = s["block-MP1"]["runs"]
+    runs = s["block-MP1"].runs
     e, il, el = (
-        runs[a]["relative_error_mean"] for a in ("explicit", "implicit-lumped", "explicit-lumped")
+        runs[a].reading("relative_error", "mean")
+        for a in ("explicit", "implicit-lumped", "explicit-lumped")
     )
     assert verdicts[2].numbers["ratio"] == pytest.approx(el / (e + il), rel=1e-12)
-    statuses = {a: r["status"] for a, r in s["block-MP2"]["runs"].items()}
+    statuses = {a: r.status for a, r in s["block-MP2"].runs.items()}
     assert verdicts[4].holds is (
         statuses["explicit"] == statuses["explicit-lumped"] == "diverged"
         and statuses["implicit"] == statuses["quasi-static"] == "ok"

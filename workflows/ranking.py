@@ -41,6 +41,7 @@ from tissuebench.solvers import interrupt
 from tissuebench.workflows.limits import step_count
 from tissuebench.workflows.output import read_summary
 from tissuebench.workflows.simulators import SIMULATORS
+from tissuebench.workflows.summary import CaseSummary
 
 E_I = "interior_error"
 E_N = "relative_error"
@@ -112,29 +113,27 @@ class Row:
         return None if self.cost is None or not self.dofs else 1e6 * self.cost / self.dofs
 
 
-def our_rows(case: str, summary: dict) -> list[Row]:
-    """Rows of our runs from a study case's summary.json: the cost is the System's assembly,
-    the integrator's setup and its time loop."""
+def our_rows(case: str, summary: CaseSummary) -> list[Row]:
+    """Rows of our runs from a study case's summary (workflows/summary.py): the cost (s) is
+    the System's assembly, the integrator's setup and its time loop."""
     rows = []
-    for label, run in summary["runs"].items():
-        wall = run.get("wall_time_s")
-        if wall is not None:
-            wall += run.get("setup_time_s", 0.0) + summary.get("system_time_s", 0.0)
+    for label, run in summary.runs.items():
+        wall = run.wall_time_s + (run.setup_time_s + summary.system_time_s)
         rows.append(
             Row(
                 case,
                 label,
                 "tissuebench",
-                f"{run['algorithm']}, {run['model']} (SPEC 3, 8)",
+                f"{run.algorithm}, {run.model} (SPEC 3, 8)",
                 "reference",
-                int(summary["num_dofs"]),
-                run["status"],
-                run.get("reason"),
-                {k: run.get(k) for k in error_keys()},
+                int(summary.num_dofs),
+                run.status,
+                run.reason,
+                {k: run.readings.get(k) for k in error_keys()},
                 wall,
-                float(summary["end_time"]),
+                float(summary.end_time),
                 "this session",
-                reference=label == summary["reference"],
+                reference=label == summary.reference,
             )
         )
     return rows

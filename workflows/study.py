@@ -4,7 +4,6 @@ A case directory holds, for every run `label`: label.xdmf + label.h5 (displaceme
 velocity at every step), and for the case: metrics.csv, summary.json and the figures.
 """
 
-import json
 import math
 import platform
 import time
@@ -33,7 +32,13 @@ from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.io.xdmf import gather_series, write_series
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate, step_count
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint, read_summary
+from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint
+from tissuebench.workflows.summary import (
+    CaseSummary,
+    RunSummary,
+    read_case_summary,
+    write_case_summary,
+)
 
 
 class RunSpec(NamedTuple):
@@ -165,11 +170,11 @@ def run_case(
     comm: MPI.Comm = MPI.COMM_WORLD,
     log: Callable[[str], None] = print,
     force: bool = False,
-) -> dict:
+) -> CaseSummary:
     """Run every run of the case, measure it against the reference and write the case folder
     (whole, or not at all; see workflows/output.py for which folders may be written). Returns
-    the summary dict; complete results of the same inputs are kept and their summary returned
-    unless `force`."""
+    its summary (workflows/summary.py); complete results of the same inputs are kept and their
+    summary returned, with `skipped` set, unless `force`."""
     rank0 = comm.rank == 0
     entry = get_entry(case.benchmark)
     mesh_size = entry.mesh_size if case.mesh_size is None else case.mesh_size
@@ -187,10 +192,11 @@ def run_case(
                     f"{out_dir}: complete results for the same inputs exist, skipped (--force "
                     "reruns)"
                 )
-            return {
-                **comm.bcast(read_summary(folder.path) if rank0 else None, root=0),
-                "skipped": True,
-            }
+            summary = comm.bcast(read_case_summary(folder.path) if rank0 else None, root=0)
+            if summary is None:  # prepare found it complete: it was there a moment ago
+                raise UserError(f"{folder.path}: its summary.json could not be read")
+            summary.skipped = True
+            return summary
         need = estimate(entry.gdim, entry.nodes(mesh_size), n_steps, len(case.runs), comm.size)
         check_limits(need, folder.path.parent, comm)
         if rank0 and not math.isclose(n_steps * h, end_time, rel_tol=1e-9):
@@ -216,7 +222,7 @@ def compute_case(
     materials: dict,
     comm: MPI.Comm,
     log: Callable[[str], None],
-) -> dict:
+) -> CaseSummary:
     """The runs, metrics, figures and summary of a case, written into tmp, which becomes
     target. Collective."""
     rank0 = comm.rank == 0
@@ -290,43 +296,45 @@ def compute_case(
         for name in METRICS:
             curves[label][name][status[label] != "ok"] = np.nan
 
-    summary = {
-        "case": case.name,
-        "description": case.description,
-        "benchmark": case.benchmark,
-        "material": sorted({s.material.name for s in systems.values()}),
-        "reference": case.reference,
-        "mesh_size": bench.mesh_size,
-        "num_dofs": next(iter(systems.values())).num_dofs(),
-        "h": h,
-        "end_time": n_steps * h,
-        "steps": n_steps,
-        "plane": inputs["plane"],
-        **case.options,
-        "solver": case.solver,
-        "system_time_s": system_s,
-        "versions": versions(),
-        "runs": {},
-    }
+    summary = CaseSummary(
+        case=case.name,
+        description=case.description,
+        benchmark=case.benchmark,
+        material=sorted({s.material.name for s in systems.values()}),
+        reference=case.reference,
+        mesh_size=bench.mesh_size,
+        num_dofs=next(iter(systems.values())).num_dofs(),
+        h=h,
+        end_time=n_steps * h,
+        steps=n_steps,
+        plane=inputs["plane"],
+        options=dict(case.options),
+        solver=case.solver,
+        system_time_s=system_s,
+        versions=versions(),
+    )
     for label, (run, material, algorithm, model, setup_s) in results.items():
-        entry = {
-            "algorithm": algorithm,
-            "model": model,
-            "material": systems[material].material.name,
-            "status": run.status,
-            "diverged_step": run.diverged_step,
-            "diverged_time": run.diverged_time,
-            "reason": run.reason,
-            "steps": run.steps,
-            "wall_time_s": run.wall_time_s,
-            "setup_time_s": setup_s,
-        }
+        readings = {}
         for name in METRICS:
             peak, mean = summarize(curves[label][name])
-            entry[f"{name}_max"], entry[f"{name}_mean"] = nan_to_none(peak), nan_to_none(mean)
-        if label in tips:
-            entry["tip_displacement_final"] = tips[label][-1].tolist() if len(tips[label]) else None
-        summary["runs"][label] = entry
+            readings[f"{name}_max"], readings[f"{name}_mean"] = nan_to_none(peak), nan_to_none(mean)
+        summary.runs[label] = RunSummary(
+            algorithm=algorithm,
+            model=model,
+            material=systems[material].material.name,
+            status=run.status,
+            diverged_step=run.diverged_step,
+            diverged_time=run.diverged_time,
+            reason=run.reason,
+            steps=run.steps,
+            wall_time_s=run.wall_time_s,
+            setup_time_s=setup_s,
+            readings=readings,
+            has_probe=label in tips,
+            tip_displacement_final=(
+                tips[label][-1].tolist() if label in tips and len(tips[label]) else None
+            ),
+        )
 
     def write():
         files = [f"{label}.{ext}" for label in results for ext in ("xdmf", "h5")]
@@ -337,11 +345,9 @@ def compute_case(
         from tissuebench.workflows.reports import figures
 
         files += figures.case_figures(tmp, case, summary, times, curves, tips)
-        summary["files"] = ["metrics.csv", *files, SUMMARY]
-        summary["inputs"], summary["fingerprint"] = inputs, fingerprint(inputs)
-        (tmp / SUMMARY).write_text(
-            json.dumps(summary, indent=2) + "\n"
-        )  # last: it marks the folder ours
+        summary.files = ["metrics.csv", *files, SUMMARY]
+        summary.inputs, summary.fingerprint = inputs, fingerprint(inputs)
+        write_case_summary(tmp, summary)  # last: it marks the folder ours
         return summary
 
     summary = collective(comm, write, target)

@@ -57,6 +57,7 @@ from tissuebench.workflows.reports.budget import plot_budget
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
+from tissuebench.workflows.summary import CaseSummary
 
 FOLDER = "leaderboard"
 MARKER = "# Leaderboard: accuracy against cost"
@@ -275,12 +276,12 @@ def run_board(
                 name,
                 folder / name,
                 benchmark=board.benchmark,
-                mesh_size=int(summary["mesh_size"]),
+                mesh_size=summary.mesh_size,
                 options=board.options,
                 material=get_material(board.material),
                 model=board.model,
-                h=float(summary["h"]),
-                steps=int(summary["steps"]),
+                h=summary.h,
+                steps=summary.steps,
                 variants=list(chosen) if chosen is not None else None,
                 solver=solver,
                 petsc=petsc,
@@ -302,7 +303,9 @@ def run_board(
     return rows, notes
 
 
-def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=print) -> list[Row]:
+def simplex_rows(
+    board: Board, case, folder: Path, summary: CaseSummary, comm, log=print
+) -> list[Row]:
     """Our algorithms on the board's mesh size in simplices (the grid split, and gmsh's
     unstructured mesh: SPEC 9), each graded on its own mesh against the board's reference."""
     from dataclasses import replace
@@ -312,7 +315,7 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
     from tissuebench.workflows.grading import grade
     from tissuebench.workflows.mesh_sensitivity import shapes
 
-    reference = folder / "ours" / f"{summary['reference']}.xdmf"
+    reference = folder / "ours" / f"{summary.reference}.xdmf"
     gdim = get_entry(board.benchmark).gdim
     rows = []
     for shape, options in list(shapes(gdim).items())[1:]:
@@ -325,7 +328,7 @@ def simplex_rows(board: Board, case, folder: Path, summary: dict, comm, log=prin
             for metric, curve in graded.curves.items():
                 row.errors[f"{metric}_max"], row.errors[f"{metric}_mean"] = summarize(curve)
             row.label = f"{row.label} ({shape})"
-            row.mesh = f"{shape}: {on_shape['num_dofs'] // gdim} nodes"
+            row.mesh = f"{shape}: {on_shape.num_dofs // gdim} nodes"
             row.reference = False
             row.group = "tissuebench on simplices"
             rows.append(row)

@@ -35,6 +35,7 @@ from tissuebench.workflows.output import (
 )
 from tissuebench.workflows.reports import paper as report
 from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
+from tissuebench.workflows.summary import CaseSummary
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
 
@@ -199,7 +200,9 @@ def main(args: argparse.Namespace) -> int:
     out = args.out
     check_writable(out, comm)
     collective(comm, lambda: check_owned(out / "README.md"))
-    summaries, large, limits = {}, {}, {}
+    summaries: dict[str, CaseSummary] = {}
+    large: dict[str, CaseSummary] = {}
+    limits: dict[str, dict[str, float]] = {}
     first, second = cases(args.solver, args.petsc), model_cases(args.solver, args.petsc)
     truth_cases = paper_truth.cases(args.solver, args.petsc)
     parts = [out / c.name for c in first + truth_cases] + [out / LARGE / c.name for c in second]

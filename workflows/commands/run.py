@@ -93,6 +93,6 @@ def main(args: argparse.Namespace) -> int:
         petsc=args.petsc,
     )
     summary = run_case(case, args.out, force=args.force)
-    if MPI.COMM_WORLD.rank == 0 and not summary.get("skipped"):
+    if MPI.COMM_WORLD.rank == 0 and not summary.skipped:
         print(f"results in {args.out}")
     return 0

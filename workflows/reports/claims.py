@@ -35,6 +35,7 @@ from tissuebench.workflows.reports.common import (
     verdict,
 )
 from tissuebench.workflows.reports.figures import static_label
+from tissuebench.workflows.summary import CaseSummary
 
 ORDER = ("explicit", "implicit-lumped", "explicit-lumped", "quasi-static")
 READING_ORDER = ("mean", "max")
@@ -53,7 +54,7 @@ def roughly(ratio: float) -> bool:
 # --- claim 1 -------------------------------------------------------------------------------
 
 
-def judge_order(b1: dict, times: np.ndarray, curves: dict) -> Verdict:
+def judge_order(b1: CaseSummary, times: np.ndarray, curves: dict) -> Verdict:
     """Claim 1 on each metric and both readings: explicit < both lumped < quasi-static. Holds
     if it holds on the time-mean of every metric. `numbers`: per (metric, reading) the four
     values, and where the maxima over steps 1..N are out of order each run's peak step and the
@@ -92,8 +93,8 @@ def judge_order(b1: dict, times: np.ndarray, curves: dict) -> Verdict:
         "starts": starts,
         "ratios": ratios,
         "times": times,
-        "steps": b1["steps"],
-        "end_time": b1["end_time"],
+        "steps": b1.steps,
+        "end_time": b1.end_time,
     }
     return Verdict(1, all(checks[m, "mean"] for m in METRICS), checks, numbers)
 
@@ -173,7 +174,7 @@ def render_order(v: Verdict) -> list[str]:
 # --- claim 2 -------------------------------------------------------------------------------
 
 
-def judge_sum(b1: dict) -> Verdict:
+def judge_sum(b1: CaseSummary) -> Verdict:
     """Claim 2: explicit-lumped's E_n against explicit + implicit-lumped, as a ratio, on the
     time-mean (the verdict) and the maximum."""
     e, il, el = (mean(b1, a) for a in ("explicit", "implicit-lumped", "explicit-lumped"))
@@ -208,39 +209,39 @@ def render_sum(v: Verdict) -> list[str]:
 # --- claim 3 -------------------------------------------------------------------------------
 
 
-def judge_settle(out: Path, b1: dict, curves: dict, long: dict | None) -> Verdict:
+def judge_settle(out: Path, b1: CaseSummary, curves: dict, long: CaseSummary | None) -> Verdict:
     """Claim 3: E_n at the reported end time, and on the same mesh run on until the motion
     has died out (block-MP1-40s), every scheme against quasi-static. Not judged (holds None)
     without the long run or its XDMF output (`numbers["unread"]` then says why)."""
-    ref, last = b1["reference"], b1["steps"]
+    ref, last = b1.reference, b1.steps
     final = {k: c["relative_error"][last] for k, c in curves.items() if k != ref}
     first = {k: c["relative_error"][1] for k, c in curves.items() if k != ref}
     shrink = all(final[k] < first[k] for k in final)
     numbers: dict[str, Any] = {
         "reference": ref,
-        "end_time": b1["end_time"],
-        "mesh_size": b1["mesh_size"],
+        "end_time": b1.end_time,
+        "mesh_size": b1.mesh_size,
         "final": final,
         "long": bool(long),
     }
     checks = {"shrinks by the end time": shrink}
     if not long:
         return Verdict(3, None, checks, numbers)
-    ten = int(round(b1["end_time"] / long["h"]))
+    ten = int(round(b1.end_time / long.h))
     try:
-        diffs = settled(out / "block-MP1-40s", long, [ten, long["steps"]])
+        diffs = settled(out / "block-MP1-40s", long, [ten, long.steps])
     except (OSError, InputError) as err:  # the XDMF series are not committed: only a fresh run
         numbers["unread"] = str(err)
         return Verdict(3, None, checks, numbers)
-    end = {k: d[long["steps"]] for k, d in diffs.items()}
+    end = {k: d[long.steps] for k, d in diffs.items()}
     at_ten = {k: d[ten] for k, d in diffs.items()}
     worst = max(end.values())
     checks["settled"] = worst < SETTLED
     checks["shrinking"] = all(end[k] < at_ten[k] for k in end)
     numbers.update(
-        long_mesh_size=long["mesh_size"],
-        long_end_time=long["end_time"],
-        time_ten=long["h"] * ten,
+        long_mesh_size=long.mesh_size,
+        long_end_time=long.end_time,
+        time_ten=long.h * ten,
         at_ten=at_ten,
         end=end,
         worst=worst,
@@ -288,18 +289,13 @@ def render_settle(v: Verdict) -> list[str]:
 # --- claim 4 -------------------------------------------------------------------------------
 
 
-def judge_diverge(b2: dict) -> Verdict:
+def judge_diverge(b2: CaseSummary) -> Verdict:
     """Claim 4: on block-MP2 the explicit schemes diverge, implicit and quasi-static run.
     `numbers["runs"]`: {label: (status, divergence step, divergence time in s)}."""
-    runs = b2["runs"]
-    checks = {a: runs[a]["status"] == "diverged" for a in ("explicit", "explicit-lumped")}
-    checks |= {a: runs[a]["status"] == "ok" for a in ("implicit", "quasi-static")}
-    numbers = {
-        "runs": {
-            a: (r["status"], r.get("diverged_step"), r.get("diverged_time"))
-            for a, r in runs.items()
-        }
-    }
+    runs = b2.runs
+    checks = {a: runs[a].status == "diverged" for a in ("explicit", "explicit-lumped")}
+    checks |= {a: runs[a].status == "ok" for a in ("implicit", "quasi-static")}
+    numbers = {"runs": {a: (r.status, r.diverged_step, r.diverged_time) for a, r in runs.items()}}
     return Verdict(4, all(checks.values()), checks, numbers)
 
 
@@ -318,13 +314,13 @@ def render_diverge(v: Verdict) -> list[str]:
 # --- claim 5 -------------------------------------------------------------------------------
 
 
-def judge_material(vs: dict, times: np.ndarray, curves: dict) -> Verdict:
+def judge_material(vs: CaseSummary, times: np.ndarray, curves: dict) -> Verdict:
     """Claim 5 on each metric and both readings: quasi-static MP2 against the smallest MP1
     error, 'far less' as FAR times less. Holds if it holds on the time-mean of every metric.
     `numbers`: per (metric, reading) the values and ratio, and where the maxima fail, the step
     of quasi-static MP2's maximum and the first step from which the maxima clear the margin
     (`starts`)."""
-    mp1 = [k for k in vs["runs"] if k.endswith("-MP1")]
+    mp1 = [k for k in vs.runs if k.endswith("-MP1")]
     qs = "quasi-static-MP2"
     rows, checks, starts = {}, {}, {}
     for m in METRICS:
@@ -362,7 +358,7 @@ def judge_material(vs: dict, times: np.ndarray, curves: dict) -> Verdict:
         "starts": starts,
         "mp1": mp1,
         "times": times,
-        "steps": vs["steps"],
+        "steps": vs.steps,
     }
     if not all(checks[m, "max"] for m in METRICS):
         smallest = np.nanmin([curves[a]["relative_error"][1:] for a in mp1], axis=0)
@@ -437,17 +433,17 @@ def render_material(v: Verdict) -> list[str]:
 # --- claim 6 -------------------------------------------------------------------------------
 
 
-def judge_rod(out: Path, rod: dict, long: dict | None) -> Verdict:
+def judge_rod(out: Path, rod: CaseSummary, long: CaseSummary | None) -> Verdict:
     """Claim 6 on the reported 10 s run (first crossing, the quasi-static minimum) and on the
     30 s run (the oscillation). Holds if the tip overshoots, first crosses within ABOUT of the
     paper's 4.2 s, the quasi-static E_n is smallest within a step of that, and (30 s run) the
     tip oscillates about the static deflection."""
     tips = read_tips(out / "rod-MP3" / "tip.csv")
     level, cross = tip_crossings(tips, rod)
-    t, y = tips[rod["reference"]]
+    t, y = tips[rod.reference]
     overshoot = (level - y.min()) / abs(level)
     times, curves = read_curves(out / "rod-MP3" / "metrics.csv")
-    qs = curves[static_label(rod, rod["reference"])]["relative_error"]
+    qs = curves[static_label(rod, rod.reference)]["relative_error"]
     interior = np.flatnonzero((qs[1:-1] < qs[:-2]) & (qs[1:-1] < qs[2:])) + 1
     minimum = int(interior[0]) if len(interior) else None
     tmin = times[minimum] if minimum is not None else None
@@ -457,7 +453,7 @@ def judge_rod(out: Path, rod: dict, long: dict | None) -> Verdict:
         "crossings": cross,
         "overshoot": overshoot,
         "lowest_time": t[np.argmin(y)],
-        "end_time": rod["end_time"],
+        "end_time": rod.end_time,
         "minimum_step": minimum,
         "minimum_time": tmin,
         "minimum": qs[minimum] if minimum is not None else np.nan,
@@ -467,12 +463,12 @@ def judge_rod(out: Path, rod: dict, long: dict | None) -> Verdict:
     if long:
         ltips = read_tips(out / "rod-MP3-30s" / "tip.csv")
         llevel, lcross = tip_crossings(ltips, long)
-        lt, ly = ltips[long["reference"]]
+        lt, ly = ltips[long.reference]
         ext = excursions(lt, ly, llevel, lcross)
         pairs = list(zip(ext[:-1], ext[1:], strict=True))
         oscillates = len(lcross) >= 2 and all(a[1] * b[1] < 0 for a, b in pairs)
         numbers["long"] = {
-            "end_time": long["end_time"],
+            "end_time": long.end_time,
             "level": llevel,
             "crossings": lcross,
             "half_periods": np.diff(lcross),
@@ -482,7 +478,7 @@ def judge_rod(out: Path, rod: dict, long: dict | None) -> Verdict:
     checks = {
         "overshoots": bool(overshoot > 0),
         "near 4.2 s": first is not None and abs(first - PAPER_CROSSING) <= ABOUT * PAPER_CROSSING,
-        "at the minimum": first is not None and tmin is not None and abs(tmin - first) <= rod["h"],
+        "at the minimum": first is not None and tmin is not None and abs(tmin - first) <= rod.h,
         "oscillates": bool(oscillates),
     }
     return Verdict(6, all(checks.values()), checks, numbers)
@@ -557,7 +553,7 @@ def fmt_step(step: int | None) -> str:
 # --- all claims ----------------------------------------------------------------------------
 
 
-def judge_claims(out: Path, s: dict) -> list[Verdict]:
+def judge_claims(out: Path, s: dict[str, CaseSummary]) -> list[Verdict]:
     """The verdicts of the claims of SPEC section 7 that the study's cases `s` ({case:
     summary}) and their files in `out` let us judge, in the claims' order."""
     out = Path(out)
@@ -591,6 +587,6 @@ def render_claims(verdicts: list[Verdict]) -> str:
     return "\n".join(line for v in verdicts for line in RENDER[v.claim](v))
 
 
-def claims(out: Path, s: dict) -> str:
+def claims(out: Path, s: dict[str, CaseSummary]) -> str:
     """Each claim of SPEC section 7 with our numbers and a plain verdict (markdown)."""
     return render_claims(judge_claims(out, s))

@@ -18,6 +18,7 @@ import numpy as np
 from tissuebench.metrics.table import METRICS as TABLE
 from tissuebench.solvers.models import run_label, split_label
 from tissuebench.workflows.reports.figures import crossings, static_label
+from tissuebench.workflows.summary import CaseSummary
 
 # the claims are read on the metrics of the table that are no variant (E_n, E_s, E_i)
 METRICS = tuple(name for name, m in TABLE.items() if m.variant_of is None)
@@ -52,36 +53,38 @@ def fmt(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def metric_table(summary: dict) -> str:
+def metric_table(summary: CaseSummary) -> str:
     """A case's runs: status, and each metric of the table's max and time-mean, wall time (s)."""
-    names = [n for n in TABLE if f"{n}_max" in next(iter(summary["runs"].values()))]
+    names = [n for n in TABLE if next(iter(summary.runs.values())).has_reading(n)]
     head = "| run | status | " + " | ".join(
         f"{TABLE[n].symbol} max | {TABLE[n].symbol} mean" for n in names
     )
     head += " | wall time (s) |"
     lines = [head, "|" + "---|" * (3 + 2 * len(names))]
-    for label, run in summary["runs"].items():
+    for label, run in summary.runs.items():
         status = (
-            run["status"]
-            if run["status"] == "ok"
-            else f"diverged at step {run['diverged_step']} (t = {run['diverged_time']:.3g} s)"
+            run.status
+            if run.status == "ok"
+            else f"diverged at step {run.diverged_step} (t = {run.diverged_time:.3g} s)"
         )
-        cells = " | ".join(f"{fmt(run[n + '_max'])} | {fmt(run[n + '_mean'])}" for n in names)
-        ref = " (reference)" if label == summary["reference"] else ""
-        lines.append(f"| {label}{ref} | {status} | {cells} | {run['wall_time_s']:.2f} |")
+        cells = " | ".join(
+            f"{fmt(run.reading(n, 'max'))} | {fmt(run.reading(n, 'mean'))}" for n in names
+        )
+        ref = " (reference)" if label == summary.reference else ""
+        lines.append(f"| {label}{ref} | {status} | {cells} | {run.wall_time_s:.2f} |")
     return "\n".join(lines)
 
 
 def value(
-    summary: dict, label: str, metric: str = "relative_error", reading: str = "mean"
+    summary: CaseSummary, label: str, metric: str = "relative_error", reading: str = "mean"
 ) -> float:
     """A run's summary of a metric, as summary.json holds it (`<metric>_mean`, `<metric>_max`),
     in the metric's unit; NaN where it holds none."""
-    v = summary["runs"][label][f"{metric}_{reading}"]
+    v = summary.runs[label].reading(metric, reading)
     return np.nan if v is None else v
 
 
-def mean(summary: dict, label: str, metric: str = "relative_error") -> float:
+def mean(summary: CaseSummary, label: str, metric: str = "relative_error") -> float:
     """A run's time-mean of a metric (the metric's unit)."""
     return value(summary, label, metric, "mean")
 
@@ -113,18 +116,18 @@ def peak_from(curve: np.ndarray, start: int) -> tuple[float, int | None]:
 # --- the runs' files ------------------------------------------------------------------------
 
 
-def settled(folder: Path, summary: dict, steps: list[int] | None = None) -> dict:
+def settled(folder: Path, summary: CaseSummary, steps: list[int] | None = None) -> dict:
     """{label: {step: ||u - u_qs|| / ||u_qs||}}: each run of the case against its quasi-static
     run at the given steps (default: the last), Euclidean norms of all nodal displacement
     components, from the runs' XDMF output. Runs that diverged are left out."""
     from tissuebench.workflows.io.series import read_series
 
-    static = static_label(summary, summary["reference"])
-    steps = [summary["steps"]] if steps is None else steps
+    static = static_label(summary, summary.reference)
+    steps = [summary.steps] if steps is None else steps
     us = read_series(folder / f"{static}.xdmf").displacements
     result = {}
-    for label, run in summary["runs"].items():
-        if label == static or run["status"] != "ok":
+    for label, run in summary.runs.items():
+        if label == static or run.status != "ok":
             continue
         u = read_series(folder / f"{label}.xdmf").displacements
         result[label] = {
@@ -133,9 +136,9 @@ def settled(folder: Path, summary: dict, steps: list[int] | None = None) -> dict
     return result
 
 
-def tip_crossings(tips: dict, summary: dict) -> tuple[float, list[float]]:
+def tip_crossings(tips: dict, summary: CaseSummary) -> tuple[float, list[float]]:
     """(static tip deflection in m, the reference tip's crossings of it in s, interpolated)."""
-    ref = summary["reference"]
+    ref = summary.reference
     static = static_label(summary, ref)
     level = float(tips[static][1][-1])
     t, y = tips[ref]
@@ -168,10 +171,10 @@ def read_deformation(folder: Path) -> dict | None:
         return None
 
 
-def loss_runs(summary: dict) -> dict[str, str]:
+def loss_runs(summary: CaseSummary) -> dict[str, str]:
     """{what is lost: run label} against the reference (ALGORITHM+MODEL): each run differs from
     the reference in one respect (or two, for lumped explicit stepping)."""
-    algorithm, model = split_label(summary["reference"])
+    algorithm, model = split_label(summary.reference)
     return {
         "linearisation": run_label(algorithm, "linear"),
         "svk": run_label(algorithm, "svk"),
@@ -183,14 +186,14 @@ def loss_runs(summary: dict) -> dict[str, str]:
     }
 
 
-def loss(summary: dict, label: str) -> tuple[float, str | None, float | None]:
+def loss(summary: CaseSummary, label: str) -> tuple[float, str | None, float | None]:
     """(time-mean E_i in m, status, divergence time in s) of a run; (nan, None, None) if it is
     absent."""
-    run = summary["runs"].get(label)
+    run = summary.runs.get(label)
     if run is None:
         return np.nan, None, None
-    v = run.get(f"{LOSS_READING}_mean")
-    return (np.nan if v is None else float(v)), run["status"], run.get("diverged_time")
+    v = run.readings.get(f"{LOSS_READING}_mean")
+    return (np.nan if v is None else float(v)), run.status, run.diverged_time
 
 
 def ratio_text(r: float) -> str:
@@ -204,18 +207,18 @@ def cases_text(names: Iterable[str]) -> str:
     return " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
 
 
-def place(summary: dict, centre: Sequence[float]) -> str:
+def place(summary: CaseSummary, centre: Sequence[float]) -> str:
     """Where a cell centre (m) lies, in words, from the benchmark's geometry (SPEC sections 4,
     5)."""
     x = centre
     text = "(" + ", ".join(f"{c:.3g}" for c in x) + ") m"
-    if summary["benchmark"] == "block":  # the needle: x = 1, |y - 0.5| <= w/2
-        w = summary.get("needle_width", 0) or 0
+    if summary.benchmark == "block":  # the needle: x = 1, |y - 0.5| <= w/2
+        w = summary.option("needle_width", 0) or 0
         d = np.hypot(1 - x[0], max(abs(x[1] - 0.5) - w / 2, 0.0))
-        if d < 1.5 / summary["mesh_size"]:
+        if d < 1.5 / summary.mesh_size:
             text += ", beside the needle"
-    elif summary["benchmark"] == "rod":  # clamped at x = 0; height 0.25 m over n cells
-        cell = 0.25 / summary["mesh_size"]
+    elif summary.benchmark == "rod":  # clamped at x = 0; height 0.25 m over n cells
+        cell = 0.25 / summary.mesh_size
         if x[0] < cell:
             text += ", in the first layer of cells at the clamped face x = 0"
             if x[1] < cell:

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.solvers.models import split_label
 from tissuebench.workflows.io.tables import read_curves
 from tissuebench.workflows.reports.common import (
     LARGE_DEFORMATION,
@@ -18,6 +17,7 @@ from tissuebench.workflows.reports.common import (
     loss_runs,
     place,
 )
+from tissuebench.workflows.summary import CaseSummary, RunSummary
 
 
 def growth(curve: np.ndarray, steps: int = 10) -> tuple[float, int | None, int | None]:
@@ -29,19 +29,17 @@ def growth(curve: np.ndarray, steps: int = 10) -> tuple[float, int | None, int |
     return float(curve[last] / curve[last - steps]), last - steps, last
 
 
-def diverged_runs(large: dict) -> list[tuple[str, str, dict]]:
+def diverged_runs(large: dict[str, CaseSummary]) -> list[tuple[str, str, RunSummary]]:
     """[(case, label, run)] of every run of the large-deformation cases that diverged, by case
     and time."""
     result = []
     for name, s in large.items():
-        runs = [(label, r) for label, r in s["runs"].items() if r["status"] == "diverged"]
-        result += [
-            (name, label, r) for label, r in sorted(runs, key=lambda x: x[1]["diverged_time"])
-        ]
+        runs = [(label, r) for label, r in s.runs.items() if r.status == "diverged"]
+        result += [(name, label, r) for label, r in sorted(runs, key=lambda x: x[1].diverged_time)]
     return result
 
 
-def j_text(s: dict, d: dict | None, label: str) -> str:
+def j_text(s: CaseSummary, d: dict | None, label: str) -> str:
     """A run's smallest J at its last kept step, and where, from deformation.json."""
     j = d["smallest_J"].get(label) if d else None
     if not j:
@@ -49,12 +47,14 @@ def j_text(s: dict, d: dict | None, label: str) -> str:
     if j["last_step"] == 0:
         return "none kept after step 0"
     return (
-        f"{j['J_last_step']:.3g} at t = {j['last_step'] * s['h']:.3g} s, in the cell at "
+        f"{j['J_last_step']:.3g} at t = {j['last_step'] * s.h:.3g} s, in the cell at "
         f"{place(s, j['cell_centre_last_step'])}"
     )
 
 
-def divergences(out: Path, large: dict, deformation: dict, limits: dict) -> list[str]:
+def divergences(
+    out: Path, large: dict[str, CaseSummary], deformation: dict, limits: dict
+) -> list[str]:
     """Which runs diverged, the reasons summary.json gives, and what the data say about why."""
     runs = diverged_runs(large)
     lines = ["### Which combinations diverge, and why", ""]
@@ -73,13 +73,13 @@ def divergences(out: Path, large: dict, deformation: dict, limits: dict) -> list
     for name, label, r in runs:
         s = large[name]
         lines.append(
-            f"| {name} | {label} | t = {r['diverged_time']:.3g} s | {r['reason'] or 'n/a'} | "
+            f"| {name} | {label} | t = {r.diverged_time:.3g} s | {r.reason or 'n/a'} | "
             f"{j_text(s, deformation.get(name), label)} |"
         )
     lines.append("")
     models = {}
     for name, label, r in runs:
-        models.setdefault(r.get("model", split_label(label)[1]), []).append((name, label, r))
+        models.setdefault(r.model, []).append((name, label, r))
     for model, items in models.items():
         if model == "svk":
             lines.append(why_svk(large, items, deformation))
@@ -96,39 +96,39 @@ def divergences(out: Path, large: dict, deformation: dict, limits: dict) -> list
     return lines
 
 
-def count_text(large: dict, model: str, items: list) -> str:
+def count_text(large: dict[str, CaseSummary], model: str, items: list) -> str:
     per_case = []
     for name, s in large.items():
-        total = [label for label, r in s["runs"].items() if r.get("model") == model]
+        total = [label for label, r in s.runs.items() if r.model == model]
         failed = [label for n, label, _ in items if n == name]
         if total:
             per_case.append(f"{len(failed)} of {len(total)} on {name}")
     return ", ".join(per_case)
 
 
-def why_svk(large: dict, items: list, deformation: dict) -> str:
+def why_svk(large: dict[str, CaseSummary], items: list, deformation: dict) -> str:
     text = f"- **svk** diverged {count_text(large, 'svk', items)}."
     for name in dict.fromkeys(n for n, _, _ in items):
         s = large[name]
         case_items = [(label, r) for n, label, r in items if n == name]
-        newton = [(label, r) for label, r in case_items if "Newton" in (r["reason"] or "")]
-        inverted = [(label, r) for label, r in case_items if "inverted" in (r["reason"] or "")]
+        newton = [(label, r) for label, r in case_items if "Newton" in (r.reason or "")]
+        inverted = [(label, r) for label, r in case_items if "inverted" in (r.reason or "")]
         text += f" On {name}"
         if newton:
             label, r = newton[0]
             text += (
-                f" `{label}` found no static solution at t = {r['diverged_time']:.3g} s "
+                f" `{label}` found no static solution at t = {r.diverged_time:.3g} s "
                 "(Newton failed)"
             )
             if inverted:
-                later = sum(r["diverged_time"] < q["diverged_time"] for _, q in inverted)
+                later = sum(r.diverged_time < q.diverged_time for _, q in inverted)
                 text += (
                     ", before any dynamic svk run stopped"
                     if later == len(inverted)
                     else f", before {later} of the {len(inverted)} dynamic svk runs stopped"
                 )
         if inverted:
-            t = [q["diverged_time"] for _, q in inverted]
+            t = [q.diverged_time for _, q in inverted]
             d = deformation.get(name)
             js = [d["smallest_J"][lab] for lab, _ in inverted if d and lab in d["smallest_J"]]
             where = {place(s, j["cell_centre_last_step"]) for j in js}
@@ -149,7 +149,7 @@ def why_svk(large: dict, items: list, deformation: dict) -> str:
     ran = [
         n
         for n, s in large.items()
-        if all(r["status"] == "ok" for r in s["runs"].values() if r.get("model") == "svk")
+        if all(r.status == "ok" for r in s.runs.values() if r.model == "svk")
     ]
     if ran:
         text += f" Every svk run ran on {', '.join(ran)}."
@@ -167,21 +167,23 @@ def why_svk(large: dict, items: list, deformation: dict) -> str:
     return text
 
 
-def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits: dict) -> str:
+def why_explicit(
+    out: Path, large: dict[str, CaseSummary], items: list, deformation: dict, limits: dict
+) -> str:
     """The neo-Hookean runs that diverged (explicit ones, so far): the linear critical step of
     their scheme on the case's mesh against h, and how their error grew before they stopped."""
     model = "neo-hookean"
     by_algorithm = {}
     for name, s in large.items():
-        for label, r in s["runs"].items():
-            if r.get("model") == model and r["algorithm"] != "quasi-static":
-                by_algorithm.setdefault(r["algorithm"], {"diverged": [], "ok": []})
-                key = "ok" if r["status"] == "ok" else "diverged"
-                by_algorithm[r["algorithm"]][key].append((name, r))
+        for label, r in s.runs.items():
+            if r.model == model and r.algorithm != "quasi-static":
+                by_algorithm.setdefault(r.algorithm, {"diverged": [], "ok": []})
+                key = "ok" if r.status == "ok" else "diverged"
+                by_algorithm[r.algorithm][key].append((name, r))
     failed = {a: v for a, v in by_algorithm.items() if v["diverged"]}
     text = f"- **{model}**: " + "; ".join(
         f"`{a}+{model}` diverged on "
-        + cases_text(f"{n} (t = {r['diverged_time']:.3g} s)" for n, r in v["diverged"])
+        + cases_text(f"{n} (t = {r.diverged_time:.3g} s)" for n, r in v["diverged"])
         + (f" and ran on {cases_text(n for n, _ in v['ok'])}" if v["ok"] else "")
         for a, v in failed.items()
     )
@@ -190,7 +192,7 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
         text += "; " + ", ".join(f"`{a}+{model}`" for a in ran) + " ran on every case"
     text += "."
     explicit = {
-        name: {a: s["h"] / h for a, h in (limits.get(name) or {}).items() if np.isfinite(h)}
+        name: {a: s.h / h for a, h in (limits.get(name) or {}).items() if np.isfinite(h)}
         for name, s in large.items()
     }
     explicit = {n: v for n, v in explicit.items() if v}
@@ -206,9 +208,9 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
             + "."
         )
         margins = [
-            f"{100 * (1 / explicit[n][r['algorithm']] ** 2 - 1):.2g} % for {r['algorithm']} on {n}"
+            f"{100 * (1 / explicit[n][r.algorithm] ** 2 - 1):.2g} % for {r.algorithm} on {n}"
             for n, label, r in items
-            if r["algorithm"] in explicit.get(n, {})
+            if r.algorithm in explicit.get(n, {})
         ]
         if margins:
             text += (
@@ -222,10 +224,8 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
         if np.isfinite(g):
             collapse = [
                 explicit_growth(out, name, other)
-                for other, q in large[name]["runs"].items()
-                if q["status"] == "diverged"
-                and "inverted" in (q["reason"] or "")
-                and q.get("model") != model
+                for other, q in large[name].runs.items()
+                if q.status == "diverged" and "inverted" in (q.reason or "") and q.model != model
             ]
             collapse = [c for c in collapse if np.isfinite(c)]
             grown.append(
@@ -244,7 +244,7 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
     jumps = []
     for n, label, r in items:
         d = deformation.get(n)
-        after = reason_j(r["reason"])
+        after = reason_j(r.reason)
         if d and label in d["smallest_J"] and after is not None:
             j = d["smallest_J"][label]
             jumps.append(
@@ -271,16 +271,16 @@ def why_explicit(out: Path, large: dict, items: list, deformation: dict, limits:
 INSTABILITY = "the explicit neo-Hookean runs diverged by an instability of the step"
 
 
-def judge_instability(out: Path, large: dict, items: list) -> Verdict:
+def judge_instability(out: Path, large: dict[str, CaseSummary], items: list) -> Verdict:
     """Did the diverged runs `items` ([(case, label, run)]) stop by an instability of the
     step rather than a collapse of the material? It holds if, on their cases, the reference
     and explicit-lumped with the same model ran, and each run's E_i grew more than twice over
     its last 10 kept steps (geometric growth). `numbers["growth"]`: {(case, label): factor}."""
     cases = list(dict.fromkeys(n for n, _, _ in items))
     stable = all(
-        large[n]["runs"].get(label, {}).get("status") == "ok"
+        getattr(large[n].runs.get(label), "status", None) == "ok"
         for n in cases
-        for label in (large[n]["reference"], loss_runs(large[n])["lumped explicit stepping"])
+        for label in (large[n].reference, loss_runs(large[n])["lumped explicit stepping"])
     )
     grown = {(n, label): explicit_growth(out, n, label) for n, label, _ in items}
     checks = {
@@ -308,12 +308,12 @@ def explicit_growth(out: Path, name: str, label: str) -> float:
         return np.nan
 
 
-def why_corotational(large: dict, items: list, deformation: dict) -> str:
+def why_corotational(large: dict[str, CaseSummary], items: list, deformation: dict) -> str:
     text = "- **corotational** diverged " + count_text(large, "corotational", items) + ":"
     for name in dict.fromkeys(n for n, _, _ in items):
         s = large[name]
         case_items = [(label, r) for n, label, r in items if n == name]
-        t = [r["diverged_time"] for _, r in case_items]
+        t = [r.diverged_time for _, r in case_items]
         text += f" on {name} " + ", ".join(f"`{label}`" for label, _ in case_items)
         text += f" inverted a cell at t = {min(t):.3g} to {max(t):.3g} s"
         d = deformation.get(name)
@@ -325,9 +325,7 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
             }
             text += f" (at {' or '.join(sorted(where))})"
         ok = [
-            label
-            for label, r in s["runs"].items()
-            if r.get("model") == "corotational" and r["status"] == "ok"
+            label for label, r in s.runs.items() if r.model == "corotational" and r.status == "ok"
         ]
         if ok:
             text += "; " + ", ".join(f"`{label}`" for label in ok) + " ran"
@@ -339,7 +337,7 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
         label = loss_runs(s)["corotational"]
         if name in {n for n, _, _ in items} or not d or label not in d["smallest_J"]:
             continue
-        jc, jr = d["smallest_J"][label], d["smallest_J"].get(s["reference"])
+        jc, jr = d["smallest_J"][label], d["smallest_J"].get(s.reference)
         if jr:
             text += (
                 f" On {name}, where it ran, `{label}` reaches J = {jc['J']:.3g} against the "
@@ -352,9 +350,9 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
         if loss(s, loss_runs(s)["corotational"])[1] == "ok"
         and deformation.get(n)
         and loss_runs(s)["corotational"] in deformation[n]["smallest_J"]
-        and s["reference"] in deformation[n]["smallest_J"]
+        and s.reference in deformation[n]["smallest_J"]
         and deformation[n]["smallest_J"][loss_runs(s)["corotational"]]["J"]
-        < deformation[n]["smallest_J"][s["reference"]]["J"]
+        < deformation[n]["smallest_J"][s.reference]["J"]
     ]
     text += (
         " The corotational element is linear elasticity in a rotated frame: it corrects "
@@ -372,15 +370,15 @@ def why_corotational(large: dict, items: list, deformation: dict) -> str:
 LINEAR_NEVER = "no linear run diverged or inverted a cell"
 
 
-def judge_linear(large: dict, deformation: dict) -> Verdict:
+def judge_linear(large: dict[str, CaseSummary], deformation: dict) -> Verdict:
     """The linear model: no run diverged, and none inverted a cell (its smallest J, from
     deformation.json, which the solver does not check). `numbers`: the linear runs that
     diverged, and {case: the smallest J of its linear runs}."""
     failed = [
         label
         for s in large.values()
-        for label, r in s["runs"].items()
-        if r.get("model", "linear") == "linear" and r["status"] != "ok"
+        for label, r in s.runs.items()
+        if r.model == "linear" and r.status != "ok"
     ]
     js = {}
     for name, s in large.items():
@@ -389,8 +387,8 @@ def judge_linear(large: dict, deformation: dict) -> Verdict:
             continue
         values = [
             d["smallest_J"][label]["J"]
-            for label, r in s["runs"].items()
-            if r.get("model", "linear") == "linear" and label in d["smallest_J"]
+            for label, r in s.runs.items()
+            if r.model == "linear" and label in d["smallest_J"]
         ]
         if values:
             js[name] = min(values)
@@ -417,6 +415,6 @@ def render_linear(v: Verdict) -> str:
     return text + "."
 
 
-def linear_never(large: dict, deformation: dict) -> str:
+def linear_never(large: dict[str, CaseSummary], deformation: dict) -> str:
     """The linear model: no run diverged, and its smallest J, which the solver does not check."""
     return render_linear(judge_linear(large, deformation))

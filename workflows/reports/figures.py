@@ -17,6 +17,7 @@ from tissuebench.solvers import interrupt
 from tissuebench.workflows.io.tables import spans_decades
 from tissuebench.workflows.reports import model_figures
 from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, CaseView, plot_curve
+from tissuebench.workflows.summary import CaseSummary
 
 # Plain log tick labels: matplotlib's mathtext parser takes seconds to load. One panel per
 # metric of the table that is no variant, labelled as the table says.
@@ -25,7 +26,7 @@ LONG_RUN = 10.0  # s: deformed.png shows (0, 1, 2, 10) s within the run, and its
 
 @interrupt.drawing
 def case_figures(
-    out: Path, case: CaseView, summary: dict, times: np.ndarray, curves: dict, tips: dict
+    out: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict, tips: dict
 ) -> list[str]:
     """Write the case's figures into out; return their file names. A case with elastic models
     other than linear (SPEC section 8) has its own figures (workflows/reports/model_figures.py).
@@ -35,8 +36,8 @@ def case_figures(
     files = [error_curves(out / "errors.png", case, summary, times, curves)]
     if tips:
         files.append(tip_history(out / "tip.png", case, summary, times, tips))
-    reference = summary["runs"][case.reference]
-    if reference["status"] == "ok" or reference["diverged_step"]:  # a shape to draw
+    reference = summary.runs[case.reference]
+    if reference.status == "ok" or reference.diverged_step:  # a shape to draw
         files += deformed_shapes(out, case, summary)
     return files
 
@@ -62,14 +63,14 @@ def crossings(t: np.ndarray, y: np.ndarray, level: float) -> list[float]:
     return result
 
 
-def static_label(summary: dict, reference: str) -> str | None:
+def static_label(summary: CaseSummary, reference: str) -> str | None:
     """The quasi-static run on the reference's material, or None."""
-    runs = summary["runs"]
+    runs = summary.runs
     return next(
         (
             label
             for label, run in runs.items()
-            if run["algorithm"] == "quasi-static" and run["material"] == runs[reference]["material"]
+            if run.algorithm == "quasi-static" and run.material == runs[reference].material
         ),
         None,
     )
@@ -78,7 +79,7 @@ def static_label(summary: dict, reference: str) -> str | None:
 # --- error curves --------------------------------------------------------------------------
 
 
-def error_figure(case: CaseView, summary: dict, times: np.ndarray, curves: dict) -> Figure:
+def error_figure(case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict) -> Figure:
     """One panel per metric against time, one line per run but the reference (colour, dash pattern,
     width and staggered markers differ from run to run). A diverged run's curve ends at its
     last finite step; a dotted vertical line in its colour (gid "diverged:<label>") marks the
@@ -91,16 +92,16 @@ def error_figure(case: CaseView, summary: dict, times: np.ndarray, curves: dict)
     for ax, (name, title) in zip(axes, shown, strict=True):
         values = []
         for k, label in enumerate(labels):
-            run = summary["runs"][label]
+            run = summary.runs[label]
             y = curves[label][name]
             text = label
-            if run["status"] == "diverged":
+            if run.status == "diverged":
                 text += (
-                    f": diverged at step {run['diverged_step']}, "
-                    f"t = {run['diverged_time']:.3g} s (dotted line)"
+                    f": diverged at step {run.diverged_step}, "
+                    f"t = {run.diverged_time:.3g} s (dotted line)"
                 )
                 ax.axvline(
-                    run["diverged_time"],
+                    run.diverged_time,
                     color=f"C{k % 10}",
                     ls=":",
                     lw=1.6,
@@ -115,10 +116,10 @@ def error_figure(case: CaseView, summary: dict, times: np.ndarray, curves: dict)
         ax.set_ylabel(title)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time t (s)")
-    ref = summary["runs"][case.reference]
+    ref = summary.runs[case.reference]
     fig.suptitle(
-        f"{case.name}: errors against {case.reference} ({ref['material']}), "
-        f"h = {summary['h']:.4g} s, {summary['num_dofs']} dofs",
+        f"{case.name}: errors against {case.reference} ({ref.material}), "
+        f"h = {summary.h:.4g} s, {summary.num_dofs} dofs",
         fontsize=11,
     )
     handles, names = axes[0].get_legend_handles_labels()
@@ -134,7 +135,9 @@ def error_figure(case: CaseView, summary: dict, times: np.ndarray, curves: dict)
     return fig
 
 
-def error_curves(path: Path, case: CaseView, summary: dict, times: np.ndarray, curves: dict) -> str:
+def error_curves(
+    path: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict
+) -> str:
     error_figure(case, summary, times, curves).savefig(path, dpi=110)
     return path.name
 
@@ -142,7 +145,7 @@ def error_curves(path: Path, case: CaseView, summary: dict, times: np.ndarray, c
 # --- the rod's tip -------------------------------------------------------------------------
 
 
-def tip_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> Figure:
+def tip_figure(case: CaseView, summary: CaseSummary, times: np.ndarray, tips: dict) -> Figure:
     """The vertical displacement of the probe point against time, one line per run: the
     reference wide and pale underneath, the others narrower and dashed on top of it. Where a
     quasi-static run on the reference's material exists, its last value is the static
@@ -254,7 +257,9 @@ def tip_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> 
     return fig
 
 
-def tip_history(path: Path, case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> str:
+def tip_history(
+    path: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, tips: dict
+) -> str:
     tip_figure(case, summary, times, tips).savefig(path, dpi=110)
     return path.name
 
@@ -262,20 +267,20 @@ def tip_history(path: Path, case: CaseView, summary: dict, times: np.ndarray, ti
 # --- deformed shapes -----------------------------------------------------------------------
 
 
-def shape_rows(case: CaseView, summary: dict) -> list[str]:
+def shape_rows(case: CaseView, summary: CaseSummary) -> list[str]:
     """The runs whose deformed shape is drawn: the reference, and the runs of the same
     algorithm on other materials (the MP1 counterpart of implicit-MP2), sorted by material."""
-    runs = summary["runs"]
+    runs = summary.runs
     ref = runs[case.reference]
     rows = [case.reference] + [
         label
         for label, run in runs.items()
         if label != case.reference
-        and run["algorithm"] == ref["algorithm"]
-        and run["material"] != ref["material"]
-        and run["status"] == "ok"
+        and run.algorithm == ref.algorithm
+        and run.material != ref.material
+        and run.status == "ok"
     ]
-    return sorted(rows, key=lambda label: (runs[label]["material"], label))
+    return sorted(rows, key=lambda label: (runs[label].material, label))
 
 
 def shown_steps(
@@ -389,7 +394,7 @@ def crop(images: list[np.ndarray], pad: int = 6) -> list[np.ndarray]:
 
 def shape_grid(
     case: CaseView,
-    summary: dict,
+    summary: CaseSummary,
     series: list,
     steps: list[int],
     images: list,
@@ -520,18 +525,18 @@ def _rgba(fig, dpi):
     return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
 
-def deformed_shapes(out: Path, case: CaseView, summary: dict, frames: int = 30) -> list[str]:
+def deformed_shapes(out: Path, case: CaseView, summary: CaseSummary, frames: int = 30) -> list[str]:
     """deformed.png (the reference, and its counterparts on other materials, at a few times)
     and reference.gif (their animation), read back from the runs' XDMF output."""
     from PIL import Image
 
     from tissuebench.workflows.io.series import read_series
 
-    runs = summary["runs"]
+    runs = summary.runs
     labels = shape_rows(case, summary)
     series = [read_series(out / f"{label}.xdmf") for label in labels]
     row_labels = [
-        f"{label} ({runs[label]['material']}{', reference' if label == case.reference else ''})"
+        f"{label} ({runs[label].material}{', reference' if label == case.reference else ''})"
         for label in labels
     ]
     times = series[0].times
@@ -565,7 +570,7 @@ def deformed_shapes(out: Path, case: CaseView, summary: dict, frames: int = 30) 
     picture = _rgba(shape_grid(case, summary, series[0], steps, still, clim, row_labels), 110)
     Image.fromarray(picture).save(out / "deformed.png", optimize=True)
 
-    labels = [f"{label} ({runs[label]['material']})" for label in labels]
+    labels = [f"{label} ({runs[label].material})" for label in labels]
     animation(
         out / "reference.gif",
         moving,

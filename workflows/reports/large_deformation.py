@@ -22,9 +22,10 @@ from tissuebench.workflows.reports.common import (
 )
 from tissuebench.workflows.reports.divergence import divergences
 from tissuebench.workflows.reports.model_figures import SHAPE_ALGORITHM, SHAPE_MODELS, static_tips
+from tissuebench.workflows.summary import CaseSummary
 
 
-def loss_text(summary: dict, label: str) -> str:
+def loss_text(summary: CaseSummary, label: str) -> str:
     v, status, t = loss(summary, label)
     if status is None:
         return "not run"
@@ -33,10 +34,10 @@ def loss_text(summary: dict, label: str) -> str:
     return f"{v:.3g}"
 
 
-def load_text(summary: dict) -> str:
-    text = f"s = {summary.get('load_scale', 1):g}"
-    if summary["benchmark"] == "block":
-        w = summary.get("needle_width", 0) or 0
+def load_text(summary: CaseSummary) -> str:
+    text = f"s = {summary.option('load_scale', 1):g}"
+    if summary.benchmark == "block":
+        w = summary.option("needle_width", 0) or 0
         text += f", w = {w:g} m" if w else ", w = 0 (point needle)"
     return text
 
@@ -47,7 +48,9 @@ def times_text(a: float, b: float) -> str:
     return f"{ratio_text(r)} times" if r >= 1 else f"1/{ratio_text(1 / r)} of"
 
 
-def large_deformation(out: Path, large: dict, limits: dict | None = None) -> list[str]:
+def large_deformation(
+    out: Path, large: dict[str, CaseSummary], limits: dict | None = None
+) -> list[str]:
     """Part 2 of the report: what linearisation loses against lumping and explicit stepping,
     and which combinations diverge and why, from the summaries of the large-deformation cases
     (and their deformation.json, metrics.csv, and the explicit schemes' linear critical steps
@@ -55,7 +58,7 @@ def large_deformation(out: Path, large: dict, limits: dict | None = None) -> lis
     limits = limits or {}
     folder = Path(out) / LARGE_DEFORMATION
     first = next(iter(large.values()))
-    ref = first["reference"]
+    ref = first.reference
     lines = [
         "## Part 2, beyond the paper: large deformation (SPEC section 8)",
         "",
@@ -114,17 +117,13 @@ def large_deformation(out: Path, large: dict, limits: dict | None = None) -> lis
     return lines
 
 
-def static_tip_table(large: dict) -> list[str]:
+def static_tip_table(large: dict[str, CaseSummary]) -> list[str]:
     """The static tip of each model (its quasi-static run at the end time; summary.json
     `tip_displacement_final`) on the cases with a probe point."""
-    with_tip = {
-        n: s
-        for n, s in large.items()
-        if any("tip_displacement_final" in r for r in s["runs"].values())
-    }
+    with_tip = {n: s for n, s in large.items() if any(r.has_probe for r in s.runs.values())}
     if not with_tip:
         return []
-    present = {r.get("model", "linear") for s in with_tip.values() for r in s["runs"].values()}
+    present = {r.model for s in with_tip.values() for r in s.runs.values()}
     models = [m for m in MODELS if m in present] + sorted(present - set(MODELS))
     lines = [
         "The static tip (u_x, u_y) in m of each model: its quasi-static run at the end time "
@@ -136,12 +135,12 @@ def static_tip_table(large: dict) -> list[str]:
     for name, s in with_tip.items():
         cells = []
         for m in models:
-            run = s["runs"].get(run_label("quasi-static", m))
-            tip = run.get("tip_displacement_final") if run else None
+            run = s.runs.get(run_label("quasi-static", m))
+            tip = run.tip_displacement_final if run else None
             if run is None:
                 cells.append("not run")
-            elif run["status"] != "ok":
-                cells.append(f"diverged at t = {run['diverged_time']:.3g} s")
+            elif run.status != "ok":
+                cells.append(f"diverged at t = {run.diverged_time:.3g} s")
             elif tip is None:
                 cells.append("n/a")
             else:
@@ -150,7 +149,7 @@ def static_tip_table(large: dict) -> list[str]:
     return lines + [""]
 
 
-def loss_bullet(name: str, s: dict) -> str:
+def loss_bullet(name: str, s: CaseSummary) -> str:
     """One case: linearisation against the other single losses, and the spread of the linear
     runs over the algorithms."""
     names = loss_runs(s)
@@ -174,10 +173,8 @@ def loss_bullet(name: str, s: dict) -> str:
     )
     linear = [
         label
-        for label, run in s["runs"].items()
-        if run.get("model", "linear") == "linear"
-        and run["algorithm"] != "quasi-static"
-        and run["status"] == "ok"
+        for label, run in s.runs.items()
+        if run.model == "linear" and run.algorithm != "quasi-static" and run.status == "ok"
     ]
     values = [loss(s, label)[0] for label in linear]
     if len(values) > 1:
@@ -194,14 +191,14 @@ def loss_bullet(name: str, s: dict) -> str:
 LINEARISATION_LARGEST = "linearisation is the largest single loss at the paper's loads (s = 1)"
 
 
-def judge_paper_loads(large: dict) -> Verdict | None:
+def judge_paper_loads(large: dict[str, CaseSummary]) -> Verdict | None:
     """At s = 1: is linearisation the largest single loss (time-mean E_i against the reference)
     on every case? `checks` {case: linearisation above lumping, explicit and lumped explicit
     stepping}, `numbers` {case: (linearisation / the largest other loss, which one)}; None if
     no case at s = 1 has the runs to judge."""
     checks, numbers = {}, {}
     for name, s in large.items():
-        if s.get("load_scale", 1) != 1:
+        if s.option("load_scale", 1) != 1:
             continue
         names = loss_runs(s)
         lin = loss(s, names["linearisation"])
@@ -241,18 +238,18 @@ def render_paper_loads(v: Verdict) -> list[str]:
     return [text]
 
 
-def paper_loads(large: dict) -> list[str]:
+def paper_loads(large: dict[str, CaseSummary]) -> list[str]:
     """At s = 1: is linearisation the largest single loss on every case? (markdown lines)"""
     v = judge_paper_loads(large)
     return [] if v is None else render_paper_loads(v)
 
 
-def load_growth(large: dict) -> list[str]:
+def load_growth(large: dict[str, CaseSummary]) -> list[str]:
     """How the linear model's loss grows with the load scale, per benchmark."""
     lines = []
     by_bench = {}
     for name, s in large.items():
-        by_bench.setdefault(s["benchmark"], []).append((s.get("load_scale", 1), name, s))
+        by_bench.setdefault(s.benchmark, []).append((s.option("load_scale", 1), name, s))
     for bench, items in by_bench.items():
         if len(items) < 2:
             continue
@@ -264,7 +261,7 @@ def load_growth(large: dict) -> list[str]:
         exponent = np.log(ratio) / np.log(s2 / s1)
         other = (
             " (the needle width changes too)"
-            if a.get("needle_width", 0) != b.get("needle_width", 0)
+            if a.option("needle_width", 0) != b.option("needle_width", 0)
             else ""
         )
         lines.append(
@@ -282,7 +279,7 @@ def load_growth(large: dict) -> list[str]:
 COROTATIONAL_BETTER = "the corotational model loses less than the linear one"
 
 
-def judge_corotational(large: dict) -> Verdict:
+def judge_corotational(large: dict[str, CaseSummary]) -> Verdict:
     """On each case where the corotational run ran: does it lose less (time-mean E_i against
     the reference) than the linear model? `checks` {case: bool}; `numbers` the cases where it
     does (`better`) and where it does not (`worse`)."""
@@ -299,7 +296,7 @@ def judge_corotational(large: dict) -> Verdict:
     )
 
 
-def corotational_bullets(large: dict, deformation: dict) -> list[str]:
+def corotational_bullets(large: dict[str, CaseSummary], deformation: dict) -> list[str]:
     """The corotational model against the linear one, case by case."""
     parts = []
     for name, s in large.items():
@@ -319,7 +316,7 @@ def corotational_bullets(large: dict, deformation: dict) -> list[str]:
         d = deformation.get(name)
         if r > 1 and d:
             jc = d["smallest_J"].get(names["corotational"])
-            jr = d["smallest_J"].get(s["reference"])
+            jr = d["smallest_J"].get(s.reference)
             if jc and jr:
                 text += (
                     f" (its most compressed cell, at {place(s, jc['cell_centre'])}, reaches J = "
@@ -343,18 +340,18 @@ def corotational_bullets(large: dict, deformation: dict) -> list[str]:
     ]
 
 
-def model_case_section(out: Path, name: str, s: dict) -> list[str]:
+def model_case_section(out: Path, name: str, s: CaseSummary) -> list[str]:
     """A large-deformation case: its figures with captions and its table."""
     rel = f"{LARGE_DEFORMATION}/{name}"
-    ref = s["reference"]
-    files = s.get("files", [])
+    ref = s.reference
+    files = s.files
     d = read_deformation(Path(out) / rel)
     parts = [
         f"### {name}",
         "",
-        f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = {s['h']:.6g} "
+        f"{s.description}. Mesh size {s.mesh_size} ({s.num_dofs} dofs), h = {s.h:.6g} "
         "s, "
-        f"T = {s['end_time']:.4g} s ({s['steps']} steps), solver {s['solver']}. Files: "
+        f"T = {s.end_time:.4g} s ({s.steps} steps), solver {s.solver}. Files: "
         f"[metrics.csv]({rel}/metrics.csv), [summary.json]({rel}/summary.json)"
         + (f", [tip.csv]({rel}/tip.csv)" if "tip.csv" in files else "")
         + (f", [deformation.json]({rel}/deformation.json)" if "deformation.json" in files else "")
@@ -367,7 +364,7 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
             "",
             "*Loss of realism: the time-mean E_i (m) of every algorithm (rows) with every model "
             "(columns) "
-            f"against {ref} over steps 1..{s['steps']}, on a log colour scale (light: close to the "
+            f"against {ref} over steps 1..{s.steps}, on a log colour scale (light: close to the "
             "reference). Hatched grey: a run that diverged, with its divergence time and its mean "
             "over the "
             "steps it kept, which is not comparable with the others.*",
@@ -375,9 +372,9 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         ]
     if "errors.png" in files:
         diverged = [
-            f"{label} (t = {r['diverged_time']:.3g} s)"
-            for label, r in s["runs"].items()
-            if r["status"] == "diverged"
+            f"{label} (t = {r.diverged_time:.3g} s)"
+            for label, r in s.runs.items()
+            if r.status == "diverged"
         ]
         parts += [
             f"![errors]({rel}/errors.png)",
@@ -397,7 +394,7 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         big = d["largest_deflection"]
         view = (
             "the boundary polygon of the deformed domain (SPEC section 6)"
-            if s["benchmark"] == "block"
+            if s.benchmark == "block"
             else "the side view: the deformed mesh projected on the x-y plane (the union of the "
             "projected cells)"
         )
@@ -420,9 +417,7 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
         static = static_tips(s)
         tips = ", ".join(f"{m} ({v[0]:.4g}, {v[1]:.4g}) m" for m, v in static.items())
         missing = [
-            r.get("model", "linear")
-            for r in s["runs"].values()
-            if r["algorithm"] == "quasi-static" and r["status"] != "ok"
+            r.model for r in s.runs.values() if r.algorithm == "quasi-static" and r.status != "ok"
         ]
         parts += [
             f"![tip path]({rel}/tip_path.png)",
@@ -431,7 +426,7 @@ def model_case_section(out: Path, name: str, s: dict) -> list[str]:
             "axes are "
             "not to the same scale) and its u_y against time (right). Stars and thin dashed lines: "
             "each "
-            f"model's static tip, its quasi-static run at t = {s['end_time']:.3g} s, (u_x, u_y): "
+            f"model's static tip, its quasi-static run at t = {s.end_time:.3g} s, (u_x, u_y): "
             f"{tips}"
             + (
                 f"; {', '.join(missing)}: its quasi-static run diverged, no static tip"

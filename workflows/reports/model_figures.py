@@ -44,6 +44,7 @@ from tissuebench.workflows.reports.style import (
     model_style,
     plot_curve,
 )
+from tissuebench.workflows.summary import CaseSummary
 
 if TYPE_CHECKING:
     from shapely.geometry.base import BaseGeometry
@@ -59,7 +60,7 @@ def is_model_case(case: CaseView) -> bool:
 
 
 def case_figures(
-    out: Path, case: CaseView, summary: dict, times: np.ndarray, curves: dict, tips: dict
+    out: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict, tips: dict
 ) -> list[str]:
     """Write the figures of a case with models into out; return their file names."""
     cache = {}
@@ -85,11 +86,11 @@ def save(path: Path, fig: Figure, dpi: int = 110) -> str:
 # --- the grid of runs ----------------------------------------------------------------------
 
 
-def grid(summary: dict) -> tuple[list[str], list[str], dict]:
+def grid(summary: CaseSummary) -> tuple[list[str], list[str], dict]:
     """(algorithms, models, {(algorithm, model): label}) of a summary's runs, in the order of
     the registries (ALGORITHMS, MODELS), only those present."""
-    runs = summary["runs"]
-    cells = {(run["algorithm"], run.get("model", LINEAR)): label for label, run in runs.items()}
+    runs = summary.runs
+    cells = {(run.algorithm, run.model): label for label, run in runs.items()}
     algorithms = [a for a in ALGORITHMS if any(k[0] == a for k in cells)]
     algorithms += [a for a in dict.fromkeys(k[0] for k in cells) if a not in algorithms]
     models = [m for m in MODELS if any(k[1] == m for k in cells)]
@@ -98,7 +99,7 @@ def grid(summary: dict) -> tuple[list[str], list[str], dict]:
 
 
 def realism_table(
-    summary: dict, metric: str = "interior_error"
+    summary: CaseSummary, metric: str = "interior_error"
 ) -> tuple[list[str], list[str], list[list]]:
     """(algorithms, models, cells): cells[i][j] is None (no such run), "reference", or a dict
     with the run's label, status, time-mean of `metric` (NaN if none) and divergence time."""
@@ -111,18 +112,18 @@ def realism_table(
             if label is None:
                 row.append(None)
                 continue
-            if label == summary["reference"]:
+            if label == summary.reference:
                 row.append("reference")
                 continue
-            run = summary["runs"][label]
-            mean = run.get(f"{metric}_mean")
+            run = summary.runs[label]
+            mean = run.readings.get(f"{metric}_mean")
             row.append(
                 {
                     "label": label,
-                    "status": run["status"],
+                    "status": run.status,
                     "mean": np.nan if mean is None else float(mean),
-                    "diverged_time": run.get("diverged_time"),
-                    "reason": run.get("reason"),
+                    "diverged_time": run.diverged_time,
+                    "reason": run.reason,
                 }
             )
         table.append(row)
@@ -132,13 +133,13 @@ def realism_table(
 # --- errors.png ----------------------------------------------------------------------------
 
 
-def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict) -> Figure:
+def error_figure(case_name: str, summary: CaseSummary, times: np.ndarray, curves: dict) -> Figure:
     """One row of panels per model, one column per metric that is no variant; in each panel
     one line per algorithm (the reference left out), drawn alike in every row. A diverged run's
     curve ends at its last finite step, with a cross there and a dotted vertical line in its
     colour at the divergence time (gid "diverged:<label>"); the row's title lists them."""
     algorithms, models, labels = grid(summary)
-    ref = summary["reference"]
+    ref = summary.reference
     shown = [group[0] for group in panels()]
     fig = Figure(figsize=(4.1 * len(shown) + 0.4, 2.45 * len(models) + 1.5), layout="constrained")
     rows = np.atleast_1d(fig.subfigures(len(models), 1))
@@ -151,15 +152,15 @@ def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict)
             label = labels.get((a, model))
             if label is None or label == ref:
                 continue
-            run = summary["runs"][label]
-            if run["status"] == "diverged":
-                diverged.append(f"{a} at t = {run['diverged_time']:.3g} s")
+            run = summary.runs[label]
+            if run.status == "diverged":
+                diverged.append(f"{a} at t = {run.diverged_time:.3g} s")
             for ax, name in zip(axes[r], shown, strict=True):
                 y = np.asarray(curves[label][name], dtype=float)
                 color = plot_curve(ax, times, y, k, len(algorithms), every, small=True)
-                if run["status"] == "diverged":
+                if run.status == "diverged":
                     ax.axvline(
-                        run["diverged_time"],
+                        run.diverged_time,
                         color=color,
                         ls=":",
                         lw=1.4,
@@ -204,7 +205,7 @@ def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict)
                 ax.set_xlabel("time t (s)")
     fig.suptitle(
         f"{case_name}: errors against {ref}, one row per model, one line per algorithm "
-        f"(h = {summary['h']:.4g} s, {summary['num_dofs']} dofs)",
+        f"(h = {summary.h:.4g} s, {summary.num_dofs} dofs)",
         fontsize=11,
     )
     handles = [
@@ -235,7 +236,7 @@ def error_figure(case_name: str, summary: dict, times: np.ndarray, curves: dict)
 # --- realism.png ---------------------------------------------------------------------------
 
 
-def realism_figure(case_name: str, summary: dict, metric: str = "interior_error") -> Figure:
+def realism_figure(case_name: str, summary: CaseSummary, metric: str = "interior_error") -> Figure:
     """Rows: algorithms; columns: models; each cell the run's time-mean of `metric` against the
     reference over steps 1..N on a log colour scale, its value written in it. A diverged run is
     a hatched grey cell (gid "diverged:<label>") with its divergence time and its time-mean over
@@ -332,7 +333,7 @@ def realism_figure(case_name: str, summary: dict, metric: str = "interior_error"
     )
     fig.suptitle(
         f"{case_name}: loss of realism, time-mean interior error {symbol} against "
-        f"{summary['reference']}\nover steps 1..{summary['steps']} (t to {summary['end_time']:.3g} "
+        f"{summary.reference}\nover steps 1..{summary.steps} (t to {summary.end_time:.3g} "
         "s)",
         fontsize=10.5,
     )
@@ -391,16 +392,16 @@ def jacobians(points: np.ndarray, cells: np.ndarray, displacements: np.ndarray) 
     return determinants(X + u) / determinants(X)[None]
 
 
-def deformation_data(folder: Path, summary: dict, cache: dict | None = None) -> dict:
+def deformation_data(folder: Path, summary: CaseSummary, cache: dict | None = None) -> dict:
     """deformation.json's content from the runs' XDMF series in folder (read into `cache`,
     {label: Series}, for the figures that follow)."""
     from tissuebench.metrics.series import InputError
     from tissuebench.workflows.io.series import read_series
 
     cache = {} if cache is None else cache
-    ref = summary["reference"]
+    ref = summary.reference
     result = {"largest_deflection": None, "smallest_J": {}}
-    for label, run in summary["runs"].items():
+    for label, run in summary.runs.items():
         try:
             series = cache[label] = read_series(folder / f"{label}.xdmf")
         except InputError:  # a run that diverged at step 0 keeps no step
@@ -482,7 +483,7 @@ def boundary_nodes(cells: np.ndarray) -> np.ndarray:
 
 
 def shapes_figure(
-    folder: Path, case_name: str, summary: dict, deformation: dict, cache: dict | None = None
+    folder: Path, case_name: str, summary: CaseSummary, deformation: dict, cache: dict | None = None
 ) -> Figure | None:
     """shapes.png: the implicit runs of SHAPE_MODELS (those present) at the step of the
     reference's largest deflection; left the whole body, right the square about the boundary
@@ -514,14 +515,14 @@ def shapes_figure(
     first = next(iter(series.values()))
     points, cells = first.points, first.cells
     dim = points.shape[1]
-    ref_model = split_label(summary["reference"])[1]
+    ref_model = split_label(summary.reference)[1]
     undeformed = silhouette(points, cells, np.zeros_like(points))
     shapes, absent = {}, {}
     for m, s in series.items():
         if step < len(s.displacements):
             shapes[m] = s.displacements[step]
         else:
-            absent[m] = summary["runs"][labels[SHAPE_ALGORITHM, m]]["diverged_time"]
+            absent[m] = summary.runs[labels[SHAPE_ALGORITHM, m]].diverged_time
     # the window: the square about the boundary nodes where the drawn shapes are farthest apart
     # (at least 60 % of the largest distance), padded
     edge = boundary_nodes(cells)
@@ -604,19 +605,19 @@ def shapes_figure(
 # --- tip_path.png --------------------------------------------------------------------------
 
 
-def static_tips(summary: dict) -> dict[str, list[float]]:
+def static_tips(summary: CaseSummary) -> dict[str, list[float]]:
     """{model: final tip displacement of its quasi-static run (m)} for the runs that reached the
     end time."""
     result = {}
-    for label, run in summary["runs"].items():
-        if run["algorithm"] == "quasi-static" and run["status"] == "ok":
-            tip = run.get("tip_displacement_final")
+    for label, run in summary.runs.items():
+        if run.algorithm == "quasi-static" and run.status == "ok":
+            tip = run.tip_displacement_final
             if tip is not None:
-                result[run.get("model", LINEAR)] = tip
+                result[run.model] = tip
     return result
 
 
-def tip_path_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict) -> Figure:
+def tip_path_figure(case: CaseView, summary: CaseSummary, times: np.ndarray, tips: dict) -> Figure:
     """Left: the tip's position in the x-y plane over the run for the implicit run of each model
     (a cross where a run diverged), each model's static tip (its quasi-static run at the end
     time) as a star; right: its u_y against time, with the static u_y of each model dashed."""
@@ -636,16 +637,16 @@ def tip_path_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict
         if label is None or label not in tips:
             continue
         color, dash = model_style(m, k)
-        wide = label == summary["reference"]
+        wide = label == summary.reference
         tip = np.asarray(tips[label], dtype=float)
         style = dict(color=color, ls=dash, lw=4.5 if wide else 1.6, alpha=0.4 if wide else 1.0)
         name = label + (" (reference: wide, pale)" if wide else "")
-        run = summary["runs"][label]
-        if run["status"] == "diverged":
-            name += f", diverged at t = {run['diverged_time']:.3g} s (cross)"
+        run = summary.runs[label]
+        if run.status == "diverged":
+            name += f", diverged at t = {run.diverged_time:.3g} s (cross)"
         path_ax.plot(probe[0] + tip[:, 0], probe[1] + tip[:, 1], **style, label=name)
         time_ax.plot(times[: len(tip)], tip[:, 1], **style, label=name)
-        if run["status"] == "diverged" and len(tip):  # none kept if step 0 diverged
+        if run.status == "diverged" and len(tip):  # none kept if step 0 diverged
             for ax, xy in (
                 (path_ax, probe[:2] + tip[-1, :2]),
                 (time_ax, (times[len(tip) - 1], tip[-1, 1])),
@@ -662,7 +663,7 @@ def tip_path_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict
                 mec="white",
                 zorder=15,
                 label=f"quasi-static{'' if m == LINEAR else '+' + m} at "
-                f"t = {summary['end_time']:.3g} s "
+                f"t = {summary.end_time:.3g} s "
                 f"(static tip u = ({s[0]:.4g}, {s[1]:.4g}) m)",
             )
             time_ax.axhline(s[1], color=color, ls=(0, (2, 2)), lw=1.0, zorder=0)
@@ -681,7 +682,7 @@ def tip_path_figure(case: CaseView, summary: dict, times: np.ndarray, tips: dict
     fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize=8.5)
     fig.suptitle(
         f"{case.name}: the rod's tip with every model (implicit runs), load scale "
-        f"{summary.get('load_scale', 1):g}",
+        f"{summary.option('load_scale', 1):g}",
         fontsize=11,
     )
     return fig

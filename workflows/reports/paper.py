@@ -19,6 +19,7 @@ from tissuebench.workflows.reports.common import (
 from tissuebench.workflows.reports.figures import shape_rows, shown_steps, static_label
 from tissuebench.workflows.reports.large_deformation import large_deformation, model_case_section
 from tissuebench.workflows.reports.truth import truth_section
+from tissuebench.workflows.summary import CaseSummary
 
 MARKER = (
     "# tissuebench: the paper's study"  # the report's first line: a README.md the paper may replace
@@ -28,30 +29,30 @@ MARKER = (
 # --- captions ------------------------------------------------------------------------------
 
 
-def caption_errors(out: Path, name: str, s: dict) -> str:
-    ref = s["reference"]
+def caption_errors(out: Path, name: str, s: CaseSummary) -> str:
+    ref = s.reference
     text = (
-        f"*Errors of each run against {ref} at every step 1..{s['steps']} (E_n, E_s, E_i; log axes "
+        f"*Errors of each run against {ref} at every step 1..{s.steps} (E_n, E_s, E_i; log axes "
         "where the "
         "values span a decade). Runs differ in colour, dash pattern, width and marker; a wider "
         "line lies "
         "under the narrower ones."
     )
-    for label, run in s["runs"].items():
-        if run["status"] == "diverged" and label != ref:
-            step = run["diverged_step"]
+    for label, run in s.runs.items():
+        if run.status == "diverged" and label != ref:
+            step = run.diverged_step
             text += (
-                f" {label} diverged at step {step} (t = {run['diverged_time']:.3g} s): its curve "
+                f" {label} diverged at step {step} (t = {run.diverged_time:.3g} s): its curve "
                 "ends at step "
-                f"{step - 1} (t = {(step - 1) * s['h']:.3g} s), its last finite values, and the "
+                f"{step - 1} (t = {(step - 1) * s.h:.3g} s), its last finite values, and the "
                 "dotted vertical "
                 "line in its colour marks the divergence, at the time its legend gives."
             )
-    runs = s["runs"]
+    runs = s.runs
     group = [
         k
         for k, r in runs.items()
-        if r["material"] != runs[ref]["material"] and r["algorithm"] != "quasi-static"
+        if r.material != runs[ref].material and r.algorithm != "quasi-static"
     ]
     if len(group) > 1:
         times, curves = read_curves(out / name / "metrics.csv")
@@ -61,7 +62,7 @@ def caption_errors(out: Path, name: str, s: dict) -> str:
             with np.errstate(invalid="ignore", divide="ignore"):
                 spread = (c.max(axis=0) - c.min(axis=0)) / c.mean(axis=0)
             spreads.append(f"{TABLE[m].symbol} {100 * np.nanmax(spread):.2g} %")
-        mat = runs[group[0]]["material"]
+        mat = runs[group[0]].material
         text += (
             f" The {len(group)} dynamic {mat} runs ({', '.join(group)}) differ from one another by "
             "at most "
@@ -72,8 +73,8 @@ def caption_errors(out: Path, name: str, s: dict) -> str:
     return text + "*"
 
 
-def caption_tip(out: Path, name: str, s: dict) -> str:
-    ref = s["reference"]
+def caption_tip(out: Path, name: str, s: CaseSummary) -> str:
+    ref = s.reference
     tips = read_tips(out / name / "tip.csv")
     text = (
         f"*Vertical displacement of the tip of every run. {ref}, the reference, is the wide pale "
@@ -98,20 +99,20 @@ def caption_tip(out: Path, name: str, s: dict) -> str:
     return text + "*"
 
 
-def caption_deformed(out: Path, name: str, s: dict) -> str:
+def caption_deformed(out: Path, name: str, s: CaseSummary) -> str:
     from types import SimpleNamespace
 
-    runs = s["runs"]
-    rows = shape_rows(SimpleNamespace(reference=s["reference"]), s)
-    times = np.arange(s["steps"] + 1) * s["h"]
+    runs = s.runs
+    rows = shape_rows(SimpleNamespace(reference=s.reference), s)
+    times = np.arange(s.steps + 1) * s.h
     shown = ", ".join(f"{times[k]:.3g}" for k in shown_steps(times))
     view = (
         "seen from its long side (+z), a little from above and from the free end, the side to "
         "which it bends"
-        if s["benchmark"] == "rod"
+        if s.benchmark == "rod"
         else "seen from +z"
     )
-    which = " and ".join(f"{r} ({runs[r]['material']})" for r in rows)
+    which = " and ".join(f"{r} ({runs[r].material})" for r in rows)
     return (
         f"*Deformed shape of {which} at t = {shown} s, "
         f"{view}. Faces are coloured by |u| on one scale for all panels and are not shaded, so "
@@ -122,8 +123,8 @@ def caption_deformed(out: Path, name: str, s: dict) -> str:
 
 def paper_report(
     out: Path,
-    summaries: dict,
-    large: dict | None = None,
+    summaries: dict[str, CaseSummary],
+    large: dict[str, CaseSummary] | None = None,
     limits: dict | None = None,
     truth: PaperTruth | None = None,
 ) -> str:
@@ -133,7 +134,7 @@ def paper_report(
     their meshes (limits: {case: {algorithm: h_c}})."""
     out = Path(out)
     first = next(iter(summaries.values()))
-    v = first["versions"]
+    v = first.versions
     parts = [
         MARKER,
         "",
@@ -145,7 +146,7 @@ def paper_report(
         + (
             " Part 2 goes beyond the paper (SPEC section 8): large deformation, every integrator "
             "with "
-            f"every elastic model against `{next(iter(large.values()))['reference']}` "
+            f"every elastic model against `{next(iter(large.values())).reference}` "
             f"([{LARGE_DEFORMATION}/]({LARGE_DEFORMATION}/))."
             if large
             else ""
@@ -172,11 +173,11 @@ def paper_report(
         parts += [
             f"## {name}",
             "",
-            f"{s['description']}. Mesh size {s['mesh_size']} ({s['num_dofs']} dofs), h = "
-            f"{s['h']:.6g} s, "
-            f"T = {s['end_time']:.4g} s ({s['steps']} steps), solver {s['solver']}. Files: "
+            f"{s.description}. Mesh size {s.mesh_size} ({s.num_dofs} dofs), h = "
+            f"{s.h:.6g} s, "
+            f"T = {s.end_time:.4g} s ({s.steps} steps), solver {s.solver}. Files: "
             f"[metrics.csv]({name}/metrics.csv), [summary.json]({name}/summary.json)"
-            + (f", [tip.csv]({name}/tip.csv)" if "tip.csv" in s["files"] else "")
+            + (f", [tip.csv]({name}/tip.csv)" if "tip.csv" in s.files else "")
             + "; the XDMF series (not committed) open in ParaView.",
             "",
             f"![errors]({name}/errors.png)",
@@ -184,7 +185,7 @@ def paper_report(
             caption_errors(out, name, s),
             "",
         ]
-        if "tip.png" in s["files"]:
+        if "tip.png" in s.files:
             parts += [f"![tip]({name}/tip.png)", "", caption_tip(out, name, s), ""]
         parts += [
             f"![deformed shape]({name}/deformed.png)",

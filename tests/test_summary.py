@@ -1,0 +1,121 @@
+"""workflows/summary.py: the typed summary.json of a study case. Read and written back, every
+committed results/ summary of a study case is reproduced byte for byte (the file as study wrote
+it, json.dumps(indent=2) and a newline); a malformed file is refused in one line."""
+
+import copy
+import json
+from pathlib import Path
+
+from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
+
+import pytest
+
+from tissuebench.meshes.errors import UserError
+from tissuebench.metrics.table import METRICS
+from tissuebench.workflows import paper_truth
+from tissuebench.workflows.commands.paper import LARGE, cases, model_cases
+from tissuebench.workflows.summary import CaseSummary, RunSummary, read_case_summary
+
+RESULTS = Path(__file__).parents[1] / "results"
+# every study case that `tissuebench paper` commits: part 1, part 2 and the truth's runs
+FOLDERS = (
+    [RESULTS / c.name for c in cases()]
+    + [RESULTS / LARGE / c.name for c in model_cases()]
+    + [RESULTS / c.name for c in paper_truth.cases("direct", "")]
+)
+
+
+def committed(folder: Path) -> tuple[str, dict]:
+    text = (folder / "summary.json").read_text()
+    return text, json.loads(text)
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda f: f.relative_to(RESULTS).as_posix())
+def test_committed_summary_is_reproduced_byte_for_byte(folder):
+    text, doc = committed(folder)
+    summary = CaseSummary.from_json(doc)
+    assert json.dumps(summary.to_json(), indent=2) + "\n" == text
+    assert summary.dumps() == text
+    # the reader gives the same, and the fields are the file's values
+    again = read_case_summary(folder)
+    assert again == summary and not again.skipped
+    assert summary.reference_run is summary.runs[doc["reference"]]
+    for label, run in doc["runs"].items():
+        typed = summary.runs[label]
+        assert (typed.status, typed.wall_time_s) == (run["status"], run["wall_time_s"])
+        for metric in METRICS:
+            for kind in ("max", "mean"):
+                assert typed.reading(metric, kind) == run[f"{metric}_{kind}"]
+        assert typed.has_probe == ("tip_displacement_final" in run)
+
+
+def test_options_sit_between_plane_and_solver():
+    _, doc = committed(RESULTS / LARGE / "block-MP1-s2-w0.2")
+    summary = CaseSummary.from_json(doc)
+    assert summary.options == {"load_scale": 2.0, "needle_width": 0.2}
+    assert summary.option("needle_width", 0) == 0.2 and summary.option("absent", 7) == 7
+    keys = list(summary.to_json())
+    assert keys[keys.index("plane") + 1 : keys.index("solver")] == ["load_scale", "needle_width"]
+
+
+def malformed(doc: dict) -> list[dict]:
+    """Copies of a valid summary with one fault each."""
+    faults = []
+    for key in ("runs", "h", "fingerprint"):
+        bad = copy.deepcopy(doc)
+        del bad[key]
+        faults.append(bad)
+    bad = copy.deepcopy(doc)
+    bad["mesh_size"] = "20"
+    faults.append(bad)
+    bad = copy.deepcopy(doc)
+    bad["reference"] = "no such run"
+    faults.append(bad)
+    bad = {"case": doc["case"], **{k: v for k, v in doc.items() if k != "case"}}
+    bad = dict(reversed(list(bad.items())))  # keys out of order
+    faults.append(bad)
+    label = doc["reference"]
+    for change in ({"status": 1}, {"surprise": 1.0}, {"relative_error_max": "big"}):
+        bad = copy.deepcopy(doc)
+        bad["runs"][label].update(change)
+        faults.append(bad)
+    bad = copy.deepcopy(doc)
+    del bad["runs"][label]["steps"]
+    faults.append(bad)
+    faults.append([doc])
+    return faults
+
+
+@pytest.mark.serial  # writes files into tmp_path, which the ranks share
+def test_malformed_summaries_are_refused_in_one_line(tmp_path):
+    _, doc = committed(RESULTS / "block-MP1")
+    for bad in malformed(doc):
+        with pytest.raises(ValueError) as err:
+            CaseSummary.from_json(bad)
+        assert "\n" not in str(err.value)
+    # the reader: absent or not JSON -> None; JSON but not a study case's -> UserError
+    assert read_case_summary(tmp_path) is None
+    (tmp_path / "summary.json").write_text("{not json")
+    assert read_case_summary(tmp_path) is None
+    (tmp_path / "summary.json").write_text(json.dumps({"kind": "compare", "runs": {}}))
+    with pytest.raises(UserError, match="not a study case's summary: lacks case"):
+        read_case_summary(tmp_path)
+
+
+def test_run_without_probe_writes_no_tip_and_a_diverged_step_0_writes_none():
+    base = dict(
+        algorithm="explicit",
+        model="linear",
+        material="MP2",
+        status="diverged",
+        diverged_step=0,
+        diverged_time=0.0,
+        reason="NaN",
+        steps=0,
+        wall_time_s=0.0,
+        setup_time_s=0.0,
+    )
+    assert "tip_displacement_final" not in RunSummary(**base).to_json()
+    entry = RunSummary(**base, has_probe=True).to_json()
+    assert entry["tip_displacement_final"] is None
+    assert RunSummary.from_json(entry) == RunSummary(**base, has_probe=True)
