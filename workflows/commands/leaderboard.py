@@ -53,7 +53,7 @@ from tissuebench.workflows.ranking import (
     user_rows,
     write_csv,
 )
-from tissuebench.workflows.reports.budget import plot_budget
+from tissuebench.workflows.reports.budget import budget_rows, plot_budget
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
@@ -731,13 +731,14 @@ def main(args: argparse.Namespace) -> int:
         (out / FOLDER).mkdir(parents=True, exist_ok=True)
         record = record_of(boards, rows, notes)
         for board, case in zip(boards, record["cases"], strict=True):
+            same = drawn.get(board.name) == json.dumps(case)  # drawn of the same rows
             png = out / FOLDER / f"{board.name}.png"
-            if drawn.get(board.name) == json.dumps(case) and unchanged(png):
-                continue  # drawn of the same rows, and still as drawn: seconds saved per case
-            write_owned(png, lambda tmp, board=board: plot_case(tmp, board, rows[board.name]))
-            if any(r.budget for r in rows[board.name]):
+            if not (same and unchanged(png)):  # else still as drawn: seconds saved per case
+                write_owned(png, lambda tmp, board=board: plot_case(tmp, board, rows[board.name]))
+            budget = out / FOLDER / f"{board.name}-budget.png"
+            if budget_rows(rows[board.name]) and not (same and unchanged(budget)):
                 write_owned(
-                    out / FOLDER / f"{board.name}-budget.png",
+                    budget,
                     lambda tmp, board=board: plot_budget(
                         tmp,
                         f"{board.name}: error budget against the truth {board.truth} (SPEC 10)",

@@ -15,6 +15,7 @@ from typing import Protocol
 from matplotlib.figure import Figure  # no pyplot: no global backend state
 
 PARTS = ("total", "discretisation", "algorithm", "model")
+DECADES = 4  # the axis spans this many decades below the largest part
 COLOURS = {
     "total": "#333333",
     "discretisation": "#1f77b4",
@@ -56,7 +57,9 @@ def plot_budget(path: Path, title: str, rows: list[BudgetRow], unit: str) -> boo
         return False
     values = [r.budget[p] for r in kept for p in PARTS if measured(r.budget.get(p))]
     positive = [v for v in values if v > 0]
-    floor = min(positive) / 3 if positive else 1e-12
+    # the axis spans DECADES below the largest part: a part below that (round-off, where a
+    # run is our implicit by another code) is said in words, not drawn down to 1e-16
+    floor = max(min(positive) / 3, max(positive) * 10.0**-DECADES) if positive else 1e-12
     height = 0.8 / len(PARTS)
     fig = Figure(figsize=(9, 1.0 + 0.42 * len(kept) * len(PARTS) / 2), layout="constrained")
     ax = fig.add_subplot()
@@ -65,12 +68,14 @@ def plot_budget(path: Path, title: str, rows: list[BudgetRow], unit: str) -> boo
         for k, part in enumerate(PARTS):
             y = i + (k - (len(PARTS) - 1) / 2) * height
             value = r.budget.get(part)
-            if measured(value) and value > 0:
+            if measured(value) and value > floor:
                 ax.barh(y, value - floor, left=floor, height=height * 0.9, color=COLOURS[part],
                         label=LABELS[part] if part not in drawn else None)  # fmt: skip
                 drawn.add(part)
             else:
-                said = "0" if measured(value) else "not measured"
+                said = "not measured"
+                if measured(value):
+                    said = "0" if value == 0 else f"{value:.1g} (below the axis)"
                 ax.text(floor, y, f"  {part}: {said}", va="center", fontsize=6, color=COLOURS[part])
     ax.set_xscale("log")
     ax.set_ylim(-0.5, len(kept) - 0.5)
