@@ -1,20 +1,8 @@
 """The mesh-sensitivity study (SPEC 9, the paper's future work), which `tissuebench
 sensitivity` runs and reports and the leaderboard reads: each algorithm on coarser and
-other-shaped meshes, graded on its own mesh against `implicit` on a finer grid.
-
-For each case (block MP1 with the needle 0.2 m wide, rod MP3), every algorithm runs on the
-grids of sizes N/4, N/2 and N in three shapes (the quadrilateral or hexahedral grid, the same
-grid split into simplices, gmsh's unstructured simplices at the same spacing), and is graded
-on its own mesh (SPEC 9) against `implicit` on the grid of size 2N. The reference's own
-discretisation error is the `implicit` grid run of size N against it: no difference below it
-is a finding. Each run is timed in this session: the System's assembly, the integrator's set
-up and its time loop, per simulated second.
-
-Writes OUT/mesh-sensitivity.md, OUT/mesh-sensitivity.csv and OUT/mesh-sensitivity-CASE.png;
-the runs' series (XDMF, for ParaView) and each mesh's graded rows (JSON) go to
-OUT/mesh-sensitivity/CASE/, so that a rerun after an interruption redoes only the meshes it
-had not finished. Only E_n and E_i are graded (E_s on another mesh needs a boolean of the two
-deformed bodies at every step, and the study is about E_i).
+other-shaped meshes, graded on its own mesh against `implicit` on a finer grid. The cases,
+meshes, timing and files are described where users read them, in the command's docstring
+(workflows/commands/sensitivity.py, its --help).
 """
 
 from __future__ import annotations
