@@ -1,7 +1,8 @@
 """The leaderboard across mesh sizes (issue 27, item 2): the cases of one series at several
 mesh sizes, each run's E_i max against the truth and cost at each size, in one table."""
 
-from tissuebench.workflows.ranking import Board, Row, size_series, size_table
+from tissuebench.workflows.ranking import Board, Row
+from tissuebench.workflows.reports.leaderboard import size_series, size_table
 
 
 def row(case: str, label: str, dofs: int, truth_max: float, wall: float, status="ok", **kw) -> Row:

@@ -29,7 +29,9 @@ from tissuebench.workflows.mesh_sensitivity import (
     leaderboard_boards,
     run_study,
 )
-from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, markdown, pareto
+from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, pareto
+from tissuebench.workflows.reports import leaderboard as document
+from tissuebench.workflows.reports.leaderboard import markdown
 
 COMM = MPI.COMM_WORLD
 TINY = Study("rod-MP3", "rod", "MP3", 4, end_time=0.2)  # grids 1, 2, 4; 6 steps of 1/30 s
@@ -185,7 +187,7 @@ def test_a_nan_never_ranks():
     front = {r.label for r in rows if r.pareto.get("mean")}
     assert front == {"fine", "better"}
     assert all(not r.pareto.get("max") for r in rows if r.label not in front)
-    table = ranking.table(rows)
+    table = document.table(rows)
     nan = next(line for line in table if line.startswith("| nan |"))
     assert nan.endswith("| -/- |") and " | - | " in nan  # shown, not ranked
     order = [line.split(" |")[0][2:] for line in table[2:]]
@@ -403,5 +405,5 @@ def test_figure_takes_labels_as_plain_text(tmp_path):
     rows = [row(r"$\frac{$ x", 1.0, 1e-3), row("a$b$c", 2.0, 1e-4), row(r"$\bad", 0.5, 2e-3)]
     mark_pareto(rows)
     path = tmp_path / f"figure-{COMM.rank}.png"
-    ranking.plot_case(path, Board("c", "rod", "MP3", "linear", description="d"), rows)
+    document.plot_case(path, Board("c", "rod", "MP3", "linear", description="d"), rows)
     assert all_ranks(path.stat().st_size > 10_000)

@@ -26,9 +26,9 @@ from tissuebench.workflows.ranking import (
     Row,
     error_keys,
     mark_truth_pareto,
-    markdown,
     write_csv,
 )
+from tissuebench.workflows.reports.leaderboard import markdown
 
 COMM = MPI.COMM_WORLD
 SHIFT = np.array([0.003, -0.004, 0.0])  # m per s: the candidate is off the truth by SHIFT t

@@ -42,18 +42,15 @@ from tissuebench.workflows.ranking import (
     candidate_of,
     external_rows,
     finite,
-    machine,
     mark_pareto,
     mark_truth_pareto,
-    markdown,
     our_rows,
-    plot_case,
     truth_error,
-    unit_of,
     user_rows,
     write_csv,
 )
 from tissuebench.workflows.reports.budget import budget_rows, plot_budget
+from tissuebench.workflows.reports.leaderboard import machine, markdown, plot_case, unit_of
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
