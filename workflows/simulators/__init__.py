@@ -68,3 +68,33 @@ def get_simulator(name: str) -> ModuleType:
     if name not in SIMULATORS:
         raise ValueError(f"unknown simulator {name!r}: use one of {', '.join(SIMULATORS)}")
     return importlib.import_module(SIMULATORS[name])
+
+
+def integrated(
+    series: Path,
+    wall_time_s: float,
+    dofs: int,
+    field: str,
+    mesh: str,
+    diverged: int | None,
+    reason: str | None,
+    h: float,
+    timing: str,
+    version: str,
+) -> ExternalRun:
+    """What a run that stepped to the end, or diverged at step `diverged` (None: it did not)
+    for `reason`, produced: status "failed" and "diverged at step i (t = i h s): reason" when it
+    diverged (h in s)."""
+    failed = diverged is not None
+    said = f"diverged at step {diverged} (t = {diverged * h:.6g} s): {reason}" if failed else None
+    return ExternalRun(
+        series=series,
+        wall_time_s=wall_time_s,
+        dofs=dofs,
+        field=field,
+        mesh=mesh,
+        status="failed" if failed else "ok",
+        reason=said,
+        timing=timing,
+        version=version,
+    )

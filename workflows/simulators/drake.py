@@ -100,7 +100,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun
+from tissuebench.workflows.simulators import ExternalRun, integrated
 from tissuebench.workflows.simulators.newton import conforming, split_hexahedra, tet_volumes
 
 if TYPE_CHECKING:
@@ -367,23 +367,10 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
         return not_run(dofs, f"Drake raised {type(err).__name__}: {first}"[:300])
     path = workdir / SERIES
     write_series(path, ((nodes, result["tets"], "tetrahedron"), {FIELD: result["U"]}), data.times)
-    failed = result["diverged"] is not None
-    return ExternalRun(
-        series=path,
-        wall_time_s=result["wall_time_s"],
-        dofs=dofs,
-        field=FIELD,
-        mesh=MESH,
-        status="failed" if failed else "ok",
-        reason=(
-            f"diverged at step {result['diverged']} (t = {result['diverged'] * data.h:.6g} s): "
-            f"{result['reason']}"
-            if failed
-            else None
-        ),
-        timing=(
-            f"time.perf_counter from building Drake's plant (reading the .vtk, the FEM model) "
-            f"to the last of {data.steps} steps, in process; writing the .vtk excluded"
-        ),
-        version=_version(),
-    )
+    return integrated(
+        path, result["wall_time_s"], dofs, FIELD, MESH, result["diverged"], result["reason"],
+        data.h,
+        f"time.perf_counter from building Drake's plant (reading the .vtk, the FEM model) "
+        f"to the last of {data.steps} steps, in process; writing the .vtk excluded",
+        _version(),
+    )  # fmt: skip

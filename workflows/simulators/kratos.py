@@ -111,7 +111,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun
+from tissuebench.workflows.simulators import ExternalRun, integrated
 
 if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
@@ -517,26 +517,14 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     points = np.zeros((len(nodes), 3))
     points[:, : data.dim] = nodes
     write_series(path, ((points, cells, cell_type), {FIELD: U}), data.times)
-    failed = diverged > 0
-    return ExternalRun(
-        series=path,
-        wall_time_s=float(result["wall_time_s"]),
-        dofs=dofs,
-        field=FIELD,
-        mesh=mesh,
-        status="failed" if failed else "ok",
-        reason=(
-            f"diverged at step {diverged} (t = {diverged * data.h:.6g} s): {result['reason']}"
-            if failed
-            else None
-        ),
-        timing=(
-            "time.perf_counter in a child process, 1 thread, from the Kratos model's creation "
-            "to the last step (assembly and a sparse LU at every step); interpreter start and "
-            "Kratos's import excluded"
-        ),
-        version=_version(),
-    )
+    return integrated(
+        path, float(result["wall_time_s"]), dofs, FIELD, mesh, diverged if diverged > 0 else None,
+        result["reason"], data.h,
+        "time.perf_counter in a child process, 1 thread, from the Kratos model's creation "
+        "to the last step (assembly and a sparse LU at every step); interpreter start and "
+        "Kratos's import excluded",
+        _version(),
+    )  # fmt: skip
 
 
 if __name__ == "__main__":

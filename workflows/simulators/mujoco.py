@@ -105,7 +105,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun
+from tissuebench.workflows.simulators import ExternalRun, integrated
 from tissuebench.workflows.simulators.newton import (
     conforming,
     lumped_masses,
@@ -412,20 +412,8 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
         f"{result['compile_s']:.2f} s) to the last of {data.steps} steps x {substeps} "
         f"mj_step, one thread, float64"
     )
-    failed = result["diverged"] is not None
-    return ExternalRun(
-        series=path,
-        wall_time_s=result["wall_time_s"],
-        dofs=data.nodes.size,
-        field=FIELD,
-        mesh=SPLIT if data.cell_type == "hexahedron" else "reference",
-        status="failed" if failed else "ok",
-        reason=(
-            f"diverged at step {result['diverged']} (t = {result['diverged'] * data.h:.6g} s): "
-            f"{result['reason']}"
-            if failed
-            else None
-        ),
-        timing=timing,
-        version=_version(),
-    )
+    mesh = SPLIT if data.cell_type == "hexahedron" else "reference"
+    return integrated(
+        path, result["wall_time_s"], data.nodes.size, FIELD, mesh, result["diverged"],
+        result["reason"], data.h, timing, _version(),
+    )  # fmt: skip

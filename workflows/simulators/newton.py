@@ -88,7 +88,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun
+from tissuebench.workflows.simulators import ExternalRun, integrated
 
 NAME = "newton"
 
@@ -491,20 +491,7 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
         f"kernel compilation (or cache load) excluded, done in a warm-up step: "
         f"{result['compile_s']:.1f} s"
     )
-    failed = result["diverged"] is not None
-    return ExternalRun(
-        series=path,
-        wall_time_s=result["wall_time_s"],
-        dofs=dofs,
-        field=FIELD,
-        mesh=MESH,
-        status="failed" if failed else "ok",
-        reason=(
-            f"diverged at step {result['diverged']} (t = {result['diverged'] * data.h:.6g} s): "
-            f"{result['reason']}"
-            if failed
-            else None
-        ),
-        timing=timing,
-        version=_version(),
-    )
+    return integrated(
+        path, result["wall_time_s"], dofs, FIELD, MESH, result["diverged"], result["reason"],
+        data.h, timing, _version(),
+    )  # fmt: skip
