@@ -11,6 +11,7 @@ from mpi4py import MPI
 import h5py
 import numpy as np
 import pytest
+from p1 import p1_matrices as p1_system
 
 from tissuebench.workflows.simulators import kratos as kr
 
@@ -80,32 +81,11 @@ def relative(U, R) -> float:
 
 
 def p1_matrices(data, tets):
-    """Dense K, consistent M and the body force f of P1 on tets (clamped rows included)."""
+    """Dense K, consistent M and the body force f of P1 on tets (clamped rows included;
+    tests/p1.py, independent of Kratos)."""
     m = data.material
-    D = np.zeros((6, 6))
-    D[:3, :3] = m.lmbda
-    D[np.arange(3), np.arange(3)] += 2 * m.mu
-    D[3:, 3:] = m.mu * np.eye(3)
-    n = 3 * len(data.nodes)
-    K, M, f = np.zeros((n, n)), np.zeros((n, n)), np.zeros(n)
-    for t in tets:
-        A = np.c_[np.ones(4), data.nodes[t]]
-        volume = abs(np.linalg.det(A)) / 6
-        grad = np.linalg.inv(A)[1:]
-        B = np.zeros((6, 12))
-        for a in range(4):
-            gx, gy, gz = grad[:, a]
-            B[:, 3 * a : 3 * a + 3] = [
-                [gx, 0, 0], [0, gy, 0], [0, 0, gz], [0, gz, gy], [gz, 0, gx], [gy, gx, 0]
-            ]  # fmt: skip
-        dofs = (3 * t[:, None] + np.arange(3)).ravel()
-        K[np.ix_(dofs, dofs)] += volume * B.T @ D @ B
-        # the P1 consistent mass, rho V / 20 (1 + delta_ab), per component
-        M[np.ix_(dofs, dofs)] += np.kron(
-            m.rho * volume / 20 * (np.ones((4, 4)) + np.eye(4)), np.eye(3)
-        )
-        f[dofs] += np.tile(m.rho * volume / 4 * data.gravity, 4)
-    return K, M, f
+    K, M, f = p1_system(data.nodes, tets, m.mu, m.lmbda, m.rho, data.gravity)
+    return K.toarray(), M["consistent"].toarray(), f
 
 
 def p1_dynamic(data, tets, alpha_m: float) -> np.ndarray:

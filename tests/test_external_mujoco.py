@@ -12,6 +12,7 @@ from mpi4py import MPI
 import h5py
 import numpy as np
 import pytest
+from p1 import p1_matrices as p1_system
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -40,35 +41,10 @@ def small_rod():
 
 def p1_matrices(data, tets):
     """Linear P1 on the tetrahedra: (K, consistent M, row-sum lumped M_L), dense (N3 x N3),
-    SI units; assembled here from SPEC section 1's sigma, independent of MuJoCo."""
+    SI units (tests/p1.py, independent of MuJoCo)."""
     m = data.material
-    D = np.zeros((6, 6))
-    D[:3, :3] = m.lmbda
-    D[np.arange(3), np.arange(3)] += 2 * m.mu
-    D[3:, 3:] = m.mu * np.eye(3)
-    n = 3 * len(data.nodes)
-    K, M = np.zeros((n, n)), np.zeros((n, n))
-    for t in tets:
-        A = np.c_[np.ones(4), data.nodes[t]]
-        volume = np.linalg.det(A) / 6
-        grad = np.linalg.inv(A)[1:]  # (3, 4): the gradients of the barycentric coordinates
-        B = np.zeros((6, 12))
-        for a in range(4):
-            gx, gy, gz = grad[:, a]
-            B[:, 3 * a : 3 * a + 3] = [
-                [gx, 0, 0],
-                [0, gy, 0],
-                [0, 0, gz],
-                [0, gz, gy],
-                [gz, 0, gx],
-                [gy, gx, 0],
-            ]
-        dofs = (3 * t[:, None] + np.arange(3)).ravel()
-        K[np.ix_(dofs, dofs)] += volume * B.T @ D @ B
-        M[np.ix_(dofs, dofs)] += np.kron(
-            m.rho * volume / 20 * (np.ones((4, 4)) + np.eye(4)), np.eye(3)
-        )
-    return K, M, np.diag(M.sum(axis=1))
+    K, M, _ = p1_system(data.nodes, tets, m.mu, m.lmbda, m.rho, data.gravity)
+    return K.toarray(), M["consistent"].toarray(), M["lumped"].toarray()
 
 
 def p1_run(data, tets, mass="lumped", scheme="backward-euler", substeps=1, alpha=None):

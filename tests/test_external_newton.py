@@ -9,6 +9,7 @@ from mpi4py import MPI
 import h5py
 import numpy as np
 import pytest
+from p1 import p1_matrices
 
 pytest.importorskip("newton")
 
@@ -44,31 +45,8 @@ def p1_static(data, tets):
     """Linear elasticity on the P1 tetrahedra under the export's gravity and clamp: nodal
     displacements (N, 3) m, solved densely (135 unknowns on n = 2), independent of Newton."""
     m = data.material
-    mu, lam = m.mu, m.lmbda
-    D = np.zeros((6, 6))
-    D[:3, :3] = lam
-    D[np.arange(3), np.arange(3)] += 2 * mu
-    D[3:, 3:] = mu * np.eye(3)
-    n = 3 * len(data.nodes)
-    K, f = np.zeros((n, n)), np.zeros(n)
-    for t in tets:
-        A = np.c_[np.ones(4), data.nodes[t]]
-        volume = np.linalg.det(A) / 6
-        grad = np.linalg.inv(A)[1:]  # (3, 4): the gradients of the barycentric coordinates
-        B = np.zeros((6, 12))
-        for a in range(4):
-            gx, gy, gz = grad[:, a]
-            B[:, 3 * a : 3 * a + 3] = [
-                [gx, 0, 0],
-                [0, gy, 0],
-                [0, 0, gz],
-                [0, gz, gy],
-                [gz, 0, gx],
-                [gy, gx, 0],
-            ]
-        dofs = (3 * t[:, None] + np.arange(3)).ravel()
-        K[np.ix_(dofs, dofs)] += volume * B.T @ D @ B
-        f[dofs] += np.tile(m.rho * volume / 4 * data.gravity, 4)  # P1: exact for constant g
+    K, _, f = p1_matrices(data.nodes, tets, m.mu, m.lmbda, m.rho, data.gravity)
+    K, n = K.toarray(), len(f)
     clamped = (3 * data.node_sets["clamped"][:, None] + np.arange(3)).ravel()
     free = np.setdiff1d(np.arange(n), clamped)
     u = np.zeros(n)
