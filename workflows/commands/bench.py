@@ -16,7 +16,7 @@ A quick run never replaces a full one: without --out it writes into a folder of 
 temporary directory, and it refuses an --out whose performance.json holds a full run.
 
 The measurements (worker processes, budgets, capacity search) are workflows/bench/measure.py;
-the tables, figure and report are workflows/bench/report.py. Writes DIR/performance.md,
+the tables are workflows/bench/tables.py, the figure and report workflows/bench/report.py. Writes DIR/performance.md,
 DIR/performance.png and DIR/performance.json. Only the driver (one process, not under mpiexec)
 prints.
 """
@@ -30,7 +30,8 @@ from pathlib import Path
 
 from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.bench.measure import measure
-from tissuebench.workflows.bench.report import plot, summary_tables, text_table, write_report
+from tissuebench.workflows.bench.report import plot, write_report
+from tissuebench.workflows.bench.tables import summary_tables, text_table
 from tissuebench.workflows.output import check_writable, write_owned
 
 FILES = ("performance.json", "performance.png", "performance.md")
