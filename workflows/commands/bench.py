@@ -16,9 +16,9 @@ A quick run never replaces a full one: without --out it writes into a folder of 
 temporary directory, and it refuses an --out whose performance.json holds a full run.
 
 The measurements (worker processes, budgets, capacity search) are workflows/bench/measure.py;
-the tables are workflows/bench/tables.py, the figure and report workflows/bench/report.py. Writes DIR/performance.md,
-DIR/performance.png and DIR/performance.json. Only the driver (one process, not under mpiexec)
-prints.
+the tables are workflows/bench/tables.py, the figure and report workflows/bench/report.py.
+Writes DIR/performance.md, DIR/performance.png and DIR/performance.json. Only the driver (one
+process, not under mpiexec) prints.
 """
 
 import argparse
