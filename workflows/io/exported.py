@@ -145,8 +145,6 @@ class Exported:
 # --- building ---------------------------------------------------------------------------------
 
 
-AXES = ("x", "y", "z")
-
 CONSTRAINT_SEMANTICS = {
     "prescribed": "every component of every node of the set is prescribed (a Dirichlet "
     "condition on all components): at t_i its displacement, velocity and acceleration are "

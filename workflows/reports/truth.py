@@ -9,16 +9,6 @@ from tissuebench.workflows.reports.common import READINGS, plain, verdict
 TRUTH_SYMBOLS = {"relative_error": "E_n", "surface_error": "E_s", "interior_error": "E_i"}
 
 
-def truth_numbers(
-    values: dict, metrics: tuple[str, ...] = ("relative_error", "interior_error")
-) -> str:
-    """'E_n mean a, max b; E_i mean c, max d' of {metric_reading: value}."""
-    return "; ".join(
-        f"{TRUTH_SYMBOLS[m]} mean {values[m + '_mean']:.3g}, max {values[m + '_max']:.3g}"
-        for m in metrics
-    )
-
-
 def _truth_claim(claim: Claim) -> list[str]:
     """A claim of SPEC 7 against the truth: its statement, numbers and verdict (markdown)."""
     statements = {
