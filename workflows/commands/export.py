@@ -14,7 +14,7 @@ from tissuebench.workflows.commands.arguments import (
     posed,
 )
 from tissuebench.workflows.io.calculix import ELEMENTS
-from tissuebench.workflows.io.exported import ExportError
+from tissuebench.workflows.io.exported import SCHEMA, SCHEMA_VERSION, ExportError
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate
 from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
@@ -26,7 +26,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
         description="Write a benchmark for another simulator: json (mesh, node sets, the "
         "prescribed motion at every t_i, body force, material, model, h, T; schema "
-        "tissuebench.benchmark version 1), inp (a CalculiX deck ready for `ccx -i NAME`), or "
+        f"{SCHEMA} version {SCHEMA_VERSION}, units and regions stated), inp (a CalculiX deck "
+        "ready for `ccx -i NAME`), or "
         "the mesh alone (vtu, msh). Beside a json or inp, our reference's displacement history "
         "(NAME.reference.xdmf + .h5: implicit, or quasi-static with --procedure static), so "
         "that `tissuebench compare NAME.reference.xdmf NAME.frd --out DIR` grades the result.",
