@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 from types import ModuleType
 
@@ -98,3 +99,14 @@ def integrated(
         timing=timing,
         version=version,
     )
+
+
+def installed_version(*distributions: str) -> str:
+    """The version of the first of these installed distributions, without importing it ("" when
+    none is installed)."""
+    for name in distributions:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    return ""

@@ -94,13 +94,12 @@ its deformable bodies in time only).
 from __future__ import annotations
 
 import time
-from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, integrated
+from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
 from tissuebench.workflows.simulators.newton import conforming, split_hexahedra, tet_volumes
 
 if TYPE_CHECKING:
@@ -112,10 +111,7 @@ NAME = "drake"
 
 def _version() -> str:
     """Drake's installed version, without importing it ("" when absent)."""
-    try:
-        return metadata.version("drake")
-    except metadata.PackageNotFoundError:
-        return ""
+    return installed_version("drake")
 
 
 TITLE = f"Drake {_version()}".strip()

@@ -111,7 +111,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, integrated
+from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
 
 if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
@@ -121,10 +121,7 @@ NAME = "kratos"
 
 def _version() -> str:
     """Kratos's installed version, without importing it ("" when absent)."""
-    try:
-        return metadata.version("KratosMultiphysics")
-    except metadata.PackageNotFoundError:
-        return ""
+    return installed_version("KratosMultiphysics")
 
 
 TITLE = f"Kratos {_version()}".strip()

@@ -99,13 +99,12 @@ static procedure (MuJoCo steps dynamics only).
 from __future__ import annotations
 
 import time
-from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, integrated
+from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
 from tissuebench.workflows.simulators.newton import (
     conforming,
     lumped_masses,
@@ -121,12 +120,7 @@ NAME = "mujoco"
 
 def _version() -> str:
     """MuJoCo's installed version, without importing it ("" when absent)."""
-    for dist in ("mujoco", "mujoco-core"):
-        try:
-            return metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            continue
-    return ""
+    return installed_version("mujoco", "mujoco-core")
 
 
 TITLE = f"MuJoCo {_version()}".strip()

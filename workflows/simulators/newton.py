@@ -83,22 +83,18 @@ from __future__ import annotations
 import contextlib
 import os
 import time
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, integrated
+from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
 
 NAME = "newton"
 
 
 def _version() -> str:
     """Newton's installed version, without importing it ("" when absent)."""
-    try:
-        return metadata.version("newton")
-    except metadata.PackageNotFoundError:
-        return ""
+    return installed_version("newton")
 
 
 TITLE = f"Newton {_version()}".strip()
