@@ -278,8 +278,10 @@ def truth_lines(board: Board, rows: list[Row]) -> list[str]:
             "",
             "total: the run against the truth; discretisation: our `implicit` on the run's mesh "
             "against the truth; algorithm: the run against our `implicit` on its mesh (SPEC 6); "
-            "model: our `implicit` with the run's model against it with the truth's (none here: "
-            "the case is linear and so is the truth). The parts are not additive (the total is "
+            "model: our `implicit` with the run's model against it with the truth's, not "
+            "measured here: ours are linear, as the truth, but an outside simulator's elastic "
+            "model is its own (MuJoCo's is St Venant-Kirchhoff, whose nonlinearity at this load "
+            "stays in its algorithm part). The parts are not additive (the total is "
             "at most their sum).",
             "",
             *(
