@@ -210,6 +210,7 @@ def test_command_writes_the_summary_and_refuses_bad_input(cache, tmp_path, monke
     assert (full / "truth.md").read_text() == "# The truth (SPEC 10)\n"
 
 
+@pytest.mark.serial  # it writes copies of the sources: one process
 def test_the_cache_key_follows_the_code_not_its_text(tmp_path, monkeypatch):
     """Moving imports, editing docstrings or type hints, reformatting: the same truth, the
     same key (a rod truth costs minutes, a neo-Hookean one an hour); a changed number or
