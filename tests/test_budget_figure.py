@@ -3,6 +3,7 @@
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from matplotlib.image import imread
 
 from tissuebench.workflows.reports.budget import budget_rows, plot_budget
@@ -22,6 +23,7 @@ def test_rows_drawn_are_those_with_a_measured_total_ordered_by_it():
     assert [r.label for r in budget_rows(rows)] == ["b", "a"]
 
 
+@pytest.mark.serial  # a figure, drawn by one process (rank 0's job)
 def test_the_figure_draws_one_bar_per_measured_part(tmp_path):
     """Each measured part is a bar in its colour; an unmeasured one is not drawn: the pixels
     of a part's colour appear exactly when some row has that part measured."""
