@@ -513,7 +513,12 @@ def test_compare_into_a_run_folder_refuses_and_keeps_it_whole(tmp_path, graded):
     run, ref, cand = graded
     before = tree(run)
     r = tissuebench("compare", ref, cand, "--out", run)
-    assert "holds results of other inputs" in one_line_error(r)
+    assert "holds the results of tissuebench run, which compare never replaces" in (
+        one_line_error(r)
+    )
+    assert tree(run) == before
+    r = tissuebench("compare", ref, cand, "--out", run, "--force")  # not even on request
+    assert "--force or not" in one_line_error(r)
     assert tree(run) == before
     again = tissuebench("run", "block", *SMALL, "--algorithms", "implicit,explicit", "--out", run)
     assert again.returncode == 0 and "skipped" in again.stdout, again.stderr[-2000:]

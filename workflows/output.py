@@ -383,6 +383,17 @@ def collective(comm: MPI.Comm, action: Callable[[], T], where: Path | None = Non
     return result
 
 
+def command_of(inputs: object) -> str | None:
+    """The command whose folder a summary's inputs belong to: compare's name it, external's
+    name a simulator, run's (and paper's cases, which run writes) neither; None when there are
+    no inputs to read."""
+    if not isinstance(inputs, dict):
+        return None
+    if "command" in inputs:
+        return str(inputs["command"])
+    return "external" if "simulator" in inputs else "run"
+
+
 class RunFolder:
     """A folder to (re)write whole, held by its lock while the context is open.
 
@@ -433,6 +444,12 @@ class RunFolder:
             if not self.path.exists() or not any(self.path.iterdir()):
                 return "write"  # new or empty
             summary = read_summary(self.path) or {}
+            theirs, ours = command_of(summary.get("inputs")), command_of(inputs)
+            if theirs not in (None, ours):  # another command's results: never ours to replace
+                raise OutputError(
+                    f"{self.path}: holds the results of tissuebench {theirs}, which {ours} "
+                    "never replaces, --force or not; name another folder with --out"
+                )
             if force or not is_complete(self.path):  # ours, and replaced on request or broken
                 return "write"
             if summary.get("fingerprint") == fingerprint(inputs):
