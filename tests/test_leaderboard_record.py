@@ -9,6 +9,7 @@ definition, and a rerun must re-time (new wall times) only the case it names."""
 import argparse
 import csv
 import json
+import os
 import shutil
 
 import pytest
@@ -179,3 +180,28 @@ def test_a_user_folder_of_another_case_is_refused_in_one_line(
     assert "good" in labels and not labels & {"block-run", "rod-b-run", "old-run"}
     text = (out / "leaderboard.md").read_text()
     assert all(f"user/{name}: left out" in text for name in refused)
+
+
+def test_the_load_while_a_case_was_timed_is_recorded_and_said(recorded, tmp_path, monkeypatch):
+    """The one-minute load average as a case's timing began and ended goes into the record and
+    into the case's header; past the core count less a half, its times are said to be upper
+    bounds (the timed run shared busy cores), and on a quiet machine they are not."""
+    cores = os.cpu_count() or 1
+
+    def section(out):
+        return (out / "leaderboard.md").read_text().split("## rod-a")[1].split("## rod-b")[0]
+
+    for loads, busy in (([cores + 1.0, 0.25], True), ([0.5, 0.75], False)):
+        out = copy(recorded, tmp_path / str(busy))
+        measured = iter(loads)
+        monkeypatch.setattr(leaderboard, "load_average", lambda m=measured: next(m))
+        assert run(out, monkeypatch, rerun=["rod-a"]) == 0
+        board = next(
+            c["board"]
+            for c in json.loads((out / "leaderboard.json").read_text())["cases"]
+            if c["board"]["name"] == "rod-a"
+        )
+        assert board["load"] == loads
+        said = f"load average {loads[0]:.2f} as its timing began, {loads[1]:.2f} as it ended"
+        assert said in section(out)
+        assert ("upper bounds" in section(out)) is busy

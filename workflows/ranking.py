@@ -71,6 +71,8 @@ class Board:
     sizes: str | None = None  # the series of mesh sizes it belongs to (size_table), if any
     session: str = ""  # when its runs were timed ("" : the session writing the leaderboard)
     machine: str = ""  # where (machine(); "": this machine)
+    # the machine's one-minute load average when its timing began and ended ((), not measured)
+    load: tuple[float, ...] = ()
 
 
 @dataclass

@@ -8,6 +8,7 @@ escaped (ranking.md, ranking.plain).
 from __future__ import annotations
 
 import math
+import os
 import platform
 import textwrap
 from pathlib import Path
@@ -352,8 +353,6 @@ def size_table(series: list[Board], rows: dict[str, list[Row]]) -> list[str]:
 
 def machine() -> str:
     """One line on where the wall times were measured."""
-    import os
-
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -365,6 +364,19 @@ def machine() -> str:
     return (
         f"{platform.node() or 'this machine'}, {cpu}, {os.cpu_count()} cores, {platform.system()}"
     )
+
+
+def load_note(load: tuple[float, ...]) -> str:
+    """The load average while a case was timed, and what it means for its wall times."""
+    if len(load) != 2 or not all(math.isfinite(x) for x in load):
+        return ""
+    cores = os.cpu_count() or 1
+    said = f"; load average {load[0]:.2f} as its timing began, {load[1]:.2f} as it ended"
+    if max(load) > cores - 0.5:  # more runnable processes than the timed run's core to spare
+        return (
+            said + f" on {cores} cores: every core was busy, so its times are upper bounds"
+        )
+    return said
 
 
 def sessions_line(boards: list[Board], session: str) -> str:
@@ -418,7 +430,9 @@ def markdown(
             truth_header(board, rows[board.name]),
             "",
             f"Timed in the session of {md(board.session or session)}"
-            + (f" on {md(board.machine)}." if board.machine else "."),
+            + (f" on {md(board.machine)}" if board.machine else "")
+            + load_note(board.load)
+            + ".",
             "",
             f"![{board.name}](leaderboard/{board.name}.png)",
             "",
