@@ -284,6 +284,32 @@ def test_one_truth_runs_again_with_another_step(case):
     assert np.allclose(interior_difference(first, again), interior_difference(first, half))
 
 
+def test_where_modified_newton_fails_full_newton_takes_the_step(monkeypatch):
+    """A modified Newton allowed one iteration (too few for 1e-10 on a neo-Hookean step)
+    hands its steps to full Newton from the step's start: the history is full Newton's alone,
+    to Newton's tolerance."""
+    from tissuebench.solvers.truth import solver
+
+    built = []
+    original = solver.Truth._newton_solver
+
+    def one_iteration(self, lag):
+        problem = original(self, lag)
+        built.append(lag)
+        if lag != 1:
+            problem.solver.setTolerances(max_it=1)
+        return problem
+
+    monkeypatch.setattr(solver.Truth, "_newton_solver", one_iteration)
+    truth, bench = case_truth("rod-nh-s3", 1)
+    fallen = truth.run(bench.dt, 4)
+    assert built == [solver.LAG, 1]  # the full Newton was needed, and built once
+    monkeypatch.setattr(solver.Truth, "_newton_solver", original)
+    monkeypatch.setattr(solver, "LAG", 1)  # full Newton from the first iteration
+    full, _ = case_truth("rod-nh-s3", 1)
+    assert np.allclose(fallen.u, full.run(bench.dt, 4).u, rtol=0, atol=1e-11)
+
+
 @pytest.mark.serial
 def test_truth_serial_equals_two_ranks():
     serial_run = run_script("mpi_truth.py", ranks=1)

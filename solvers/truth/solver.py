@@ -180,6 +180,7 @@ class Truth:
         self.U = fem.Function(self.W)
         self.f = pb.body_force(ufl.SpatialCoordinate(mesh), self.t)
         self._step_solver = None
+        self._full_newton = None  # full Newton, built where the modified one first fails
         self._step_h = None  # the step of the factorised linear step matrix, s
         self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
 
@@ -328,7 +329,7 @@ class Truth:
         if self._step_solver is not None and self._step_h != h:  # its tangent holds h
             if self.kind != "mixed-nh":
                 self._destroy(self._step_solver)
-            self._step_solver = None
+            self._step_solver = self._full_newton = None
         self._step_h = h
         if self.kind == "mixed-nh":
             self._newton()
@@ -340,41 +341,45 @@ class Truth:
         self.an.x.array[:] = self.apred.x.array + 4 / h**2 * u
         self.un.x.array[:] = u
 
+    def _newton_solver(self, lag: int):
+        """A step's Newton solver (dolfinx's NonlinearProblem, MUMPS): the factorised tangent
+        is refreshed every `lag`-th iteration and kept across steps (lag 1: full Newton)."""
+        options = {
+            "snes_type": "newtonls",
+            "snes_linesearch_type": "basic",
+            "snes_rtol": 1e-10,
+            "snes_atol": 1e-13,
+            "snes_stol": 0.0,
+            "snes_max_it": 30,
+            "snes_lag_jacobian": lag,
+            "snes_lag_jacobian_persists": True,
+            "snes_lag_preconditioner": lag,
+            "snes_lag_preconditioner_persists": True,
+            **LU,
+        }
+        return dolfinx.fem.petsc.NonlinearProblem(
+            self.step_residual(),
+            self.U,
+            bcs=[self.bc],
+            petsc_options=options,
+            petsc_options_prefix=f"truth_{id(self)}_lag{lag}_",
+        )
+
     def _newton(self) -> None:
+        # modified Newton (the tangent changes little in a step); where it fails, full Newton
+        # again from the step's start (petsc4py sets no lag once a SNES is built: a second one)
         if self._step_solver is None:
-            options = {
-                "snes_type": "newtonls",
-                "snes_linesearch_type": "basic",
-                "snes_rtol": 1e-10,
-                "snes_atol": 1e-13,
-                "snes_stol": 0.0,
-                "snes_max_it": 30,
-                # modified Newton: the factorised tangent is kept over iterations and steps
-                # and refreshed every LAG-th iteration (the tangent changes little in a step)
-                "snes_lag_jacobian": LAG,
-                "snes_lag_jacobian_persists": True,
-                "snes_lag_preconditioner": LAG,
-                "snes_lag_preconditioner_persists": True,
-                **LU,
-            }
-            self._step_solver = dolfinx.fem.petsc.NonlinearProblem(
-                self.step_residual(),
-                self.U,
-                bcs=[self.bc],
-                petsc_options=options,
-                petsc_options_prefix=f"truth_{id(self)}_",
-            )
+            self._step_solver = self._newton_solver(LAG)
         start = self.U.x.array.copy()
-        self._step_solver.solve()
-        snes = self._step_solver.solver
-        if snes.getConvergedReason() <= 0:  # again from the start, a fresh tangent every iteration
+        solver = self._step_solver
+        solver.solve()
+        if solver.solver.getConvergedReason() <= 0:
             self.U.x.array[:] = start
-            snes.setLagJacobian(1)
-            snes.setLagPreconditioner(1)
-            self._step_solver.solve()
-            snes.setLagJacobian(LAG)
-            snes.setLagPreconditioner(LAG)
-        reason = snes.getConvergedReason()
+            if self._full_newton is None:
+                self._full_newton = self._newton_solver(1)
+            solver = self._full_newton
+            solver.solve()
+        reason = solver.solver.getConvergedReason()
         if reason <= 0:
             raise RuntimeError(f"truth: Newton did not converge at t = {self.t.value} s ({reason})")
 
