@@ -40,3 +40,41 @@ def test_size_table_lines_up_each_run_across_the_sizes():
     assert [line.split(" | ")[0] for line in body] == ["| implicit", "| explicit"]
     assert body[0] == "| implicit | 0.0003 | 0.05 | 8e-05 | 0.2 |"
     assert body[1] == "| explicit | 0.0004 | 0.02 | diverged | 0.03 |"
+
+
+def test_what_the_finest_mesh_changes_is_said_from_the_rows():
+    """Each run's cost and error ratios from the coarsest to the finest size (exact from the
+    rows), an error that fell less than 2x said to have stopped falling, and a run that
+    finished coarse but not fine named; runs at one end only left out."""
+    from tissuebench.workflows.reports.leaderboard import growth_lines
+
+    boards = [
+        Board("coarse", "rod", "MP3", "linear", truth="rod", sizes="rod"),
+        Board("fine", "rod", "MP3", "linear", mesh_size=12, truth="rod", sizes="rod"),
+    ]
+    rows = {
+        "coarse": [
+            row("coarse", "implicit", 336, 4e-4, 0.1, reference=True),
+            row("coarse", "stalled", 336, 1e-3, 1.0),
+            row("coarse", "explicit", 336, 4e-4, 0.05),
+            row("coarse", "grew", 336, 1e-3, 0.5),
+        ],
+        "fine": [
+            row("fine", "implicit", 12675, 4e-5, 4.0, reference=True),
+            row("fine", "stalled", 12675, 8e-4, 20.0),
+            row("fine", "explicit", 12675, float("nan"), 0.2, status="diverged"),
+            row("fine", "new", 12675, 1e-5, 1.0),
+            row("fine", "grew", 12675, 1.25e-3, 5.0),
+        ],
+    }
+    lines = growth_lines(size_series(boards)[0], rows)
+    assert lines[0].startswith("What the finest mesh changes (n = 3 to 12;")
+    said = [line for line in lines if line.startswith("- ")]
+    assert said == [
+        "- implicit: cost x40 (to 0.4 s per simulated s), E_i max /10",
+        "- grew: cost x10 (to 0.5 s per simulated s), E_i max x1.25 (its error stopped "
+        "falling: not its mesh's)",
+        "- stalled: cost x20 (to 2 s per simulated s), E_i max /1.25 (its error stopped "
+        "falling: not its mesh's)",
+    ]
+    assert "Finished at n = 3, not at n = 12: explicit." in lines

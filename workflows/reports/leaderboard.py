@@ -317,6 +317,46 @@ def size_rows(series: list[Board], rows: dict[str, list[Row]]) -> dict[str, list
     return {label: rs for label, rs in found.items() if sum(r is not None for r in rs) > 1}
 
 
+def growth_lines(series: list[Board], rows: dict[str, list[Row]]) -> list[str]:
+    """What the finest mesh of a series changes, in words: for each run that finished at the
+    coarsest and the finest size, how many times its cost grew and its E_i max against the
+    truth fell (less than 2x: said to have stopped falling, its error not its mesh's), and
+    the runs that finished at the coarsest but not at the finest."""
+    found = size_rows(series, rows)
+    ends = {label: (rs[0], rs[-1]) for label, rs in found.items() if rs[0] is not None and rs[-1]}
+
+    def error(r: Row) -> float | None:
+        value = r.truth.get(f"{E_I}_max") if r.status == "ok" else None
+        return value if finite(value) and value > 0 else None
+
+    grown = []
+    for label, (a, b) in ends.items():
+        if error(a) and error(b) and finite(a.cost) and finite(b.cost) and a.cost > 0:
+            grown.append((label, b.cost / a.cost, error(a) / error(b), b.cost))
+    if not grown:
+        return []
+    grown.sort(key=lambda g: g[3])
+    first, last = series[0], series[-1]
+    n0 = first.mesh_size or get_entry(first.benchmark).mesh_size
+    n1 = last.mesh_size or get_entry(last.benchmark).mesh_size
+    out = [
+        f"What the finest mesh changes (n = {n0} to {n1}; cost and E_i max against the truth, "
+        "each run against itself, cheapest at the finest first):",
+        "",
+    ]
+    for label, cost, fall, at in grown:
+        stalled = " (its error stopped falling: not its mesh's)" if fall < 2 else ""
+        change = f"/{fall:.3g}" if fall >= 1 else f"x{1 / fall:.3g}"
+        out.append(
+            f"- {md(label)}: cost x{cost:.3g} (to {at:.3g} s per simulated s), E_i max "
+            f"{change}{stalled}"
+        )
+    lost = sorted(label for label, (a, b) in ends.items() if a.status == "ok" and b.status != "ok")
+    if lost:
+        out += ["", f"Finished at n = {n0}, not at n = {n1}: {', '.join(md(x) for x in lost)}."]
+    return out + [""]
+
+
 def size_table(series: list[Board], rows: dict[str, list[Row]]) -> list[str]:
     """The markdown table of the runs across the mesh sizes of one series: against the truth
     (E_i max, m^gdim) and cost (s per simulated s) at each size, the finest's best first."""
@@ -373,9 +413,7 @@ def load_note(load: tuple[float, ...]) -> str:
     cores = os.cpu_count() or 1
     said = f"; load average {load[0]:.2f} as its timing began, {load[1]:.2f} as it ended"
     if max(load) > cores - 0.5:  # more runnable processes than the timed run's core to spare
-        return (
-            said + f" on {cores} cores: every core was busy, so its times are upper bounds"
-        )
+        return said + f" on {cores} cores: every core was busy, so its times are upper bounds"
     return said
 
 
@@ -465,5 +503,6 @@ def markdown(
             "",
             *size_table(series, rows),
             "",
+            *growth_lines(series, rows),
         ]
     return "\n".join(out)
