@@ -4,6 +4,7 @@ Q1 locks, the rod's static and dynamic tip converging under refinement, the own-
 estimate, and serial against mpiexec -n 2."""
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import dolfinx.fem.petsc
 import dolfinx.mesh
@@ -308,6 +309,27 @@ def test_where_modified_newton_fails_full_newton_takes_the_step(monkeypatch):
     monkeypatch.setattr(solver, "LAG", 1)  # full Newton from the first iteration
     full, _ = case_truth("rod-nh-s3", 1)
     assert np.allclose(fallen.u, full.run(bench.dt, 4).u, rtol=0, atol=1e-11)
+
+
+def test_a_static_solve_that_fails_from_rest_starts_from_the_state_at_hand(monkeypatch):
+    """Where Newton from rest fails (here made to), the static solve starts from the state at
+    hand (a run's last) and reaches the same equilibrium, to Newton's tolerance."""
+    truth, bench = case_truth("rod-nh-s3", 1)
+    at_rest = truth.static(1.0)
+    truth.run(bench.dt, 5)  # the state at hand: 5 steps in
+    solve, calls = dolfinx.fem.petsc.NonlinearProblem.solve, []
+
+    def fails_first(problem):
+        calls.append(problem.solver.getOptionsPrefix())
+        if len(calls) == 1:  # the attempt from rest
+            problem.solver.setConvergedReason(PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT)
+            return problem.u
+        return solve(problem)
+
+    monkeypatch.setattr(dolfinx.fem.petsc.NonlinearProblem, "solve", fails_first)
+    again = truth.static(1.0)
+    assert len(calls) == 2  # from rest (failed), then from the state at hand
+    assert np.allclose(again, at_rest, rtol=0, atol=1e-10)
 
 
 @pytest.mark.serial

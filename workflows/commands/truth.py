@@ -192,7 +192,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         row = f"| {label} | {h['dofs'][k]:,} | {h['wall'][k]:.1f} | "
         row += (fmt(diffs[k]) if k < len(diffs) else "") + " |"
         if probe:
-            row += f" {h['static_tip'][k][1]:.6g} |"
+            static = h["static_tip"][k][1]
+            row += f" {static:.6g} |" if math.isfinite(static) else " not solved |"
             row += "".join(f" {np.asarray(h['tip'][k])[round(t / dt), 1]:.6g} |" for t in shown)
         lines.append(row)
     half_row = (
@@ -222,7 +223,7 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         ]
     if probe:
         v, band = static_band(h)
-        tips = [f"static {v:.6g} ± {fmt(band, 2)}"]
+        tips = [f"static {v:.6g} ± {fmt(band, 2)}" if math.isfinite(v) else "static: not solved"]
         for t in shown:
             v, band = tip_band(h, round(t / dt))
             tips.append(f"t = {t:g} s {v:.6g} ± {fmt(band, 2)}")
