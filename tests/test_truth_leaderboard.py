@@ -215,3 +215,21 @@ def test_the_error_budget_takes_our_implicit_on_the_rows_mesh():
         lone.budget["discretisation"] is None
         and "no run of our implicit" in (lone.budget["discretisation_how"])
     )
+
+
+def test_a_truth_whose_levels_do_not_converge_grades_nothing(tmp_path, monkeypatch):
+    """A cached truth that states no own error (its levels' differences grow) is no
+    yardstick: no row is graded against it and the case's header says why in one line."""
+    from dataclasses import replace
+
+    truth = make_truth(MESHES[3]["reference"], affine(3))
+    truth.own_error = {"interior_error_max": float("nan")}
+    monkeypatch.setattr(
+        "tissuebench.solvers.truth.store.load_cached", lambda case, quick=False, comm=None: truth
+    )
+    s3 = replace(next(b for b in leaderboard.BOARDS if b.name == "rod-MP3-s3"))
+    u = written(tmp_path, "run.xdmf", affine(3))
+    rows = {s3.name: [row("implicit+neo-hookean", case=s3.name, series=str(u))]}
+    leaderboard.grade_truths([s3], rows, log=lambda line: None)
+    assert rows[s3.name][0].truth == {} and s3.truth_band is None
+    assert "its levels do not converge and it states no own error" in s3.truth_note

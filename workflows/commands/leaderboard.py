@@ -20,6 +20,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import numpy as np
+
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
 from tissuebench.solvers.materials import get_material
@@ -426,6 +428,13 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                 board.truth_note = (
                     f"{case}, not computed on this machine (tissuebench truth {case}: about "
                     f"{minutes:.0f} min on one core): no truth columns."
+                )
+            continue
+        if not np.isfinite(own_error(truth)):  # its levels do not converge: no yardstick
+            for board in mine:
+                board.truth_note = (
+                    f"{case}: computed, but its levels do not converge and it states no own "
+                    f"error (tissuebench truth {case}): no truth columns."
                 )
             continue
         for board in mine:

@@ -214,6 +214,14 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         "",
     ]
     space, step = own["space"], own["time"]
+    if not math.isfinite(space) and len(diffs) > 1 and diffs[-1] >= diffs[-2]:
+        lines += [
+            "The E_i max between levels grows with refinement ("
+            + ", then ".join(fmt(d) for d in diffs)
+            + f" {units}): these levels do not converge, no order or own error can be stated, "
+            "and this truth is not one yet (the leaderboard grades nothing against it).",
+            "",
+        ]
     if not own["meets_target"] and all(math.isfinite(x) for x in (space, step)):
         larger = "space (the levels)" if space >= step else "time (h against h/2)"
         lines += [
