@@ -417,11 +417,8 @@ def compute(
         info["h"] = bench.dt
         if run.tip is not None:
             tips.append(np.asarray(run.tip).tolist())
-            # the static tip is reported beside the truth, never worth losing it for; where
-            # Newton fails from rest and from the run's last state, sub-steps did not help
-            # (rod-nh-s3 at n = 8: up to 64 of them, 40 min): none are tried
-            try:
-                static = np.asarray(truth.tip(truth.static(steps * bench.dt, max_substeps=1)))
+            try:  # the static tip is reported beside the truth, never worth losing it for
+                static = np.asarray(truth.tip(truth.static(steps * bench.dt)))
             except RuntimeError as err:
                 say(f"{case} n={n}: {err}; its static tip is not reported")
                 static = np.full(3, np.nan)
