@@ -27,6 +27,8 @@ for case, sizes, steps in [
             out[f"{case}-{n}-u"] = history[1].tolist()
             if run.tip is not None:
                 out[f"{case}-{n}-tip"] = run.tip.tolist()
+            if run.min_jacobian is not None:
+                out[f"{case}-{n}-min-J"] = run.min_jacobian.values.tolist()
     if len(runs) == 2:
         out[f"{case}-levels"] = interior_difference(runs[0], runs[1]).tolist()
         half = truth.run(bench.dt / 2, 2 * steps)

@@ -332,6 +332,30 @@ def test_a_static_solve_that_fails_from_rest_starts_from_the_state_at_hand(monke
     assert np.allclose(again, at_rest, rtol=0, atol=1e-10)
 
 
+@pytest.mark.parametrize("gdim", [2, 3])
+def test_smallest_jacobian_of_a_homogeneous_stretch(gdim):
+    """J = det(I + grad u) of u = (a x, b y[, c z]) is (1 + a)(1 + b)(1 + c) at every point;
+    of a simple shear it is 1; a neo-Hookean run's record starts at rest, J = 1, and the rod
+    under gravity is compressed somewhere after."""
+    from tissuebench.solvers.truth.solver import _Jacobian
+
+    mesh = box(gdim, 3)
+    V = fem.functionspace(mesh, ("Lagrange", 2, (gdim,)))
+    u = fem.Function(V)
+    stretch = [0.2, -0.5, 0.1][:gdim]
+    u.interpolate(lambda x: np.array([s * x[i] for i, s in enumerate(stretch)]))
+    smallest, where = _Jacobian(u, 4)()
+    assert smallest == pytest.approx(np.prod(1 + np.array(stretch)), rel=1e-12)
+    assert where.shape == (gdim,) and np.all((where > 0) & (where < 1))
+    u.interpolate(lambda x: np.array([2 * x[1]] + [0 * x[0]] * (gdim - 1)))  # simple shear
+    assert _Jacobian(u, 4)()[0] == pytest.approx(1.0, rel=1e-12)
+    truth, bench = case_truth("rod-nh-s3", 1)
+    run = truth.run(bench.dt, 3)
+    assert run.min_jacobian.values[0] == pytest.approx(1.0, abs=1e-14)
+    assert len(run.min_jacobian.values) == 4 and np.all(run.min_jacobian.values[1:] < 1)
+    assert case_truth("rod", 1)[0].run(bench.dt, 1).min_jacobian is None  # linear: not used
+
+
 @pytest.mark.serial
 def test_truth_serial_equals_two_ranks():
     serial_run = run_script("mpi_truth.py", ranks=1)

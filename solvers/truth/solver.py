@@ -36,7 +36,10 @@ Discretisation (all in SI units: m, s, Pa, kg/m^3):
 
 The displacement history is returned as arrays of the owned dof values of the Q2 space V
 (`TruthRun.u[i]` at t_i = i h), with V itself, so that it can be graded by interpolation;
-the rod's tip (0.5, 0.25, 0.125) m is evaluated at every step.
+the rod's tip (0.5, 0.25, 0.125) m is evaluated at every step. For `neo-hookean`, the smallest
+J = det F over the quadrature points of the residual is recorded at every step (SPEC 8: a
+state with J <= 0 somewhere is an inverted element), with where and when the run's smallest
+one is.
 """
 
 from __future__ import annotations
@@ -117,6 +120,18 @@ class TruthRun:
     tip: np.ndarray | None
     dofs: int
     wall: float
+    min_jacobian: JacobianRecord | None = None
+
+
+@dataclass
+class JacobianRecord:
+    """The smallest J = det F (dimensionless) over the quadrature points at every step of a
+    run (values[k] at times[k] of the run, t = 0 included), and the smallest of all: its time
+    `at_time` (s) and its point `at_point` (m, undeformed)."""
+
+    values: np.ndarray
+    at_time: float
+    at_point: np.ndarray
 
 
 def _eps(u):
@@ -184,6 +199,7 @@ class Truth:
         self._full_newton = None  # full Newton, built where the modified one first fails
         self._step_h = None  # the step of the factorised linear step matrix, s
         self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
+        self._jacobian = _Jacobian(self.un, 2 * pb.degree) if self.kind == "mixed-nh" else None
 
     # -- forms -----------------------------------------------------------------------------
     def _split(self, U):
@@ -437,13 +453,15 @@ class Truth:
         displacement (0: none) and the probe at every step; on_step(i) after step i."""
         start = time.perf_counter()
         self.initial_state()
-        history, tips, times = [], [], []
+        history, tips, times, jacobians = [], [], [], []
 
         def record(i):
             values = self.un.x.array[: self.n_owned]
             if keep and i % keep == 0:
                 history.append(values.copy())
                 times.append(i * h)
+                if self._jacobian is not None:
+                    jacobians.append(self._jacobian())
             if self._probe is not None:
                 tips.append(self.tip(values))
 
@@ -453,13 +471,21 @@ class Truth:
             record(i + 1)
             if on_step is not None:
                 on_step(i + 1)
+        times = np.array(times) if keep else np.arange(steps + 1) * h
+        record_j = None
+        if jacobians:
+            k = int(np.argmin([j for j, _ in jacobians]))
+            record_j = JacobianRecord(
+                np.array([j for j, _ in jacobians]), float(times[k]), jacobians[k][1]
+            )
         return TruthRun(
             V=self.V,
-            times=np.array(times) if keep else np.arange(steps + 1) * h,
+            times=times,
             u=np.array(history) if keep else None,
             tip=np.array(tips) if tips else None,
             dofs=self.num_dofs(),
             wall=time.perf_counter() - start,
+            min_jacobian=record_j,
         )
 
 
@@ -489,3 +515,26 @@ class _Probe:
         if comm.rank == self.owner:
             value = np.asarray(self.fn.eval(self.point, self.cells)).reshape(-1)
         return comm.bcast(value, root=self.owner)
+
+
+class _Jacobian:
+    """The smallest J = det(I + grad u) over the quadrature points (Gauss, exact to `degree`)
+    of the owned cells of every rank, and the undeformed point (m) where it is. Collective."""
+
+    def __init__(self, u: fem.Function, degree: int):
+        mesh = u.function_space.mesh
+        gdim = mesh.geometry.dim
+        points, _ = basix.make_quadrature(mesh.basix_cell(), degree)
+        self.mesh = mesh
+        owned = mesh.topology.index_map(mesh.topology.dim).size_local
+        self.cells = np.arange(owned, dtype=np.int32)
+        self.J = fem.Expression(ufl.det(ufl.Identity(gdim) + ufl.grad(u)), points)
+        x = fem.Expression(ufl.SpatialCoordinate(mesh), points)
+        self.x = x.eval(mesh, self.cells).reshape(-1, gdim)
+
+    def __call__(self) -> tuple[float, np.ndarray]:
+        values = self.J.eval(self.mesh, self.cells).reshape(-1)
+        k = int(np.argmin(values)) if len(values) else -1
+        mine = (float(values[k]), tuple(self.x[k])) if k >= 0 else (np.inf, ())
+        smallest, where = self.mesh.comm.allreduce(mine, op=MPI.MIN)
+        return smallest, np.asarray(where, dtype=float)

@@ -423,6 +423,11 @@ def compute(
                 say(f"{case} n={n}: {err}; its static tip is not reported")
                 static = np.full(3, np.nan)
             statics.append(static.tolist())
+        if run.min_jacobian is not None:  # neo-Hookean: SPEC 8's J > 0, and how close
+            info.setdefault("min_jacobian", []).append(run.min_jacobian.values.tolist())
+            info.setdefault("min_jacobian_at", []).append(
+                [run.min_jacobian.at_time, *run.min_jacobian.at_point.tolist()]
+            )
         if previous is not None:
             info["level_differences"].append(interior_difference(previous, run).tolist())
             previous.u = None  # the coarser level's history is no longer needed
@@ -432,6 +437,8 @@ def compute(
     info["half_wall"] = comm.allreduce(half.wall, op=MPI.MAX)
     if half.tip is not None:
         info["half_tip"] = np.asarray(half.tip).tolist()
+    if half.min_jacobian is not None:
+        info["half_min_jacobian"] = half.min_jacobian.values.tolist()
     say(f"{case} n={n} h/2: {2 * steps} steps, {info['half_wall']:.1f} s")
     time_ei = interior_difference(run, half)
     half = None

@@ -30,6 +30,7 @@ import numpy as np
 
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import interrupt
+from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.estimate import estimate_error
 from tissuebench.solvers.truth.store import (
@@ -140,6 +141,44 @@ def static_band(h: dict, component: int = 1) -> tuple[float, float]:
     return values[-1], estimate_error(diffs).total
 
 
+def jacobian_cell(h: dict, k: int) -> str:
+    """Level k's smallest J over the quadrature points and steps, with when and where."""
+    t, *x = h["min_jacobian_at"][k]
+    where = ", ".join(f"{c:.3f}" for c in x)
+    return f"{min(h['min_jacobian'][k]):.3g} (t = {t:.3g} s, X = ({where}) m)"
+
+
+def jacobian_lines(case: str, h: dict, diffs: list) -> list[str]:
+    """What the smallest J says: an inverted state (SPEC 8), or material crushed more on each
+    finer level where the levels do not converge."""
+    smallest = [min(j) for j in h["min_jacobian"]]
+    if min(smallest) <= 0:
+        return [
+            f"Some J <= 0 (smallest {fmt(min(smallest))}): an inverted element, which SPEC 8 "
+            "counts as diverged; this truth is not one.",
+            "",
+        ]
+    falls = all(b < a for a, b in zip(smallest, smallest[1:]))  # noqa: B905
+    grows = len(diffs) > 1 and diffs[-1] >= diffs[-2]
+    if not (falls and grows):
+        return []
+    mat = get_material(CASES[case][1])
+    kappa = mat.lmbda + 2 * mat.mu / 3
+    t, *x = h["min_jacobian_at"][-1]
+    where = ", ".join(f"{c:.3f}" for c in x)
+    return [
+        "The smallest J = det F falls with every refinement ("
+        + ", ".join(f"{j:.3g}" for j in smallest)
+        + f"; on the finest at X = ({where}) m, t = {t:.3g} s) while the levels move apart: "
+        "the material there is crushed further on each finer mesh. The neo-Hookean volumetric "
+        f"stress kappa (J - 1) of SPEC 8 cannot exceed kappa = {kappa:.4g} Pa in compression "
+        "(it tends to -kappa as J -> 0): beyond that only the shear part of the law resists "
+        "crushing, and each finer mesh lets the crushed zone shrink and deepen. Uniform "
+        "refinement does not converge here.",
+        "",
+    ]
+
+
 def case_line(case: str) -> str:
     benchmark, material, model, scale, width = CASES[case]
     needle = f", needle width w = {width} m" if width is not None else ""
@@ -175,6 +214,10 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
     shown = [t for t in TIP_TIMES if round(t / dt) <= steps]
     head = "| level | dofs | wall (s) | E_i max to the next level (" + units + ") |"
     rule = "|---|---:|---:|---:|"
+    jac = "min_jacobian" in h
+    if jac:
+        head += " smallest J (at t, X) |"
+        rule += "---|"
     if probe:
         head += " static tip u_y (m) |" + "".join(f" tip u_y at {t:g} s (m) |" for t in shown)
         rule += "---:|" * (1 + len(shown))
@@ -191,6 +234,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         label = f"{n}" + (" (truth)" if k == len(levels) - 1 else "")
         row = f"| {label} | {h['dofs'][k]:,} | {h['wall'][k]:.1f} | "
         row += (fmt(diffs[k]) if k < len(diffs) else "") + " |"
+        if jac:
+            row += f" {jacobian_cell(h, k)} |"
         if probe:
             static = h["static_tip"][k][1]
             row += f" {static:.6g} |" if math.isfinite(static) else " not solved |"
@@ -200,6 +245,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         f"| {levels[-1]}, h/2 | {h['dofs'][-1]:,} | {h['half_wall']:.1f} | "
         f"{fmt(max(h['time_difference']))} (h against h/2) |"
     )
+    if jac:
+        half_row += f" {fmt(min(h['half_min_jacobian']))} |" if "half_min_jacobian" in h else " |"
     if probe:
         half_row += " |" + "".join(
             f" {np.asarray(h['half_tip'])[2 * round(t / dt), 1]:.6g} |" for t in shown
@@ -222,6 +269,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
             "and this truth is not one yet (the leaderboard grades nothing against it).",
             "",
         ]
+    if jac:
+        lines += jacobian_lines(case, h, diffs)
     if not own["meets_target"] and all(math.isfinite(x) for x in (space, step)):
         larger = "space (the levels)" if space >= step else "time (h against h/2)"
         lines += [
