@@ -4,16 +4,14 @@ rule with consistent mass), its cases on the benchmarks, and its own error from 
 
 - solver.py: Problem, Truth (forms and solvers built once; static solve, time integration),
   TruthRun (the displacement history as owned dof values of the Q2 space, and the probe).
-- cases.py: the SPEC 10 cases on the benchmarks' grids; hierarchy(): levels plus h/2.
+- cases.py: the SPEC 10 cases on the benchmarks' grids (the block's graded toward the needle).
 - estimate.py: E_i between levels and time steps; estimate_error(): order and own error.
 """
 
 from tissuebench.solvers.truth.cases import (
     CASES,
-    Hierarchy,
     benchmark_problem,
     case_truth,
-    hierarchy,
 )
 from tissuebench.solvers.truth.estimate import ErrorEstimate, estimate_error, interior_difference
 from tissuebench.solvers.truth.solver import Boundary, Problem, Truth, TruthRun
@@ -22,13 +20,11 @@ __all__ = [
     "CASES",
     "Boundary",
     "ErrorEstimate",
-    "Hierarchy",
     "Problem",
     "Truth",
     "TruthRun",
     "benchmark_problem",
     "case_truth",
     "estimate_error",
-    "hierarchy",
     "interior_difference",
 ]

@@ -9,8 +9,9 @@ outside git, keyed by the fingerprint of every input it was computed from.
 - truth_samples(case, quick): the TruthSamples of a SPEC 10 case, from the cache
   ($TISSUEBENCH_CACHE/truth/, default ~/.cache/tissuebench/truth/) or computed there.
 
-The hierarchy (SPEC 10: three uniformly refined levels, h and h/2 on the finest): rod
-n = 2, 4, 8 (16 x 8 x 8 hexahedra on the finest), block N = 20, 40, 80, each to the
+The hierarchy (SPEC 10: three refined levels, the truth's step and its half on the finest):
+rod n = 2, 4, 8 (16 x 8 x 8 hexahedra on the finest), block N = 20, 40, 80 (graded toward
+the needle's ends: cases.graded_block; the linear blocks at h/4 and h/8), each to the
 benchmark's end time T = 10 s with its h = 1/30 s. Quick (CI and tests, never the truth):
 rod n = 1, 2, 4 and block N = 10, 20, 40, 30 steps of h = 1/30 s (T = 1 s).
 
@@ -39,7 +40,7 @@ from dolfinx.io.utils import cell_perm_vtk
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.truth.cases import CASES, case_truth
+from tissuebench.solvers.truth.cases import CASES, STEP_DIVISOR, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import MIXED_NU, Truth, TruthRun
@@ -184,6 +185,7 @@ def inputs(case: str, quick: bool = False) -> dict:
         "needle_width": width,
         "levels": list(levels_of(case, quick)),
         "h": entry.dt,
+        "step_divisor": STEP_DIVISOR.get(case, 1),
         "h_half": True,
         "steps": steps,
         "end_time": steps * entry.dt,
@@ -396,27 +398,28 @@ def compute(
     comm: MPI.Comm = MPI.COMM_WORLD,
     log: Callable[[str], None] | None = None,
 ) -> TruthSamples | None:
-    """Compute a case's hierarchy (levels_of(case, quick), h on each and h/2 on the finest),
-    estimate its own error (estimate.estimate_error) and sample the finest level at h. On
+    """Compute a case's hierarchy (levels_of(case, quick) with the truth's step h / k on each,
+    k = STEP_DIVISOR of the case or 1, and h / 2k on the finest), estimate its own error
+    (estimate.estimate_error) and sample the finest level at the steps of h. On
     rank 0 the TruthSamples, None elsewhere. Collective. `log` is told each level's cost."""
     check_case(case)
     say = log or (lambda line: None)
     start = time.perf_counter()
     given = inputs(case, quick)
-    steps = given["steps"]
+    steps, k = given["steps"], given["step_divisor"]  # steps of h; the truth's step is h / k
     info: dict = {"levels": [], "dofs": [], "wall": [], "steps": steps, "level_differences": []}
     tips, statics = [], []
     previous = None
     for n in levels_of(case, quick):
         truth, bench = case_truth(case, n, comm)
-        run = _timed_run(truth, bench.dt, steps, 1, f"{case} n={n}", comm)
+        run = _timed_run(truth, bench.dt / k, k * steps, k, f"{case} n={n}", comm)
         wall = comm.allreduce(run.wall, op=MPI.MAX)
         info["levels"].append(n)
         info["dofs"].append(run.dofs)
         info["wall"].append(wall)
-        info["h"] = bench.dt
+        info["h"], info["step"] = bench.dt, bench.dt / k
         if run.tip is not None:
-            tips.append(np.asarray(run.tip).tolist())
+            tips.append(np.asarray(run.tip)[::k].tolist())
             try:  # the static tip is reported beside the truth, never worth losing it for
                 static = np.asarray(truth.tip(truth.static(steps * bench.dt)))
             except RuntimeError as err:
@@ -431,15 +434,15 @@ def compute(
         if previous is not None:
             info["level_differences"].append(interior_difference(previous, run).tolist())
             previous.u = None  # the coarser level's history is no longer needed
-        say(f"{case} n={n}: {run.dofs:,} dofs, {steps} steps, {wall:.1f} s")
+        say(f"{case} n={n}: {run.dofs:,} dofs, {k * steps} steps, {wall:.1f} s")
         previous = run
-    half = _timed_run(truth, bench.dt / 2, 2 * steps, 2, f"{case} n={n} h/2", comm)
+    half = _timed_run(truth, bench.dt / (2 * k), 2 * k * steps, 2 * k, f"{case} n={n} half", comm)
     info["half_wall"] = comm.allreduce(half.wall, op=MPI.MAX)
-    if half.tip is not None:
-        info["half_tip"] = np.asarray(half.tip).tolist()
+    if half.tip is not None:  # at every half of h
+        info["half_tip"] = np.asarray(half.tip)[::k].tolist()
     if half.min_jacobian is not None:
         info["half_min_jacobian"] = half.min_jacobian.values.tolist()
-    say(f"{case} n={n} h/2: {2 * steps} steps, {info['half_wall']:.1f} s")
+    say(f"{case} n={n} half step: {2 * k * steps} steps, {info['half_wall']:.1f} s")
     time_ei = interior_difference(run, half)
     half = None
     info["time_difference"] = time_ei.tolist()
@@ -456,7 +459,7 @@ def compute(
         "target": target,
         "meets_target": bool(est.total <= target),
         "units": "m^3" if gdim == 3 else "m^2",
-        "how": "E_i max between the last two levels / (2^p - 1) plus E_i max(h, h/2) 4/3",
+        "how": "E_i max between the last two levels / (2^p - 1) plus E_i max(step, step/2) 4/3",
     }
     samples = sample(truth, run, case, own, given, info)
     wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)

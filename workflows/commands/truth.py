@@ -31,7 +31,7 @@ import numpy as np
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.truth.cases import CASES
+from tissuebench.solvers.truth.cases import CASES, GRADING, STEP_DIVISOR
 from tissuebench.solvers.truth.estimate import estimate_error
 from tissuebench.solvers.truth.store import (
     LEVELS,
@@ -179,6 +179,23 @@ def jacobian_lines(case: str, h: dict, diffs: list) -> list[str]:
     ]
 
 
+def grid(case: str) -> str:
+    """The levels' grids in words."""
+    if CASES[case][0] != "block":
+        return "uniform grids"
+    return (
+        f"grids graded toward the needle's ends (power {GRADING:g}; the levels nest, as "
+        "uniform refinement does)"
+    )
+
+
+def step_words(k: int) -> str:
+    """The truth's own step in words, where it is not the benchmark's h."""
+    if k == 1:
+        return ""
+    return f"; the truth steps h/{k} and is sampled at the steps of h"
+
+
 def case_line(case: str) -> str:
     benchmark, material, model, scale, width = CASES[case]
     needle = f", needle width w = {width} m" if width is not None else ""
@@ -200,10 +217,11 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
                 + " (the first steps, on a machine shared with other jobs: an upper bound)."
             )
         minutes = expected_seconds(case) / 60
+        divisor = STEP_DIVISOR.get(case, 1)
         return lines + [
             f"Not yet computed: `tissuebench truth {case}` takes about {minutes:.0f} min on "
-            f"one core here (levels {', '.join(map(str, sizes))}, 300 steps each and 600 at "
-            f"h/2 on the finest).{measured}",
+            f"one core here (levels {', '.join(map(str, sizes))}, {300 * divisor} steps each "
+            f"and {600 * divisor} at half the step on the finest).{measured}",
             "",
         ]
     inp, h, own = s["inputs"], s["hierarchy"], s["own_error"]
@@ -211,6 +229,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
     units = own["units"]
     probe = "tip" in h
     steps, dt = h["steps"], h["h"]
+    div = inp.get("step_divisor", 1)
+    half = f"h/{2 * div}"
     shown = [t for t in TIP_TIMES if round(t / dt) <= steps]
     head = "| level | dofs | wall (s) | E_i max to the next level (" + units + ") |"
     rule = "|---|---:|---:|---:|"
@@ -222,8 +242,9 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         head += " static tip u_y (m) |" + "".join(f" tip u_y at {t:g} s (m) |" for t in shown)
         rule += "---:|" * (1 + len(shown))
     lines += [
-        f"Element: {inp['element']}; {inp['time']}; h = {dt:.6g} s, {steps} steps "
-        f"(T = {inp['end_time']:.6g} s). Sampled for grading on the finest level: "
+        f"Element: {inp['element']}; {inp['time']}; {grid(case)}; "
+        f"h = {dt:.6g} s, {steps} steps (T = {inp['end_time']:.6g} s){step_words(div)}. "
+        "Sampled for grading on the finest level: "
         f"{s['vertices']:,} vertices, {s['cells']:,} cells, {s['points']:,} quadrature points.",
         "",
         head,
@@ -242,8 +263,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
             row += "".join(f" {np.asarray(h['tip'][k])[round(t / dt), 1]:.6g} |" for t in shown)
         lines.append(row)
     half_row = (
-        f"| {levels[-1]}, h/2 | {h['dofs'][-1]:,} | {h['half_wall']:.1f} | "
-        f"{fmt(max(h['time_difference']))} (h against h/2) |"
+        f"| {levels[-1]}, {half} | {h['dofs'][-1]:,} | {h['half_wall']:.1f} | "
+        f"{fmt(max(h['time_difference']))} ({'h' if div == 1 else f'h/{div}'} against {half}) |"
     )
     if jac:
         half_row += f" {fmt(min(h['half_min_jacobian']))} |" if "half_min_jacobian" in h else " |"
@@ -272,7 +293,7 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
     if jac:
         lines += jacobian_lines(case, h, diffs)
     if not own["meets_target"] and all(math.isfinite(x) for x in (space, step)):
-        larger = "space (the levels)" if space >= step else "time (h against h/2)"
+        larger = "space (the levels)" if space >= step else f"time (the step against {half})"
         lines += [
             f"The larger part of the own error is in {larger}: {fmt(max(space, step))} "
             f"{units}, {max(space, step) / own['target']:.2g} x the target alone.",
@@ -297,11 +318,13 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
         "",
         "The converged reference of each SPEC 10 case: Q2 displacement (Taylor-Hood Q2-Q1 "
         "for nu >= 0.45 and neo-Hookean), the trapezoidal rule with consistent mass, "
-        "continuum Rayleigh damping, the needle on its segment; three uniformly refined "
-        "levels (rod n = 2, 4, 8; block N = 20, 40, 80) and h, h/2 on the finest. Its own "
-        "error is E_i (SPEC 6) estimated from them: space, the last two levels' E_i max "
-        "difference d2 / (2^p - 1) with the observed order p = log2(d1 / d2); time, "
-        "E_i max(h, h/2) 4/3 (the rule's order 2). Target (SPEC 10): own E_i max <= "
+        "continuum Rayleigh damping, the needle on its segment; three refined levels (rod "
+        "n = 2, 4, 8, uniform; block N = 20, 40, 80, graded toward the needle's ends, where "
+        "the displacement is singular, and nested) and, on the finest, the truth's step and "
+        "its half (the step is h = 1/30 s, the linear blocks' h/4). Its own error is E_i "
+        "(SPEC 6) estimated from them: space, the last two levels' E_i max difference "
+        "d2 / (2^p - 1) with the observed order p = log2(d1 / d2); time, E_i max(step, "
+        "step/2) 4/3 (the rule's order 2). Target (SPEC 10): own E_i max <= "
         f"{TARGET[3]:g} m^3 (rod), <= {TARGET[2]:g} m^2 (block). The point-needle block "
         "(w = 0) has no truth.",
         "",
