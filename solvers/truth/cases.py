@@ -1,14 +1,15 @@
 """The truth cases of SPEC 10 on the benchmarks' grids.
 
-The rod's levels are its uniform 2n x n x n grids. The block's are its N x N grids with their
-grid lines moved toward the needle's ends (1, 0.5 -/+ w/2), where the displacement is singular
-(a bonded punch's edge): with x = phi(xi) and y = psi(eta) of the uniform grid's xi, eta, each
-a square-power grading toward the needle's end lines (x = 1; y = 0.5 -/+ w/2, from both sides)
-that keeps 0, 0.5 -/+ w/2, 0.5 and 1 in place. The cells stay rectangles, a level's grid lines
-are the last level's plus one between each two (the levels nest, as uniform refinement does),
-and the needle's segment is the same set of right-edge nodes as on the uniform grid. Measured
-on the static block at t = 2 s, MP1, N = 10, 20, 40, 80: the E_i between levels falls with
-order 2.0 graded and 1.1-1.4 uniform (MP2: 2.0 and 1.4-1.7).
+The rod's levels are its uniform 2n x n x n grids, and so are the neo-Hookean block's N x N
+(see GRADED). The linear blocks' are their N x N grids with the grid lines moved toward the
+needle's ends (1, 0.5 -/+ w/2), where the displacement is singular (a bonded punch's edge):
+x = phi(xi) and y = psi(eta) of the uniform grid's xi, eta, each a square-power grading toward
+the needle's end lines (x = 1; y = 0.5 -/+ w/2, from both sides) that keeps 0, 0.5 -/+ w/2,
+0.5 and 1 in place. The cells stay rectangles, a level's grid lines are the last level's plus
+one between each two (the levels nest, as uniform refinement does), and the needle's segment
+is the same set of right-edge nodes as on the uniform grid. Measured on the static block at
+t = 2 s, MP1, N = 10, 20, 40, 80: the E_i between levels falls with order 2.0 graded and
+1.1-1.4 uniform (MP2: 2.0 and 1.4-1.7).
 """
 
 from __future__ import annotations
@@ -34,6 +35,10 @@ CASES = {
     "block-MP1-nh-s2-w0.2": ("block", "MP1", "neo-hookean", 2.0, 0.2),
 }
 GRADING = 2.0  # the power of the block grid's grading toward the needle's ends
+# the cases on graded grids: not the neo-Hookean block, whose Newton fails at t = 2 s (the
+# needle's deepest push, s = 2) on the graded grids N = 10, 20, 40, the material at the needle's
+# ends too distorted (it converges on the uniform ones)
+GRADED = ("block-MP1-w0.2", "block-MP2-w0.2")
 # the truth's time step is the benchmark's h / STEP_DIVISOR (sampled at the steps of h): the
 # linear blocks' own error is otherwise mostly in time (the pressure waves the needle's stop
 # at t = 2 s excites: h against h/2 6.9e-5 m^2 on MP2, 1.3e-5 on MP1)
@@ -124,7 +129,7 @@ def case_truth(
     case: str, mesh_size: int, comm: MPI.Comm = MPI.COMM_WORLD
 ) -> tuple[Truth, Benchmark]:
     """(Truth, Benchmark) of a SPEC 10 case on the benchmark's grid of `mesh_size` (the
-    block's graded toward the needle's ends: graded_block)."""
+    linear block's graded toward the needle's ends: graded_block)."""
     from tissuebench.meshes import get_benchmark
 
     name, material, model, scale, width = CASES[case]
@@ -132,6 +137,6 @@ def case_truth(
     if width is not None:
         options["needle_width"] = width
     bench = get_benchmark(name, mesh_size=mesh_size, comm=comm, **options)
-    if name == "block":
+    if case in GRADED:
         graded_block(bench.mesh.geometry.x, width)
     return Truth(benchmark_problem(bench, material, model)), bench

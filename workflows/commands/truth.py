@@ -31,7 +31,7 @@ import numpy as np
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import interrupt
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.truth.cases import CASES, GRADING, STEP_DIVISOR
+from tissuebench.solvers.truth.cases import CASES, GRADED, GRADING, STEP_DIVISOR
 from tissuebench.solvers.truth.estimate import estimate_error
 from tissuebench.solvers.truth.store import (
     LEVELS,
@@ -181,7 +181,7 @@ def jacobian_lines(case: str, h: dict, diffs: list) -> list[str]:
 
 def grid(case: str) -> str:
     """The levels' grids in words."""
-    if CASES[case][0] != "block":
+    if case not in GRADED:
         return "uniform grids"
     return (
         f"grids graded toward the needle's ends (power {GRADING:g}; the levels nest, as "
@@ -319,8 +319,9 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
         "The converged reference of each SPEC 10 case: Q2 displacement (Taylor-Hood Q2-Q1 "
         "for nu >= 0.45 and neo-Hookean), the trapezoidal rule with consistent mass, "
         "continuum Rayleigh damping, the needle on its segment; three refined levels (rod "
-        "n = 2, 4, 8, uniform; block N = 20, 40, 80, graded toward the needle's ends, where "
-        "the displacement is singular, and nested) and, on the finest, the truth's step and "
+        "n = 2, 4, 8, uniform; block N = 20, 40, 80, the linear ones graded toward the "
+        "needle's ends, where the displacement is singular, and nested) and, on the finest, "
+        "the truth's step and "
         "its half (the step is h = 1/30 s, the linear blocks' h/4). Its own error is E_i "
         "(SPEC 6) estimated from them: space, the last two levels' E_i max difference "
         "d2 / (2^p - 1) with the observed order p = log2(d1 / d2); time, E_i max(step, "
