@@ -254,3 +254,26 @@ def test_the_report_says_what_the_smallest_jacobian_means():
     assert jacobian_lines("rod-nh-s3", h, [2e-4, 6e-4]) == []
     h["min_jacobian"][2] = [1.0, -0.01]
     assert "inverted" in " ".join(jacobian_lines("rod-nh-s3", h, [6e-4, 2e-4]))
+
+
+def test_time_order_is_observed_and_capped_by_the_rule():
+    """q = log2(d1 / d2) of the differences step/half and half/quarter, at most the trapezoidal
+    rule's 2; NaN where they do not fall; 2 where nothing depends on the step."""
+    assert store.time_order(1e-4, 5e-5) == pytest.approx(1.0)
+    assert store.time_order(4e-4, 1e-4) == pytest.approx(2.0)
+    assert store.time_order(1e-4, 1e-6) == 2.0
+    assert np.isnan(store.time_order(1e-5, 2e-5)) and np.isnan(store.time_order(1e-5, 0.0))
+    assert store.time_order(0.0, 0.0) == 2.0
+
+
+def test_the_needles_stop_makes_the_block_first_order_in_time():
+    """The needle's velocity jumps from -0.08 m/s to 0 at t = 2 s: the block's truth is first
+    order in time across it (N = 20 measured 0.99 from h to h/16), while before it (T = 1 s)
+    it has the trapezoidal rule's order 2."""
+    from tissuebench.solvers.truth.cases import case_truth
+
+    truth, bench = case_truth("block-MP1-w0.2", 6)
+    for steps, low, high in ((90, 0.8, 1.25), (30, 1.8, 2.3)):
+        run = truth.run(bench.dt, steps)
+        d1, d2 = store.time_differences(truth, run, bench.dt, 1, steps, MPI.COMM_WORLD)
+        assert low < np.log2(d1 / d2) < high, (steps, d1, d2)
