@@ -11,7 +11,7 @@ outside git, keyed by the fingerprint of every input it was computed from.
 
 The hierarchy (SPEC 10: three refined levels, the truth's step and its half on the finest):
 rod n = 2, 4, 8 (16 x 8 x 8 hexahedra on the finest), block N = 20, 40, 80 (the linear ones
-graded toward the needle's ends, cases.graded_block, at h/4 and h/8), each to the
+graded toward the needle's ends, cases.graded_block; MP1 steps h/4, MP2 h/16), each to the
 benchmark's end time T = 10 s with its h = 1/30 s. Quick (CI and tests, never the truth):
 rod n = 1, 2, 4 and block N = 10, 20, 40, 30 steps of h = 1/30 s (T = 1 s).
 
