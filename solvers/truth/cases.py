@@ -30,6 +30,7 @@ CASES = {
     "rod": ("rod", "MP3", "linear", 1.0, None),
     "rod-nh-s1": ("rod", "MP3", "neo-hookean", 1.0, None),
     "rod-nh-s3": ("rod", "MP3", "neo-hookean", 3.0, None),
+    "rod-MP2": ("rod", "MP2", "linear", 1.0, None),  # SPEC 11: nearly incompressible, 3D
     "block-MP1-w0.2": ("block", "MP1", "linear", 1.0, 0.2),
     "block-MP2-w0.2": ("block", "MP2", "linear", 1.0, 0.2),
     "block-MP1-nh-s2-w0.2": ("block", "MP1", "neo-hookean", 2.0, 0.2),
