@@ -43,6 +43,14 @@ def get_integrator(
     elastic = get_model(model)
     if elastic.linear:
         return ALGORITHMS[name].build(system, h, solver=solver)
+    if getattr(system, "scheme", "standard") != "standard":
+        from tissuebench.solvers.schemes import SchemeError
+
+        raise SchemeError(
+            f"scheme {system.scheme.partition(':')[0]} runs the linear model only; "
+            f"{model!r} needs the standard element (F-bar and the nonlinear remedies are not "
+            "built yet)"
+        )
     if system.gdim == 2 and system.plane != "strain":
         raise ValueError(f"model {model!r} is plane strain only in 2D (SPEC 8), not plane stress")
     from tissuebench.solvers import nonlinear

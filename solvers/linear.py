@@ -220,7 +220,14 @@ def step_operator(
         S = system.M.copy()
         S.scale(mass_coef)
         if stiffness_coef != 0:
-            S.axpy(stiffness_coef, system.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            # a scheme's K may reach further than M (anp: the neighbours' neighbours)
+            same = getattr(system, "scheme", "standard") == "standard"
+            structure = (
+                PETSc.Mat.Structure.SAME_NONZERO_PATTERN
+                if same
+                else PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+            )
+            S.axpy(stiffness_coef, system.K, structure=structure)
     if (
         "baij" in S.getType()
     ):  # System(matrix_type="baij"): factorisations and preconditioners want AIJ

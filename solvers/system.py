@@ -40,6 +40,9 @@ def sigma(
 class System:
     """K, M, M_L and f of one benchmark and material, with the constrained dofs.
 
+    `scheme` (SPEC 11, solvers/schemes/): the element's stiffness, NAME or
+    NAME:key=value,...; `standard` is the plain Q1/P1 element of SPEC section 2.
+
     K and M are PETSc matrices of `matrix_type` (None, the default: DOLFINx's AIJ, which the
     factorisations and preconditioners take; "baij" for gdim x gdim blocks). The products in
     the time loops use the compiled block-CSR copies K_csr and M_csr. Vectors are PETSc Vecs
@@ -54,7 +57,10 @@ class System:
         material: Material | str | None = None,
         plane: str = "strain",
         matrix_type: str | None = None,
+        scheme: str = "standard",
     ):
+        from tissuebench.solvers.schemes import SCHEMES, STANDARD, check_cells, parse_scheme
+
         self.benchmark = benchmark
         self.material = get_material(material or benchmark.material)
         self.mesh = mesh = benchmark.mesh
@@ -76,8 +82,17 @@ class System:
         self.m_form = fem.form(self.rho * ufl.inner(u, w) * ufl.dx)
         self.f_form = fem.form(self.rho * ufl.inner(self.g, w) * ufl.dx)
 
-        self.K = dolfinx.fem.petsc.assemble_matrix(self.k_form, kind=matrix_type)
-        self.K.assemble()
+        # SPEC 11: a scheme other than the plain Q1/P1 element assembles its own K_0
+        check_cells(scheme, mesh.topology.cell_name())
+        name, parameters = parse_scheme(scheme)
+        self.scheme = scheme
+        if name == STANDARD:
+            self.K = dolfinx.fem.petsc.assemble_matrix(self.k_form, kind=matrix_type)
+            self.K.assemble()
+        else:
+            self.K = SCHEMES[name].stiffness(V, mu, lmbda, parameters)
+            if matrix_type is not None:
+                self.K = self.K.convert(matrix_type)
         self.M = dolfinx.fem.petsc.assemble_matrix(self.m_form, kind=matrix_type)
         self.M.assemble()
         self.f = dolfinx.fem.petsc.assemble_vector(self.f_form)

@@ -23,10 +23,12 @@ from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.table import METRICS
-from tissuebench.solvers import REFERENCE, get_integrator, interrupt
+from tissuebench.solvers import REFERENCE, interrupt
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
+from tissuebench.solvers.schemes import STANDARD, scheme_label
 from tissuebench.solvers.simulate import simulate
+from tissuebench.solvers.substeps import sub_stepped
 from tissuebench.solvers.system import System, probe
 from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.io.xdmf import gather_series, write_series
@@ -71,6 +73,8 @@ class Case:
     solver: str = "direct"
     petsc: str = ""
     description: str = ""
+    scheme: str = "standard"  # SPEC 11: the element's scheme, NAME or NAME:key=value,...
+    substeps: int | str = 1  # SPEC 11: sub-steps of the explicit runs per step h, or "auto"
 
     def __post_init__(self):
         self.runs = [RunSpec(*run) for run in self.runs]
@@ -161,6 +165,9 @@ def case_inputs(case: Case, mesh_size: int, h: float, n_steps: int, materials: d
             for run in case.runs
         ],
         "versions": {k: v[k] for k in ("tissuebench", "dolfinx", "petsc4py")},
+        # SPEC 11, only where not the paper's: the inputs of earlier results are unchanged
+        **({"scheme": scheme_label(case.scheme)} if case.scheme != STANDARD else {}),
+        **({"substeps": case.substeps} if case.substeps != 1 else {}),
     }
 
 
@@ -228,7 +235,9 @@ def compute_case(
     rank0 = comm.rank == 0
     bench = get_benchmark(case.benchmark, mesh_size=mesh_size, comm=comm, **case.options)
     start = time.perf_counter()
-    systems = {m: System(bench, materials[m], plane=case.plane) for m in materials}
+    systems = {
+        m: System(bench, materials[m], plane=case.plane, scheme=case.scheme) for m in materials
+    }
     system_s = (time.perf_counter() - start) / len(systems)  # M, K, f of one material
     metrics = Metrics(next(iter(systems.values())).V)
 
@@ -236,8 +245,12 @@ def compute_case(
     for label, algorithm, material, model in case.runs:
         system = systems[material]
         start = time.perf_counter()
-        integrator = get_integrator(algorithm, system, h, solver=case.solver, model=model)
+        integrator, k, critical = sub_stepped(
+            algorithm, system, h, case.substeps, solver=case.solver, model=model
+        )
         setup_s = time.perf_counter() - start  # assembly and factorisations before the loop
+        if rank0 and k != 1:
+            log(f"{case.name:>18} {label:<18} {k} sub-steps of h/{k} = {h / k:.4g} s per step")
         bar = tqdm(
             total=n_steps,
             desc=f"{case.name} {label}",
@@ -262,7 +275,7 @@ def compute_case(
             lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
             target,
         )
-        results[label] = (run, material, algorithm, model, setup_s)
+        results[label] = (run, material, algorithm, model, setup_s, k, critical)
         integrator.destroy()
         if bench.probe is not None:
             tips[label] = np.reshape(  # (steps kept, gdim): none if step 0 diverged
@@ -313,7 +326,7 @@ def compute_case(
         system_time_s=system_s,
         versions=versions(),
     )
-    for label, (run, material, algorithm, model, setup_s) in results.items():
+    for label, (run, material, algorithm, model, setup_s, k, critical) in results.items():
         readings = {}
         for name in METRICS:
             peak, mean = summarize(curves[label][name])
@@ -334,6 +347,9 @@ def compute_case(
             tip_displacement_final=(
                 tips[label][-1].tolist() if label in tips and len(tips[label]) else None
             ),
+            scheme=scheme_label(case.scheme),
+            substeps=k,
+            critical_dt_s=critical,
         )
 
     def write():

@@ -33,6 +33,9 @@ _RUN_HEAD = (
     "setup_time_s",
 )
 _TIP = "tip_displacement_final"
+# SPEC 11, written only where they differ from the paper's: the element's scheme, the explicit
+# sub-steps per step h, and the critical step (s) that `auto` measured
+_SCHEME_KEYS = {"scheme": "standard", "substeps": 1, "critical_dt_s": None}
 _CASE_HEAD = (
     "case",
     "description",
@@ -70,7 +73,8 @@ class RunSummary:
     before it (s), the metric readings against the case's reference (`readings`: "<metric>_max"
     and "<metric>_mean" of metrics.table.METRICS, dimensionless, None where no step could be
     measured) and, where the benchmark has a probe, the probe's displacement at the last kept
-    step (m; None if step 0 diverged)."""
+    step (m; None if step 0 diverged). SPEC 11: the scheme of its element (solvers/schemes/),
+    its sub-steps per step h and, where `auto` chose them, the critical step measured (s)."""
 
     algorithm: str
     model: str
@@ -85,6 +89,9 @@ class RunSummary:
     readings: dict[str, float | None] = field(default_factory=dict)
     has_probe: bool = False
     tip_displacement_final: list[float] | None = None
+    scheme: str = "standard"
+    substeps: int = 1
+    critical_dt_s: float | None = None
 
     @property
     def ok(self) -> bool:
@@ -106,6 +113,9 @@ class RunSummary:
         entry.update(self.readings)
         if self.has_probe:
             entry[_TIP] = self.tip_displacement_final
+        for k, default in _SCHEME_KEYS.items():
+            if getattr(self, k) != default:
+                entry[k] = getattr(self, k)
         return entry
 
     @classmethod
@@ -132,7 +142,7 @@ class RunSummary:
         readings: dict[str, float | None] = {}
         known = {f"{m}_{kind}" for m in METRICS for kind in READINGS}
         for k, v in data.items():
-            if k in _RUN_HEAD or k == _TIP:
+            if k in _RUN_HEAD or k == _TIP or k in _SCHEME_KEYS:
                 continue
             _check(k in known, f"{where}: unknown key {k!r}")
             _check(v is None or _number(v), f"{where}: {k} is not a number")
@@ -142,8 +152,13 @@ class RunSummary:
             tip is None or (isinstance(tip, list) and all(_number(x) for x in tip)),
             f"{where}: {_TIP} is not a list of numbers",
         )
+        _check(isinstance(data.get("scheme", ""), str), f"{where}: scheme is not a string")
+        _check(_integer(data.get("substeps", 1)), f"{where}: substeps is not an integer")
+        critical = data.get("critical_dt_s")
+        _check(critical is None or _number(critical), f"{where}: critical_dt_s")
         return cls(
             **{k: data[k] for k in _RUN_HEAD},
+            **{k: data[k] for k in _SCHEME_KEYS if k in data},
             readings=readings,
             has_probe=_TIP in data,
             tip_displacement_final=tip,

@@ -207,3 +207,54 @@ def posed(args: argparse.Namespace, benchmarks: dict[str, Entry]) -> Posed:
         step_count(h, end_time),
         args.plane or "strain",
     )
+
+
+def add_scheme_options(p: argparse.ArgumentParser) -> None:
+    """--scheme and --substeps (SPEC 11): the element's remedy against locking, and the
+    explicit schemes' sub-steps."""
+    from tissuebench.solvers.schemes import SCHEMES
+
+    def parameters(s):
+        return ", ".join(f"{k}={d:g}" for k, (d, _) in s.parameters.items()) or "no parameters"
+
+    described = "; ".join(
+        f"{name} ({parameters(s)}, {'/'.join(s.cells)}): {s.description}"
+        for name, s in SCHEMES.items()
+    )
+    p.add_argument(
+        "--scheme",
+        default="standard",
+        metavar="NAME[:KEY=VALUE,...]",
+        help=f"the element's stiffness (SPEC 11, linear model only): {described}",
+    )
+    p.add_argument(
+        "--substeps",
+        default="1",
+        metavar="K|auto",
+        help="explicit schemes take K sub-steps of h/K per step h, or the fewest with h/K <= "
+        "0.9 x their measured critical step (auto); reported at every h, the cost counts every "
+        "sub-step (default 1)",
+    )
+
+
+def scheme_options(
+    args: argparse.Namespace, gdim: int, options: dict, models: list[str]
+) -> tuple[str, int | str]:
+    """(scheme, substeps) from --scheme and --substeps, checked against the cells and the
+    models (UserError)."""
+    from tissuebench.solvers.schemes import STANDARD, check_cells, parse_scheme
+    from tissuebench.solvers.substeps import parse_substeps
+
+    scheme = args.scheme.strip()
+    check_cells(scheme, options.get("cell", CELLS[gdim][0]))
+    nonlinear = [m for m in models if not MODELS[m].linear]
+    if parse_scheme(scheme)[0] != STANDARD and nonlinear:
+        raise UserError(
+            f"--scheme {scheme.partition(':')[0]} runs the linear model only, not "
+            f"{', '.join(nonlinear)}"
+        )
+    try:
+        substeps = parse_substeps(args.substeps)
+    except ValueError as err:
+        raise UserError(str(err)) from None
+    return scheme, substeps

@@ -13,12 +13,14 @@ from tissuebench.solvers.models import LINEAR
 from tissuebench.workflows.commands.arguments import (
     add_benchmark_options,
     add_common,
+    add_scheme_options,
     benchmark_options,
     check_common,
     check_models_plane,
     parse_algorithms,
     parse_models,
     positive,
+    scheme_options,
 )
 from tissuebench.workflows.study import model_case, run_case
 
@@ -63,6 +65,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         choices=["strain", "stress"],
         help="2D benchmarks only: plane strain (default) or stress",
     )
+    add_scheme_options(p)
     add_common(p)
     p.set_defaults(func=main)
 
@@ -73,6 +76,7 @@ def main(args: argparse.Namespace) -> int:
     algorithms = parse_algorithms(args.algorithms)
     models = parse_models(args.models)
     check_models_plane(models, args.plane, entry.gdim)
+    scheme, substeps = scheme_options(args, entry.gdim, options, models)
     dt = positive(args.dt) if args.dt is not None else None
     end_time = positive(args.end_time) if args.end_time is not None else None
     material = get_material(args.material or entry.material)
@@ -91,6 +95,8 @@ def main(args: argparse.Namespace) -> int:
         plane=args.plane or "strain",
         solver=args.solver,
         petsc=args.petsc,
+        scheme=scheme,
+        substeps=substeps,
     )
     summary = run_case(case, args.out, force=args.force)
     if MPI.COMM_WORLD.rank == 0 and not summary.skipped:
