@@ -59,6 +59,21 @@ TIME_RTOL = 1e-5
 DIVERGENCE = 100.0  # SPEC 3: a nodal displacement beyond this times the largest extent diverges
 
 
+def unit(name: str, dim: int | None) -> str | None:
+    """The unit of metric `name` (a key of METRICS) on a body of dimension `dim`: E_n and E_s
+    are "dimensionless", E_i and its nodal form are "m^d" (|Omega_0|^(-1/d) times the
+    integral of a displacement in m over the body, SPEC 6; m^2 in 2D, m^3 in 3D; None when
+    `dim` is not known)."""
+    if (METRICS[name].variant_of or name) != "interior_error":
+        return "dimensionless"
+    return None if dim is None else f"m^{dim}"
+
+
+def metric_units(dim: int | None) -> dict[str, dict[str, str | None]]:
+    """{metric: {"symbol": "E_n", "unit": ...}} for every metric of METRICS (see unit)."""
+    return {name: {"symbol": m.symbol, "unit": unit(name, dim)} for name, m in METRICS.items()}
+
+
 def summarize(curve: ArrayLike) -> tuple[float, float]:
     """(max, time-mean) of a metric curve over steps 1..N, ignoring NaN; NaN if none (the
     curve's own units: the metrics are dimensionless)."""
@@ -340,11 +355,13 @@ def describe(
     reference: tuple[int | None, str | None],
     candidate: tuple[int | None, str | None],
     suffix: Callable[[str], str] = lambda name: "",
+    dim: int | None = None,
 ) -> tuple[str, dict[str, str]]:
     """The title and one-line summaries of a grading: where a series diverged or the
-    candidate ended, and each metric's maximum and time-mean over the steps graded (with
-    `suffix(metric name)` after its line). `reference` and `candidate` are (divergence step
-    or None, reason)."""
+    candidate ended, and each metric's maximum and time-mean over the steps graded, named by
+    its symbol and key with its unit on a body of dimension `dim` ("E_i interior_error: max
+    0.0012 m^3, ..."; see unit), with `suffix(metric name)` after its line. `reference` and
+    `candidate` are (divergence step or None, reason)."""
     steps = len(times)
     summaries = {}
     for side, (step, reason) in (("reference", reference), ("candidate", candidate)):
@@ -365,7 +382,13 @@ def describe(
         scope = f"no step of 1..{steps - 1} graded"
     for name in METRICS:
         peak, mean = summarize(curves[name])
-        line = f"{name}: max {peak:.4g}, time-mean {mean:.4g} ({scope}, {label})"
+        u = unit(name, dim)
+        if u == "dimensionless":
+            values, where = f"max {peak:.4g}, time-mean {mean:.4g}", f"(dimensionless; {scope}"
+        else:
+            m = "" if u is None else f" {u}"
+            values, where = f"max {peak:.4g}{m}, time-mean {mean:.4g}{m}", f"({scope}"
+        line = f"{METRICS[name].symbol} {name}: {values} {where}, {label})"
         summaries[name] = line + suffix(name)
     return title, summaries
 
@@ -434,7 +457,7 @@ def grade_series(
     label = names[0]
     title, summaries = describe(
         label, names[1], times, curves, graded, cand_steps,
-        (ref_diverged, ref_reason), (cand_diverged, cand_reason),
+        (ref_diverged, ref_reason), (cand_diverged, cand_reason), dim=V.mesh.geometry.dim,
     )  # fmt: skip
     return Grading(
         label,

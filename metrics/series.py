@@ -83,7 +83,9 @@ def series_of(
 ) -> Series:
     """The Series read from `path` (named in errors): its arrays as a file holds them (cell type
     by the file's name, 2D data possibly with a zero third coordinate), checked, reduced to d
-    columns; InputError (one line) for anything that cannot be graded."""
+    columns; InputError (one line) for anything that cannot be graded. A list of `values` is
+    consumed step by step (each entry set to None once converted; float64 steps are kept as
+    they are, not copied), so that the peak memory stays near one copy of the series."""
     if cell_type not in CELLS:
         raise InputError(
             f"{path}: cells of type {cell_type!r}; only first-order triangles, quadrilaterals, "
@@ -130,9 +132,13 @@ def series_of(
         raise InputError(f"{path}: time stamps are not finite")
     if np.any(np.diff(times) <= 0):
         raise InputError(f"{path}: time stamps are not increasing")
+    if len(values) != len(times):
+        raise InputError(f"{path}: {len(values)} steps of field {field!r}, {len(times)} times")
     displacements = []
-    for t, u in zip(times, values, strict=True):
-        u = real(path, u, f"field {field!r} at time {t:g}")
+    for k, t in enumerate(times):
+        u = real(path, values[k], f"field {field!r} at time {t:g}")
+        if isinstance(values, list):
+            values[k] = None  # the step as read is released once converted: one copy at most
         if u.ndim != 2 or u.shape[0] != n or u.shape[1] < dim or u.shape[1] > 3:
             raise InputError(
                 f"{path}: field {field!r} at time {t:g} has shape {u.shape}, expected ({n}, {dim})"
@@ -143,7 +149,8 @@ def series_of(
 
 def real(path: Path, data: ArrayLike, what: str) -> np.ndarray:
     """`data` as float64, refusing (InputError) complex and non-numeric values: a complex field
-    is not graded on its real part. Values beyond float64's range become +-inf."""
+    is not graded on its real part. Values beyond float64's range become +-inf. float64 data
+    is returned as it is (no copy)."""
     data = np.asarray(data)
     if data.dtype.kind == "c":
         raise InputError(
@@ -152,7 +159,7 @@ def real(path: Path, data: ArrayLike, what: str) -> np.ndarray:
     if data.dtype.kind not in "iuf":
         raise InputError(f"{path}: {what} is not numbers (data type {data.dtype})")
     with np.errstate(over="ignore"):
-        return data.astype(np.float64)
+        return data.astype(np.float64, copy=False)
 
 
 def planar(path: Path, u: np.ndarray, dim: int, what: str) -> np.ndarray:

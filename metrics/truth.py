@@ -271,6 +271,7 @@ def _grade(truth: TruthSamples, cand: Series, label: str | None, log) -> TruthGr
         label, name, ref.times, curves, graded, len(cand.times),
         (ref_diverged, ref_reason), (cand_diverged, cand_reason),
         suffix=lambda n: f" (the truth's own error: {own:.2g})" if n.startswith("interior") else "",
+        dim=cand.dim,
     )  # fmt: skip
     times = ref.times
     if log is not None:

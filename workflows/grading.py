@@ -5,14 +5,17 @@ OUT/metrics.csv, OUT/metrics.png and OUT/summary.json, each renamed into place o
 
 OUT/summary.json is compare's summary, shaped like a run folder's so that an outside run can
 join a table of ours: `kind` "compare", the `reference` and `candidate` files with the field
-read from each, `notes` (how the series were read), `h`, `steps`, `end_time`, and `runs`
-{label: {status, diverged_step, diverged_time, steps, wall_time_s, <metric>_max,
-<metric>_mean for every metric}}; the candidate's label and wall time are `--label` and
-`--wall-time`. `reference.fingerprint` says what the reference is (reference_fingerprint: its
-benchmark, case, options, material, model, h, T, mesh size, nodes and dimension, as its run
-folder or the export beside it says, or the truth case), and `candidate.mesh` the candidate's
-mesh (mesh_of: cell type, cells, nodes, dofs): the leaderboard takes a compare folder only
-under the case it was graded against.
+read from each (the candidate's path absolute, symbolic links resolved, so that the
+leaderboard finds its series from any working folder), `notes` (how the series were read),
+`h`, `steps`, `end_time`, `metrics` ({metric: {symbol, unit}}: E_n and E_s dimensionless,
+E_i in m^d) and `runs` {label: {status, diverged_step, diverged_time, steps, wall_time_s,
+<metric>_max, <metric>_mean for every metric}}; the candidate's label and wall time are
+`--label` and `--wall-time` (the run's total wall seconds, setup included).
+`reference.fingerprint` says what the reference is (reference_fingerprint: its benchmark, case,
+options, material, model, h, T, mesh size, nodes and dimension, as its run folder or the
+export beside it says, or the truth case), and `candidate.mesh` the candidate's mesh (mesh_of:
+cell type, cells, nodes, dofs): the leaderboard takes a compare folder only under the case it
+was graded against.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.meshes.errors import UserError
-from tissuebench.metrics.compare import Grading, grade_series, summarize
+from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, load_truth, truth_case
 from tissuebench.solvers import interrupt
@@ -182,6 +185,26 @@ def compare_inputs(
     }
 
 
+def candidate_file(summary: dict, folder: str | Path) -> str | None:
+    """The candidate series file that the compare summary.json in `folder` records, as a path
+    found from any working folder: as recorded when absolute (summary_of records it so); for
+    a summary of an older compare, which recorded it as typed, the absolute path of its
+    inputs (`inputs.candidate.file`), else the recorded path taken relative to `folder`.
+    None when it records none."""
+    cand = summary.get("candidate")
+    file = cand.get("file") if isinstance(cand, dict) else None
+    if not isinstance(file, str) or not file:
+        return None
+    if Path(file).is_absolute():
+        return file
+    inputs = summary.get("inputs")
+    read = inputs.get("candidate") if isinstance(inputs, dict) else None
+    resolved = read.get("file") if isinstance(read, dict) else None
+    if isinstance(resolved, str) and Path(resolved).is_absolute():
+        return resolved
+    return str(Path(folder).resolve() / file)
+
+
 def none_if_nan(x):
     return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
 
@@ -208,6 +231,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         peak, mean = summarize(g.curves[name])
         entry[f"{name}_max"], entry[f"{name}_mean"] = none_if_nan(peak), none_if_nan(mean)
     steps = len(times) - 1
+    dim = (getattr(g, "candidate_mesh", None) or {}).get("dimension")
     truth = {"truth": g.summary()} if isinstance(g, TruthGrading) else {}
     return {
         "kind": "compare",
@@ -221,7 +245,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
             },
         },
         "candidate": {
-            "file": str(candidate),
+            "file": str(Path(candidate).resolve()),  # found from any working folder
             "field": g.fields[1],
             "label": g.label,
             "mesh": getattr(g, "candidate_mesh", None),
@@ -230,6 +254,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         "h": float(times[1] - times[0]) if steps else None,
         "steps": steps,
         "end_time": float(times[-1]),
+        "metrics": metric_units(dim),
         "reference_diverged_step": g.reference_diverged,
         "reference_diverged_reason": g.reference_reason,
         "runs": {g.label: entry},

@@ -1,12 +1,17 @@
 """`tissuebench compare REFERENCE CANDIDATE --out DIR`: grade any simulator's output."""
 
 import argparse
+import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
 from tissuebench.workflows.grading import compare
-from tissuebench.workflows.io.series import DEFAULT_FIELDS
+from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
+from tissuebench.workflows.output import read_summary
+
+REFERENCE_DIVERGED = 3  # exit status: the reference diverged (results written, one line said)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -30,7 +35,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "non-finite displacement, or one beyond 100 times the domain's largest extent, has "
         "diverged from that step: the metrics are NaN from that step on and the status column "
         "and summary.json say why. Complex fields, and series whose steps move or renumber "
-        "their nodes, are refused.",
+        "their nodes, are refused. The series are checked to fit in the available memory "
+        "before they are read (from their datasets' shapes). The metrics are printed as E_n "
+        "and E_s (dimensionless) and E_i (m^2 in 2D, m^3 in 3D; SPEC 6), with their keys in "
+        "metrics.csv and summary.json (relative_error, surface_error, interior_error; "
+        "summary.json's `metrics` gives each key's symbol and unit).",
+        epilog="Exit status: 0 graded; 2 bad input (one line on stderr: an unreadable or "
+        "missing file, a symbolic-link loop, series that cannot fit in memory, ...); "
+        f"{REFERENCE_DIVERGED} the reference diverged (SPEC 3: a non-finite displacement, or one "
+        "beyond 100 x the domain's largest extent): the results are written, nothing from that "
+        "step on is graded, and one line on stderr names the step and the value; 1 the "
+        "environment failed; 130 and 143 interrupted (SIGINT, SIGTERM).",
     )
     p.add_argument(
         "reference",
@@ -57,7 +72,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--wall-time",
         metavar="SECONDS",
-        help="the candidate's wall time in s, recorded in summary.json",
+        help="the candidate run's total wall time in seconds, setup included (mesh, "
+        "assembly, start-up and every step), recorded in summary.json; the leaderboard divides "
+        "it by the simulated time to rank the run's cost (s per simulated s)",
     )
     p.add_argument(
         "--force",
@@ -69,7 +86,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Print (rank 0) how the series were read, where a series diverged, if it did, and the
-    metrics' one-line summaries."""
+    metrics' one-line summaries (with their units). Returns the exit status: 0, or
+    REFERENCE_DIVERGED with one line on stderr when the reference diverged (this grading's,
+    or that of the complete results kept for the same inputs)."""
+    for path in (args.reference, args.candidate):
+        if not str(path).startswith(TRUTH_PREFIX):
+            check_input_path(path)  # a symbolic-link loop: one line, exit 2
     summaries = compare(
         args.reference,
         args.candidate,
@@ -86,4 +108,30 @@ def main(args: argparse.Namespace) -> int:
             print(line)
         if "skipped" not in summaries:
             print(f"wrote {args.out / 'metrics.csv'}, {args.out / 'metrics.png'} and summary.json")
-    return 0
+    diverged = reference_divergence(summaries, args.out)
+    if diverged is None:
+        return 0
+    if MPI.COMM_WORLD.rank == 0:
+        print(
+            f"tissuebench compare: the {diverged}; nothing from that step on is graded (status "
+            f"'reference diverged' in {args.out / 'metrics.csv'}): compare against a reference "
+            f"that did not diverge (exit status {REFERENCE_DIVERGED})",
+            file=sys.stderr,
+        )
+    return REFERENCE_DIVERGED
+
+
+def reference_divergence(summaries: dict[str, str], out: Path) -> str | None:
+    """ "reference diverged at step K (t = T s): REASON" when the reference diverged, as this
+    grading's summaries say, or, when it was skipped, as the summary.json kept in `out` says;
+    None when it did not."""
+    if "skipped" not in summaries:
+        return summaries.get("reference")
+    summary = read_summary(out) or {}
+    step, reason, h = (
+        summary.get(k) for k in ("reference_diverged_step", "reference_diverged_reason", "h")
+    )
+    if step is None:
+        return None
+    at = f" (t = {step * h:.6g} s)" if isinstance(h, (int, float)) else ""
+    return f"reference diverged at step {step}{at}: {reason}"

@@ -279,6 +279,51 @@ def read_xdmf(path: Path, names: Sequence[str]) -> FieldData:
     return points, cells, cell_type, times, values, field
 
 
+def xdmf_size(path: Path, names: Sequence[str]) -> tuple[float, int, int] | None:
+    """(bytes, nodes, steps): a lower bound of the memory (bytes) that read_xdmf and
+    series_of hold for the series of the first of `names` in the XDMF file, from the shapes
+    and types of its datasets alone (h5py opens the HDF5 files; no data is read): every
+    step's field, the larger of as read (read_xdmf reads every step before series_of converts
+    them) and as kept (float64, d columns: d = 2 for triangles and quadrilaterals, else 3),
+    and the mesh. None when the file does not say (a reader then names the problem)."""
+    try:
+        root = ET.parse(path).getroot()
+        grids = list(root.iter("Grid"))
+        mesh = next(g for g in grids if g.find("Topology") is not None)
+        topology = mesh.find("Topology")
+        kind = topology.get("TopologyType", topology.get("Type", "")).lower()
+        dim = 2 if kind in ("triangle", "quadrilateral", "quad") else 3
+        attributes = [a for g in grids for a in g.findall("Attribute")]
+        field = next(n for n in names if any(a.get("Name") == n for a in attributes))
+        items = [a.find("DataItem") for a in attributes if a.get("Name") == field]
+        files, shapes = {}, []
+        try:
+            for item in [topology.find("DataItem"), *items]:
+                shape = tuple(int(x) for x in (item.get("Dimensions") or "").split())
+                size = 8  # bytes per value: inline XML data is read as float64
+                if item.get("Format", "XML").upper() == "HDF":
+                    name, _, dataset = (item.text or "").strip().partition(":")
+                    h5 = path.parent / name
+                    if h5 not in files:
+                        files[h5] = h5py.File(h5, "r")
+                    data = files[h5][dataset]  # its shape and type only: nothing is read
+                    shape, size = data.shape, data.dtype.itemsize
+                shapes.append((shape, size))
+        finally:
+            for f in files.values():
+                f.close()
+        ((cells, *per_cell), _), fields = shapes[0], shapes[1:]
+        if not fields or any(len(shape) != 2 for shape, _ in fields):
+            return None
+        nodes = fields[0][0][0]
+        read = sum(n * c * size for (n, c), size in fields)
+        kept = 8 * sum(n * min(c, dim) for (n, c), _ in fields)
+        mesh = 8 * (nodes * dim + cells * int(np.prod(per_cell, dtype=np.int64)))
+        return float(max(read, kept) + mesh), int(nodes), len(fields)
+    except Exception:  # anything a file can hold: the reader will say what is wrong
+        return None
+
+
 def _step_data(hdf, element, first_element, first_data, what):
     """The data of a step grid's own Geometry or Topology `element`: the first's
     (`first_data`) when the step has none (XDMF's xi:include of the first, as DOLFINx and
