@@ -23,7 +23,10 @@ from __future__ import annotations
 import ast
 import hashlib
 import json
+import math
 import os
+import re
+import sys
 import time
 import zipfile
 from pathlib import Path
@@ -65,6 +68,7 @@ EXPECTED_SECONDS = {
     "rod": 75.0,
     "rod-nh-s1": 1400.0,
     "rod-nh-s3": 2000.0,
+    "rod-MP2": 300.0,  # an estimate before its first computation
     "block-MP1-w0.2": 165.0,
     "block-MP2-w0.2": 600.0,
     "block-MP1-nh-s2-w0.2": 760.0,
@@ -499,28 +503,147 @@ def compute(
     return samples
 
 
-def load_cached(
-    case: str, quick: bool = False, comm: MPI.Comm = MPI.COMM_WORLD
-) -> TruthSamples | None:
-    """The cached truth of a case on rank 0 if there is one for today's inputs (else None);
-    None on other ranks. Whether one was found is the same on every rank: found(...)."""
+# --- the cache ----------------------------------------------------------------------------------
+
+TEMPORARY = re.compile(r"\..+\.npz\.(?P<pid>\d+)\.tmp\.npz")  # TruthSamples.save's temporary
+
+
+def expected_words(case: str, quick: bool = False) -> str:
+    """How long the first computation of a case takes here, in words ("about 3 min")."""
+    minutes = expected_seconds(case, quick) / 60
+    return f"about {minutes:.0f} min" if minutes >= 1.5 else f"about {60 * minutes:.0f} s"
+
+
+def _check_npz(path: Path) -> None:
+    """Raise ValueError naming the member when an .npz's arrays cannot be what their headers
+    say (a header claiming more entries than the file holds, objects): before any array is
+    allocated, so that a corrupt header never asks for terabytes."""
+    with zipfile.ZipFile(path) as archive:
+        for info in archive.infolist():
+            with archive.open(info) as f:
+                version = np.lib.format.read_magic(f)
+                if version == (1, 0):
+                    shape, _, dtype = np.lib.format.read_array_header_1_0(f)
+                elif version == (2, 0):
+                    shape, _, dtype = np.lib.format.read_array_header_2_0(f)
+                else:
+                    raise ValueError(f"{info.filename}: npy format version {version}")
+                if dtype.hasobject:
+                    raise ValueError(f"{info.filename}: holds Python objects")
+                need = math.prod(shape) * dtype.itemsize
+                have = info.file_size - f.tell()
+                if need != have:
+                    raise ValueError(
+                        f"{info.filename}: its header claims {math.prod(shape):,} entries "
+                        f"({need:,} bytes), the file holds {have:,} bytes"
+                    )
+
+
+def _check_shapes(s: TruthSamples) -> None:
+    """Raise ValueError unless the arrays of a TruthSamples fit one another."""
+    steps, (nv, gdim), nq = len(s.times), s.vertices.shape, len(s.points)
+    expected = {
+        "times": (steps,),
+        "points": (nq, gdim),
+        "weights": (nq,),
+        "u_vertices": (steps, nv, gdim),
+        "u_points": (steps, nq, gdim),
+    }
+    for name, shape in expected.items():
+        if getattr(s, name).shape != shape:
+            raise ValueError(f"{name} has shape {getattr(s, name).shape}, not {shape}")
+    if s.cells.size and (s.cells.min() < 0 or s.cells.max() >= nv):
+        raise ValueError("cells name vertices it does not have")
+
+
+def _read(case: str, quick: bool) -> tuple[TruthSamples | None, str | None]:
+    """(the cached truth of a case for today's inputs or None, why its file cannot be read or
+    None). Never raises but for a signal: anything a file can do (cut short, a corrupt header,
+    bad JSON, a MemoryError) is a reason. Rank 0 (reads files only)."""
     path = cache_path(case, quick)
+    if not path.is_file():
+        return None, None
+    try:
+        _check_npz(path)
+        samples = TruthSamples.load(path)
+        _check_shapes(samples)
+    except interrupt.Interrupted:
+        raise
+    except Exception as exc:  # any reason: the file is not a truth we can use
+        why = " ".join(str(exc).split())[:160]
+        return None, f"its cache file {path} cannot be read ({type(exc).__name__}: {why})"
+    today = json.dumps(inputs(case, quick), sort_keys=True)
+    if json.dumps(samples.inputs, sort_keys=True) != today:
+        return None, None  # another truth under the same key prefix: not today's
+    return samples, None
+
+
+def _stderr(line: str) -> None:
+    print(f"tissuebench: {line}", file=sys.stderr, flush=True)
+
+
+def load_cached(
+    case: str,
+    quick: bool = False,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log: Callable[[str], None] | None = None,
+) -> TruthSamples | None:
+    """The cached truth of a case on rank 0 if there is a readable one for today's inputs (else
+    None); None on other ranks. Whether one was found is the same on every rank: found(...).
+    An unreadable file is said in one line to `log` (default stderr; rank 0), with the command
+    that computes the truth again, and counts as not computed."""
     samples = None
-    if comm.rank == 0 and path.is_file():
-        try:
-            samples = TruthSamples.load(path)
-            if json.dumps(samples.inputs, sort_keys=True) != json.dumps(
-                inputs(case, quick), sort_keys=True
-            ):
-                samples = None
-        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile):
-            samples = None  # unreadable (truncated, not ours): computed again
+    if comm.rank == 0:
+        samples, problem = _read(case, quick)
+        if problem:
+            (log or _stderr)(
+                f"truth {case}{' (quick)' if quick else ''}: {problem}; it counts as not "
+                f"computed: `tissuebench truth {case}{' --quick' if quick else ''}` computes it "
+                f"again ({expected_words(case, quick)} on one core)"
+            )
     return samples
 
 
 def is_cached(case: str, quick: bool = False, comm: MPI.Comm = MPI.COMM_WORLD) -> bool:
-    """Whether a readable cached truth exists for today's inputs (the same on every rank)."""
-    return bool(comm.bcast(load_cached(case, quick, comm) is not None if comm.rank == 0 else None))
+    """Whether a readable cached truth exists for today's inputs (the same on every rank;
+    nothing said of an unreadable file: whoever reads it says so)."""
+    found = _read(case, quick)[0] is not None if comm.rank == 0 else None
+    return bool(comm.bcast(found))
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process of this id runs on this machine."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # it exists, another user's
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder: Path, log: Callable[[str], None] | None = None) -> list[Path]:
+    """Remove the temporary files that killed cache writes left in folder (TruthSamples.save
+    writes .NAME.npz.PID.tmp.npz and renames it; a process killed before the rename leaves it):
+    those whose process no longer runs here. Each is said in one line to `log`. Returns them."""
+    removed = []
+    for tmp in sorted(folder.glob(".*.tmp.npz")) if folder.is_dir() else []:
+        m = TEMPORARY.fullmatch(tmp.name)
+        if m is None or _alive(int(m["pid"])):
+            continue  # not ours, or a write still under way
+        try:
+            size = tmp.stat().st_size
+            tmp.unlink()
+        except FileNotFoundError:
+            continue
+        except OSError as err:
+            (log or _stderr)(f"truth cache: could not remove {tmp} ({err.strerror or err})")
+            continue
+        removed.append(tmp)
+        (log or _stderr)(
+            f"truth cache: removed {tmp} ({size / 1e6:.1f} MB), left by a write that was killed"
+        )
+    return removed
 
 
 def truth_samples(
@@ -531,26 +654,28 @@ def truth_samples(
 ) -> TruthSamples | None:
     """The TruthSamples of a SPEC 10 case, from the cache or computed (and then cached): on
     rank 0, None elsewhere. Collective. `log(line)` (rank 0) hears where it comes from and,
-    before a computation, how long it is expected to take. UserError for a case that has no
+    before a computation, how long it is expected to take; an unreadable cache file is said in
+    one line (to `log`, else stderr) and computed again. UserError for a case that has no
     truth."""
     check_case(case)
     say = log if (log is not None and comm.rank == 0) else (lambda line: None)
     path = cache_path(case, quick) if comm.rank == 0 else None
-    samples = load_cached(case, quick, comm)
+    samples, problem = _read(case, quick) if comm.rank == 0 else (None, None)
     if comm.bcast(samples is not None if comm.rank == 0 else None):
         say(f"truth {case}{' (quick)' if quick else ''}: from the cache, {path}")
         return samples
-    minutes = expected_seconds(case, quick) / 60
-    about = f"{minutes:.0f} min" if minutes >= 1.5 else f"{60 * minutes:.0f} s"
+    if problem:
+        (log or _stderr)(f"truth {case}{' (quick)' if quick else ''}: {problem}; computed again")
     say(
         f"truth {case}{' (quick)' if quick else ''}: not in the cache, computing it once "
-        f"(about {about} on one core here; later runs read {path})"
+        f"({expected_words(case, quick)} on one core here; later runs read {path})"
     )
     samples = compute(case, quick, comm, log=say)
 
     def store():
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
+            remove_stale_temporaries(path.parent, log=log)
             samples.save(path)
         except OSError as err:
             say(
