@@ -1,0 +1,106 @@
+"""`tissuebench paper` on a machine where its truths are not cached (issue 36): it says which
+and how long before it starts, then computes them (their expected time and progress said)
+and grades against them, so that a first run writes the report we publish rather than "not
+cached". The truths' computation, the study's runs and the grading are replaced here (a full
+truth takes minutes): what is checked is which truths are computed, when, and what is said."""
+
+import argparse
+from pathlib import Path
+
+from mpi4py import MPI
+
+import pytest
+from test_newcomer_truth_cache import agreed, synthetic
+
+from tissuebench.solvers.truth import store
+from tissuebench.workflows import paper_truth
+from tissuebench.workflows.commands import paper
+
+COMM = MPI.COMM_WORLD
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    """An empty truth cache; the truths' computation replaced by synthetic ones (`computed`
+    lists the cases computed)."""
+    monkeypatch.setenv("TISSUEBENCH_CACHE", str(tmp_path / "cache"))
+    computed = []
+
+    def compute(case, quick=False, comm=COMM, log=None):
+        computed.append(case)
+        return synthetic(case, quick) if comm.rank == 0 else None
+
+    monkeypatch.setattr(store, "compute", compute)
+    return computed
+
+
+def test_a_first_run_says_which_truths_it_computes_and_how_long(cache):
+    assert paper_truth.missing(COMM) == ["rod", "block-MP1-w0.2", "block-MP2-w0.2"]
+    line = paper_truth.first_run_line(paper_truth.missing(COMM))
+    assert line == (
+        "paper: the truths rod (about 75 s), block-MP1-w0.2 (about 3 min), block-MP2-w0.2 "
+        "(about 10 min) are not cached on this machine: computed once in this run, after the "
+        f"paper's cases (about 14 min in all on one core); later runs read them from "
+        f"{store.cache_dir()}"
+    )
+    store.truth_samples("rod", comm=COMM)
+    assert paper_truth.missing(COMM) == ["block-MP1-w0.2", "block-MP2-w0.2"]
+
+
+def test_the_paper_computes_the_truths_it_needs_then_reads_them(cache, monkeypatch):
+    monkeypatch.setattr(paper_truth, "run_case", lambda *args, **kwargs: None)
+    graded = []
+
+    def grade_runs(folder, labels, truth, comm):
+        graded.append((Path(folder).name, truth.case if comm.rank == 0 else None))
+        return {
+            label: {f"{m}_{r}": 1e-3 for m in paper_truth.METRICS for r in paper_truth.READINGS}
+            for label in labels
+        }
+
+    monkeypatch.setattr(paper_truth, "grade_runs", grade_runs)
+    said = []
+    out = Path(COMM.bcast(str(Path(store.cache_dir()).parent.parent / "results")))
+    result = paper_truth.compute(out, COMM, log=said.append)
+    failures = []
+    if cache != ["rod", "block-MP1-w0.2", "block-MP2-w0.2"]:
+        failures.append(f"computed {cache}")
+    if result.missing != [] or set(result.graded) != set(paper_truth.TRUTHS):
+        failures.append(f"missing {result.missing}, graded {list(result.graded)}")
+    if any(c.holds is None for c in result.claims):
+        failures.append("a claim not judged")
+    if COMM.rank == 0:
+        for name in paper_truth.TRUTHS:  # its expected time first, then it is cached
+            first = (
+                f"truth {name}: not in the cache, computing it once ({store.expected_words(name)}"
+            )
+            if not any(line.startswith(first) for line in said):
+                failures.append(f"not said: {first}")
+            if not store.cache_path(name).is_file():
+                failures.append(f"{name} not cached")
+        if [truth for _, truth in graded] != list(paper_truth.TRUTHS):
+            failures.append(f"graded against {graded}")
+    said.clear()
+    paper_truth.compute(out, COMM, log=said.append)  # a second run reads them
+    if len(cache) != 3:
+        failures.append(f"computed again: {cache}")
+    if COMM.rank == 0 and sum("from the cache" in line for line in said) != 3:
+        failures.append(f"not read from the cache: {said}")
+    assert agreed(failures) == []
+
+
+class Started(Exception):
+    """The paper's first case began."""
+
+
+@pytest.mark.serial
+def test_the_paper_says_it_before_its_first_case(cache, tmp_path, monkeypatch, capsys):
+    def first_case(*args, **kwargs):
+        raise Started
+
+    monkeypatch.setattr(paper, "run_case", first_case)
+    args = argparse.Namespace(out=tmp_path / "results", solver="direct", petsc="", force=False)
+    with pytest.raises(Started):
+        paper.main(args)
+    out = capsys.readouterr().out.strip().splitlines()
+    assert out == [paper_truth.first_run_line(list(paper_truth.TRUTHS))]
