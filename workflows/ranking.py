@@ -12,8 +12,11 @@ process (see each entry's `timing`). A case's
 runs in one session on one machine (Board.session; `--rerun CASE` re-times one case alone); a
 user's run carries the wall time they gave compare.
 
+The cases are BOARDS (`tissuebench export` names the case its options pose: posed_board).
 OUT/leaderboard/CASE/ours, OUT/leaderboard/CASE/SIMULATOR: the case's folders (ours);
-OUT/leaderboard/CASE/user/NAME: compare folders a user put there (read only);
+OUT/leaderboard/CASE/user/NAME: compare folders a user put there (read only); any other
+folder under OUT/leaderboard that may be meant to be read is named with what to do
+(misplaced);
 OUT/leaderboard.md, OUT/leaderboard.csv, OUT/leaderboard/CASE.png: the leaderboard;
 OUT/leaderboard.json: its record (workflows/commands/leaderboard.py), from which it is
 rendered again.
@@ -34,13 +37,18 @@ import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tissuebench.meshes import get_entry
 from tissuebench.metrics.table import METRICS
+from tissuebench.solvers import MODELS
 from tissuebench.workflows.limits import step_count
 from tissuebench.workflows.output import read_summary
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.summary import CaseSummary
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.materials import Material
 
 E_I = "interior_error"
 E_N = "relative_error"
@@ -112,6 +120,91 @@ class Row:
     def cost_per_dof(self) -> float | None:
         """Wall time per simulated second and per dof (µs/s)."""
         return None if self.cost is None or not self.dofs else 1e6 * self.cost / self.dofs
+
+
+# --- the cases -------------------------------------------------------------------------------
+
+# At n = 12 (12,675 dofs) each simulator runs the variants that a user would run at that size
+# and that the closing note of issue 27 asks for (Drake linear, MuJoCo, Kratos tetrahedra and
+# hexahedra); the explicit ones are unstable at h = 1/30 s on that mesh
+N12_VARIANTS = {
+    "calculix": (),
+    "sfepy": ("newmark",),
+    "newton": (),
+    "mujoco": ("discrete",),
+    "kratos": ("hex8-newmark", "tet4-newmark"),
+    "drake": ("linear",),
+}
+N12_NOTE = (
+    "at n = 12 only the variants above run: the explicit ones are unstable at h = 1/30 s on "
+    "this mesh, and the others cost too much for one timing session here (measured, 30 steps "
+    "on this machine under load, per simulated second): CalculiX C3D8 53 s and C3D8I 120 s "
+    "(ccx factorises at every increment), Newton VBD 88 s; the Kratos and Drake rows above "
+    "factorise their matrix at every step too (Eigen's SparseLU; Drake's own solver)"
+)
+
+# The cases: the paper's block and rod (linear), and SPEC 8's rod at three times its load
+# (neo-Hookean reference, every model of ours), at each benchmark's default mesh, h and T.
+BOARDS = [
+    Board(
+        "block-MP1",
+        "block",
+        "MP1",
+        "linear",
+        description="Block and needle (SPEC 4), MP1, 20 x 20 quadrilaterals, plane strain, "
+        "h = 1/30 s, T = 10 s, linear model.",
+        truth_note="none: the needle is a point (w = 0), and refinement converges to no "
+        "solution (SPEC 10); the block's truth is posed with a needle of width 0.2 m "
+        "(block-MP1-w0.2: the mesh-sensitivity-block-MP1 case below).",
+    ),
+    Board(
+        "rod-MP3",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, 6 x 3 x 3 hexahedra, h = 1/30 s, T = 10 s, "
+        "linear model.",
+        truth="rod",
+        sizes="rod-MP3",
+    ),
+    Board(
+        "rod-MP3-s3",
+        "rod",
+        "MP3",
+        "neo-hookean",
+        models=tuple(MODELS),
+        options={"load_scale": 3.0},
+        description="Bending rod, MP3, load scale s = 3 (SPEC 8): large deformation, against "
+        "implicit+neo-hookean; ours with every model, the simulators with the neo-Hookean one.",
+        truth="rod-nh-s3",
+    ),
+    # the linear rod at two finer meshes (issue 27): how each run's cost grows with its dofs
+    # and where its accuracy against the truth stops improving
+    Board(
+        "rod-MP3-n6",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, n = 6: 12 x 6 x 6 hexahedra (1,911 dofs), "
+        "h = 1/30 s, T = 10 s, linear model; as rod-MP3 on a mesh twice as fine.",
+        mesh_size=6,
+        truth="rod",
+        sizes="rod-MP3",
+    ),
+    Board(
+        "rod-MP3-n12",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, n = 12: 24 x 12 x 12 hexahedra (12,675 dofs), "
+        "h = 1/30 s, T = 10 s, linear model; as rod-MP3 on a mesh four times as fine.",
+        mesh_size=12,
+        truth="rod",
+        sizes="rod-MP3",
+        variants=N12_VARIANTS,
+        skip_note=N12_NOTE,
+    ),
+]
 
 
 def our_rows(case: str, summary: CaseSummary) -> list[Row]:
@@ -250,11 +343,14 @@ def same_options(a: dict, b: dict) -> bool:
 RERUN_COMPARE = "rerun tissuebench compare (with --force) into it"
 
 
-def reference_problem(summary: dict, case: dict, board: Board | None = None) -> str | None:
+def reference_problem(
+    summary: dict, case: dict, board: Board | None = None, home: str | None = None
+) -> str | None:
     """Why a compare summary was not graded on the case (None: it was): its h, steps and end
     time, and the fingerprint of its reference (grading.reference_fingerprint: benchmark,
     options, material, model, mesh size, dimension and nodes, or the truth case) against the
-    case's. Each reason ends with what to do."""
+    case's. Each reason ends with what to do; `home`, where known, says where the folder
+    belongs (the case it was graded for and its user/ folder)."""
     h, steps, end = (summary.get(k) for k in ("h", "steps", "end_time"))
     if not (finite(h) and h > 0 and finite(end) and end > 0):
         return f"its summary.json has no positive numbers h and end_time: {RERUN_COMPARE}"
@@ -279,8 +375,10 @@ def reference_problem(summary: dict, case: dict, board: Board | None = None) -> 
     if board is None:
         return None
     where = f"this case ({board.name}: {board.benchmark} {board.material} {board.model}"
-    where += f", {board.options or 'default options'}, {case['gdim']}D, {case['nodes']} nodes)"
+    where += f", {options_words(board.options)}, {case['gdim']}D, {case['nodes']} nodes)"
     move = f"compare against {board.name}'s reference, or move the folder under its own case"
+    if home:
+        move = f"it belongs to {home}, or compare against {board.name}'s reference"
     if fp.get("source") == "truth":
         if fp.get("truth") != board.truth:
             has = f"the truth {board.truth}" if board.truth else "no truth"
@@ -293,9 +391,11 @@ def reference_problem(summary: dict, case: dict, board: Board | None = None) -> 
             "of ours nor an export's (NAME.reference.xdmf beside NAME.json), so its case is "
             f"not known: compare against the reference `tissuebench export` writes for {board.name}"
         )
+    options = fp.get("options")
     got = (
         f"{fp.get('benchmark')} {fp.get('material')} {fp.get('model')}, "
-        f"{fp.get('options') or 'default options'}, {fp.get('dimension')}D, {fp.get('nodes')} nodes"
+        f"{options_words(options if isinstance(options, dict) else {})}, "
+        f"{fp.get('dimension')}D, {fp.get('nodes')} nodes"
     )
     size = board.mesh_size or get_entry(board.benchmark).mesh_size
     if (
@@ -363,10 +463,147 @@ def run_problem(label, run) -> str | None:
     return None
 
 
-def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
+OPTION_WORDS = {"load_scale": ("load scale s", ""), "needle_width": ("needle width w", " m")}
+
+
+def options_words(options: dict) -> str:
+    """A case's benchmark options in words ("load scale s = 3"; "default options" when every
+    one is its default, DEFAULT_OPTIONS)."""
+    words = []
+    for key, value in sorted(options.items()):
+        if real(value) and real(DEFAULT_OPTIONS.get(key)) and value == DEFAULT_OPTIONS[key]:
+            continue
+        name, unit = OPTION_WORDS.get(key, (key.replace("_", " "), ""))
+        words.append(f"{name} = {value:g}{unit}" if real(value) else f"{name} = {value}")
+    return one_line(", ".join(words) or "default options")
+
+
+def export_options(board: Board) -> str:
+    """The `tissuebench export` arguments that pose a case's benchmark (the file and format
+    left out): `rod --material MP3 --mesh-size 6`."""
+    words = [board.benchmark, "--material", board.material]
+    if board.model != "linear":
+        words += ["--models", board.model]
+    if board.mesh_size is not None:
+        words += ["--mesh-size", str(board.mesh_size)]
+    if board.end_time is not None:
+        words += ["--end-time", f"{board.end_time:g}"]
+    for key, value in sorted(board.options.items()):
+        if value != DEFAULT_OPTIONS.get(key):
+            words += [f"--{key.replace('_', '-')}", f"{value:g}"]
+    return " ".join(words)
+
+
+def posed_board(
+    benchmark: str,
+    material: Material,
+    model: str,
+    options: dict,
+    mesh_size: int,
+    h: float,
+    steps: int,
+    plane: str = "strain",
+    boards: list[Board] | None = None,
+) -> Board | None:
+    """The leaderboard case (of `boards`, default BOARDS) that a benchmark posed with these
+    inputs is (an export's: its material's values, model, options, mesh size, h in s and
+    steps; plane strain in 2D), or None."""
+    from tissuebench.solvers.materials import get_material
+
+    for b in BOARDS if boards is None else boards:
+        case, mine = board_case(b), get_material(b.material)
+        if not (
+            b.benchmark == benchmark
+            and b.model == model
+            and (b.mesh_size or get_entry(benchmark).mesh_size) == mesh_size
+            and same_options(options, b.options)
+            and math.isclose(h, case["h"], rel_tol=TOLERANCE)
+            and steps == case["steps"]
+            and plane == "strain"
+        ):
+            continue
+        values = ("E", "nu", "rho", "alpha", "beta")
+        if all(math.isclose(getattr(material, k), getattr(mine, k)) for k in values):
+            return b
+    return None
+
+
+def owners(summary: dict, boards: list[Board]) -> list[Board]:
+    """The cases among `boards` that take a compare summary (graded against their reference or
+    their truth)."""
+    return [b for b in boards if reference_problem(summary, board_case(b), b) is None]
+
+
+def home_of(summary: dict, boards: list[Board], leaderboard: Path, name: str) -> str | None:
+    """Where a compare folder called `name` belongs under the leaderboard folder, in words
+    ("rod-MP3-s3: move it to OUT/leaderboard/rod-MP3-s3/user/NAME"), or None when it was
+    graded for none of `boards`."""
+    found = owners(summary, boards)
+    if not found:
+        return None
+    names = " or ".join(b.name for b in found)
+    return f"{names}: move it to {one_line(leaderboard / found[0].name / 'user' / name)}"
+
+
+def is_compare(folder: Path) -> bool:
+    """Whether a folder holds a summary.json that compare wrote."""
+    summary = read_summary(folder)
+    return summary is not None and summary.get("kind") == "compare"
+
+
+def _folders(folder: Path) -> list[Path]:
+    """The folders in folder, sorted, without hidden ones (ours: partial, old, locks)."""
+    try:
+        return sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
+    except OSError:
+        return []
+
+
+def misplaced(leaderboard: Path, boards: list[Board]) -> list[str]:
+    """One line for every folder under the leaderboard folder (OUT/leaderboard) that is not
+    read although it may be meant to be: a folder that is not one of the cases (each compare
+    folder in it, up to two levels down, else the folder itself), and a compare folder directly
+    in a case's folder instead of its user/. Each line says what to do. Reads files only."""
+    known = [b.name for b in boards]
+    ours = {"ours", "user", *SIMULATORS}
+    cases = ", ".join(known)
+    lines = []
+    for sub in _folders(leaderboard):
+        if sub.name in known:
+            for inner in _folders(sub):
+                if inner.name in ours or inner.name.startswith("ours-") or not is_compare(inner):
+                    continue
+                home = home_of(read_summary(inner) or {}, boards, leaderboard, inner.name)
+                lines.append(
+                    f"{one_line(inner)}: a compare folder outside {sub.name}/user/, not read: "
+                    f"move it to {one_line(sub / 'user' / inner.name)}"
+                    + (f" (it was graded for {home.split(':')[0]})" if home else "")
+                )
+            continue
+        inside = [sub] + _folders(sub) + [p for q in _folders(sub) for p in _folders(q)]
+        found = [p for p in inside if is_compare(p)]
+        why = f"{sub.name!r} is not a leaderboard case (cases: {cases})"
+        for folder in found:
+            home = home_of(read_summary(folder) or {}, boards, leaderboard, folder.name)
+            lines.append(
+                f"{one_line(folder)}: {one_line(why)}, not read: "
+                + (f"it belongs to {home}" if home else f"move it under {leaderboard}/CASE/user/")
+            )
+        if not found:
+            lines.append(
+                f"{one_line(sub)}: {one_line(why)}, not read: put each compare folder under "
+                f"{one_line(leaderboard)}/CASE/user/NAME"
+            )
+    return lines
+
+
+def user_rows(
+    board: Board, folder: Path, boards: list[Board] | None = None
+) -> tuple[list[Row], list[str]]:
     """Rows of the compare folders in folder (CASE/user/NAME/summary.json, kind "compare"),
     and one line for each folder or run left out and why (see reference_problem and
-    run_problem). Reads files only; rank 0."""
+    run_problem); a folder graded for another of `boards` is told where it belongs. Reads
+    files only; rank 0."""
     rows, skipped = [], []
     folder = Path(folder)
     if not folder.is_dir():
@@ -388,6 +625,10 @@ def user_rows(board: Board, folder: Path) -> tuple[list[Row], list[str]]:
             )
             continue
         problem = reference_problem(summary, case, board)
+        if problem and boards:
+            others = [b for b in boards if b.name != board.name]
+            home = home_of(summary, others, folder.parent.parent, sub.name)
+            problem = reference_problem(summary, case, board, home)
         runs = summary.get("runs")
         if problem is None and (not isinstance(runs, dict) or not runs):
             problem = f"its summary.json has no runs: {RERUN_COMPARE}"

@@ -18,6 +18,7 @@ from tissuebench.workflows.io.exported import SCHEMA, SCHEMA_VERSION, ExportErro
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate
 from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
+from tissuebench.workflows.ranking import BOARDS, Board, export_options, posed_board
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -101,10 +102,53 @@ def main(args: argparse.Namespace) -> int:
     )
     if comm.rank == 0:
         print(f"wrote {', '.join(str(p) for p in written)}")
-        if fmt == "inp" and reference:
-            job = args.out.with_suffix("")
-            print(
-                f"next: ccx -i {job}; tissuebench compare {reference_path(args.out)} "
-                f"{job}.frd --out {job.name}-graded"
-            )
+        board = posed_board(
+            bench.benchmark,
+            bench.material,
+            bench.model,
+            bench.options,
+            bench.mesh_size,
+            bench.h,
+            steps,
+            bench.plane,
+        )
+        if args.procedure != "dynamic":
+            board = None  # the leaderboard's references are dynamic (implicit)
+        print(case_line(board))
+        if reference:
+            print(next_line(board, args.out, fmt))
     return 0
+
+
+def case_line(board: Board | None) -> str:
+    """One line: the leaderboard case an export poses and its truth, or that it poses none
+    and the options of each case."""
+    from tissuebench.solvers.truth.store import expected_words
+
+    if board is None:
+        cases = "; ".join(f"{b.name}: export {export_options(b)}" for b in BOARDS)
+        return (
+            "leaderboard case: none (these options pose none of its cases; a run of them is "
+            f"graded by compare alone). The cases: {cases}"
+        )
+    truth = "it has no truth (a point needle)"
+    if board.truth:
+        truth = (
+            f"its truth {board.truth} is computed once by `tissuebench truth {board.truth}` "
+            f"({expected_words(board.truth)} on one core) before the leaderboard grades against it"
+        )
+    return f"leaderboard case: {board.name}; {truth}"
+
+
+def next_line(board: Board | None, out: Path, fmt: str) -> str:
+    """One line: the commands that grade a run of the export (and rank it, for a case)."""
+    job = out.with_suffix("")
+    run = f"ccx -i {job}; " if fmt == "inp" else "run your simulator; "
+    series = f"{job}.frd" if fmt == "inp" else "YOUR_SERIES"
+    grade = f"tissuebench compare {reference_path(out)} {series}"
+    if board is None:
+        return f"next: {run}{grade} --out {job.name}-graded"
+    return (
+        f"next: {run}{grade} --out results/leaderboard/{board.name}/user/NAME --label NAME "
+        "--wall-time SECONDS; tissuebench leaderboard --out results"
+    )

@@ -23,7 +23,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
+from tissuebench.solvers import ALGORITHMS, interrupt
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.commands.arguments import add_common, check_common
@@ -38,6 +38,7 @@ from tissuebench.workflows.output import (
     write_owned,
 )
 from tissuebench.workflows.ranking import (
+    BOARDS,
     E_I,
     E_N,
     Board,
@@ -47,6 +48,7 @@ from tissuebench.workflows.ranking import (
     finite,
     mark_pareto,
     mark_truth_pareto,
+    misplaced,
     our_rows,
     truth_error,
     user_rows,
@@ -61,88 +63,7 @@ from tissuebench.workflows.summary import CaseSummary
 
 FOLDER = "leaderboard"
 MARKER = "# Leaderboard: accuracy against cost"
-
-# At n = 12 (12,675 dofs) each simulator runs the variants that a user would run at that size
-# and that the closing note of issue 27 asks for (Drake linear, MuJoCo, Kratos tetrahedra and
-# hexahedra); the explicit ones are unstable at h = 1/30 s on that mesh
-N12_VARIANTS = {
-    "calculix": (),
-    "sfepy": ("newmark",),
-    "newton": (),
-    "mujoco": ("discrete",),
-    "kratos": ("hex8-newmark", "tet4-newmark"),
-    "drake": ("linear",),
-}
-N12_NOTE = (
-    "at n = 12 only the variants above run: the explicit ones are unstable at h = 1/30 s on "
-    "this mesh, and the others cost too much for one timing session here (measured, 30 steps "
-    "on this machine under load, per simulated second): CalculiX C3D8 53 s and C3D8I 120 s "
-    "(ccx factorises at every increment), Newton VBD 88 s; the Kratos and Drake rows above "
-    "factorise their matrix at every step too (Eigen's SparseLU; Drake's own solver)"
-)
-
-# The cases: the paper's block and rod (linear), and SPEC 8's rod at three times its load
-# (neo-Hookean reference, every model of ours), at each benchmark's default mesh, h and T.
-BOARDS = [
-    Board(
-        "block-MP1",
-        "block",
-        "MP1",
-        "linear",
-        description="Block and needle (SPEC 4), MP1, 20 x 20 quadrilaterals, plane strain, "
-        "h = 1/30 s, T = 10 s, linear model.",
-        truth_note="none: the needle is a point (w = 0), and refinement converges to no "
-        "solution (SPEC 10); the block's truth is posed with a needle of width 0.2 m "
-        "(block-MP1-w0.2: the mesh-sensitivity-block-MP1 case below).",
-    ),
-    Board(
-        "rod-MP3",
-        "rod",
-        "MP3",
-        "linear",
-        description="Bending rod (SPEC 5), MP3, 6 x 3 x 3 hexahedra, h = 1/30 s, T = 10 s, "
-        "linear model.",
-        truth="rod",
-        sizes="rod-MP3",
-    ),
-    Board(
-        "rod-MP3-s3",
-        "rod",
-        "MP3",
-        "neo-hookean",
-        models=tuple(MODELS),
-        options={"load_scale": 3.0},
-        description="Bending rod, MP3, load scale s = 3 (SPEC 8): large deformation, against "
-        "implicit+neo-hookean; ours with every model, the simulators with the neo-Hookean one.",
-        truth="rod-nh-s3",
-    ),
-    # the linear rod at two finer meshes (issue 27): how each run's cost grows with its dofs
-    # and where its accuracy against the truth stops improving
-    Board(
-        "rod-MP3-n6",
-        "rod",
-        "MP3",
-        "linear",
-        description="Bending rod (SPEC 5), MP3, n = 6: 12 x 6 x 6 hexahedra (1,911 dofs), "
-        "h = 1/30 s, T = 10 s, linear model; as rod-MP3 on a mesh twice as fine.",
-        mesh_size=6,
-        truth="rod",
-        sizes="rod-MP3",
-    ),
-    Board(
-        "rod-MP3-n12",
-        "rod",
-        "MP3",
-        "linear",
-        description="Bending rod (SPEC 5), MP3, n = 12: 24 x 12 x 12 hexahedra (12,675 dofs), "
-        "h = 1/30 s, T = 10 s, linear model; as rod-MP3 on a mesh four times as fine.",
-        mesh_size=12,
-        truth="rod",
-        sizes="rod-MP3",
-        variants=N12_VARIANTS,
-        skip_note=N12_NOTE,
-    ),
-]
+# The cases are ranking.BOARDS (tissuebench export names the one its options pose).
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -414,7 +335,7 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
     says so in its case's header); then the Pareto flags against the truth and the error
     budget."""
     from tissuebench.metrics.truth import own_error
-    from tissuebench.solvers.truth.store import expected_seconds, load_cached
+    from tissuebench.solvers.truth.store import expected_words, load_cached
 
     cases = {}
     for board in boards:
@@ -423,11 +344,10 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
     for case, mine in cases.items():
         truth = load_cached(case, comm=MPI.COMM_SELF)
         if truth is None:
-            minutes = expected_seconds(case) / 60
             for board in mine:
                 board.truth_note = (
-                    f"{case}, not computed on this machine (tissuebench truth {case}: about "
-                    f"{minutes:.0f} min on one core): no truth columns."
+                    f"{case}, not computed on this machine (tissuebench truth {case}: "
+                    f"{expected_words(case)} on one core): no truth columns."
                 )
             continue
         if not np.isfinite(own_error(truth)):  # its levels do not converge: no yardstick
@@ -516,11 +436,17 @@ def error_budget(rows: list[Row], only: list[Row] | None = None) -> None:
 def read_users(out: Path, boards: list[Board]) -> tuple[dict, dict]:
     """Every user's compare folder of every case (OUT/leaderboard/CASE/user/NAME), read and
     checked (ranking.user_rows): ({case: [Row]}, {case: [one line per folder or run left
-    out]}); each line left out is also printed on stderr. Rank 0."""
+    out]}); each line left out is also printed on stderr, and so is every folder under
+    OUT/leaderboard that is not read although it may be meant to be (ranking.misplaced: not
+    a case, or a compare folder outside user/). Rank 0."""
     rows, skipped = {}, {}
     for board in boards:
-        rows[board.name], skipped[board.name] = user_rows(board, out / FOLDER / board.name / "user")
+        folder = out / FOLDER / board.name / "user"
+        rows[board.name], skipped[board.name] = user_rows(board, folder, boards)
         for line in skipped[board.name]:
+            warn(line)
+    if (out / FOLDER).is_dir():
+        for line in misplaced(out / FOLDER, boards):
             warn(line)
     return rows, skipped
 
@@ -619,13 +545,19 @@ def user_key(row: Row) -> str:
 
 
 def grade_users(
-    boards: list[Board], rows: dict[str, list[Row]], users: dict, graded: dict | None = None
+    boards: list[Board],
+    rows: dict[str, list[Row]],
+    users: dict,
+    graded: dict | None = None,
+    out: Path = Path("results"),
 ) -> None:
     """The users' rows joined to their cases, graded against each case's truth where it has one
     (its cached truth loaded once per case; a user's row graded by compare against the truth
     keeps its columns; one the record holds already graded, `graded` {user_key: Row}, keeps the
-    record's), the Pareto fronts marked again and the users' error budgets. Rank 0."""
-    from tissuebench.solvers.truth.store import load_cached
+    record's), the Pareto fronts marked again and the users' error budgets. A truth that is not
+    computed here is named, with the command that computes it, in the rows' notes and in one
+    line on stderr per case. Rank 0."""
+    from tissuebench.solvers.truth.store import expected_words, load_cached
 
     truths = {}
     for board in boards:
@@ -639,9 +571,21 @@ def grade_users(
             if board.truth not in truths:
                 truths[board.truth] = load_cached(board.truth, comm=MPI.COMM_SELF)
             truth = truths[board.truth]
+            todo = (
+                f"`tissuebench truth {board.truth}` computes it ({expected_words(board.truth)} "
+                f"on one core, once), then `tissuebench leaderboard --out {out}` grades "
+                "against it"
+            )
+            if truth is None:
+                warn(
+                    f"{board.name}: {sum(not r.truth for r in mine)} user row(s) not graded "
+                    f"against the truth {board.truth}, which is not computed here: " + todo
+                )
             for row in mine:
-                if truth is None:
-                    row.truth_note = f"the truth {board.truth} is not computed on this machine"
+                if truth is None and not row.truth:
+                    row.truth_note = (
+                        f"the truth {board.truth} is not computed on this machine: {todo}"
+                    )
                 elif not row.truth:
                     grade_row_truth(truth, row)
         mark_pareto(rows[board.name])
@@ -744,7 +688,7 @@ def main(args: argparse.Namespace) -> int:
             for r in kept_rows[b.name]
             if r.source == "user"
         }
-        grade_users(boards, rows, users, graded)
+        grade_users(boards, rows, users, graded, out)
 
     def write():
         (out / FOLDER).mkdir(parents=True, exist_ok=True)
