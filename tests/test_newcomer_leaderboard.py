@@ -215,3 +215,8 @@ def test_export_says_its_case_and_the_compare_line(tmp_path):
     last = done.stdout.strip().splitlines()[-1]
     assert done.returncode == 0 and last.startswith("leaderboard case: none (these options")
     assert "rod-MP3-n6: export rod --material MP3 --mesh-size 6" in last
+    done = tissuebench("export", "rod", "--material", "MP3", "--procedure", "static",
+                       "--no-reference", "--out", tmp_path / "static.json")  # fmt: skip
+    assert done.returncode == 0 and done.stdout.strip().splitlines()[-1].startswith(
+        "leaderboard case: none (a static export is graded against quasi-static"
+    )

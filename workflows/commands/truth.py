@@ -4,7 +4,8 @@ Computes each named case once (Q2, Taylor-Hood Q2-Q1 where nu >= 0.45 or neo-Hoo
 trapezoidal rule; three uniformly refined levels and h, h/2 on the finest), estimates its own
 error from them and caches it outside git ($TISSUEBENCH_CACHE/truth/, default
 ~/.cache/tissuebench/truth/, keyed by the fingerprint of its inputs); a second call reads the
-cache. `compare truth:CASE` and the leaderboard fetch the same cache on demand.
+cache, and a cache file that cannot be read (cut short, corrupt) is named in one line and
+computed again. `compare truth:CASE`, `paper` and the leaderboard read the same cache.
 
 Writes DIR/truth.md (per case: levels, dofs, wall time, observed order, the estimated own
 E_i max in space and time and whether it meets SPEC 10's target, 1e-5 m^3 rod and 2e-5 m^2
