@@ -88,6 +88,9 @@ def test_an_older_relative_candidate_path_is_taken_from_the_compare_folder(tmp_p
     assert candidate_file(summary, folder) == str(folder.resolve() / "cand.xdmf")
     assert candidate_file({"candidate": {"file": "/b/c.xdmf"}}, folder) == "/b/c.xdmf"
     assert candidate_file({"candidate": {}}, folder) is None
+    # the leaderboard's rows take it so (ranking.candidate_of with the compare folder)
+    row = ranking.candidate_of({"candidate": {"file": "cand.xdmf", "field": "u"}}, folder)
+    assert row == {"series": str(folder.resolve() / "cand.xdmf"), "series_field": "u"}
 
 
 def test_metrics_are_named_with_their_units(tmp_path):

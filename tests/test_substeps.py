@@ -3,7 +3,6 @@ the same arithmetic as the scheme run with h/k, `auto` takes the fewest below 0.
 critical step, and that critical step, measured for a remedy, is where real runs turn
 unstable."""
 
-
 from mpi4py import MPI
 
 import numpy as np

@@ -668,19 +668,25 @@ def user_rows(
                     float(summary["end_time"]),
                     "reported by the user",
                     truth=truth,
-                    **candidate_of(summary),
+                    **candidate_of(summary, sub),
                 )
             )
     return rows, skipped
 
 
-def candidate_of(summary: dict) -> dict:
+def candidate_of(summary: dict, folder: Path | None = None) -> dict:
     """The series file and field a compare summary records as its candidate ({} when it names
-    none): {"series": path, "series_field": field or None}."""
+    none): {"series": path, "series_field": field or None}. With the compare `folder`, the
+    path is one found from any working folder (grading.candidate_file: an older compare's
+    relative path is taken from its inputs or its folder)."""
     cand = summary.get("candidate")
     file = cand.get("file") if isinstance(cand, dict) else None
     if not isinstance(file, str) or not file:
         return {}
+    if folder is not None:
+        from tissuebench.workflows.grading import candidate_file
+
+        file = candidate_file(summary, folder) or file
     field = cand.get("field")
     return {"series": file, "series_field": field if isinstance(field, str) else None}
 
