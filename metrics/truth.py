@@ -152,6 +152,7 @@ class TruthMetrics:
         self.cand_nodes, self.cand_X, self.cand_shape = _boundary(
             mesh.points, mesh.cells, mesh.cell_type
         )
+        self.surface = True  # False: E_s is not computed (NaN), the costly boolean skipped
 
     def evaluate(self, i: int, u_cand: np.ndarray) -> dict[str, float]:
         """The metrics (dimensionless E_n and E_s; E_i in m^d, as SPEC 6 scales it) of u_cand
@@ -168,13 +169,14 @@ class TruthMetrics:
             "interior_error": self.scale
             * float(self.weights @ np.linalg.norm(self.at_points(u_cand) - u_q, axis=1)),
             "interior_error_nodal": self.scale * float(self.nodal @ gap),
-            "surface_error": surface_error(
+        }
+        if self.surface:
+            values["surface_error"] = surface_error(
                 self.truth_shape,
                 self.truth_X + u_v[self.truth_nodes],
                 self.cand_X + u_cand[self.cand_nodes],
                 self.cand_shape,
-            ),
-        }
+            )
         return {name: float(values.get(name, np.nan)) for name in METRICS}
 
 
@@ -222,7 +224,9 @@ class TruthGrading(Grading):
         return {"case": self.case, "own_error": self.own_error, "seconds": self.seconds}
 
 
-def _grade(truth: TruthSamples, cand: Series, label: str | None, log) -> TruthGrading:
+def _grade(
+    truth: TruthSamples, cand: Series, label: str | None, log, surface: bool = True
+) -> TruthGrading:
     """grade_truth on one process."""
     start = time.perf_counter()
     ref = truth_series(truth)
@@ -245,6 +249,7 @@ def _grade(truth: TruthSamples, cand: Series, label: str | None, log) -> TruthGr
     check_same_body(ref, cand)
     where = f"{cand.path}: not a mesh of the body of {name}"
     grader = TruthMetrics(truth, Mesh.of(cand), BODY_TOLERANCE * extent, where)
+    grader.surface = surface
     located = time.perf_counter() - start
     notes.append(
         f"graded against the truth {truth.case} ({len(truth.vertices):,} vertices, "
@@ -306,16 +311,18 @@ def grade_truth(
     *,
     label: str | None = None,
     log: Callable[[str], None] | None = None,
+    surface: bool = True,
 ) -> TruthGrading:
     """Grade the candidate series (rank 0's; None may be passed elsewhere) against the truth
     (rank 0's) as the module docstring says. Collective: rank 0 computes, every rank gets the
     same TruthGrading; InputError on every rank for a candidate of another dimension or body,
     other time stamps, or points outside its mesh. `label` names the candidate (default: its
-    file name without suffix); `log` (rank 0) is given one line with the time taken."""
+    file name without suffix); `log` (rank 0) is given one line with the time taken; without
+    `surface`, E_s is left NaN (its boolean of two deformed bodies is most of the cost)."""
     result = error = None
     if comm.rank == 0:
         try:
-            result = _grade(truth, cand, label, log)
+            result = _grade(truth, cand, label, log, surface)
         except InputError as exc:
             error = InputError(str(exc))
         except Exception as exc:  # never leave the other ranks waiting

@@ -59,6 +59,7 @@ COMMANDS = [
     "tissuebench.workflows.commands.convergence",
     "tissuebench.workflows.commands.bench",
     "tissuebench.workflows.commands.truth",
+    "tissuebench.workflows.commands.frontier",
 ]
 
 

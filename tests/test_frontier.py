@@ -1,0 +1,106 @@
+"""The real-time frontier (SPEC 11, workflows/frontier.py and reports/frontier.py): which runs
+it holds, that an interrupted study resumes where it stopped, and the frontier and Pareto
+selections on rows whose answer is known."""
+
+import math
+
+import pytest
+
+from tissuebench.workflows import frontier as study
+from tissuebench.workflows.reports.frontier import frontier, markdown, pareto
+
+
+def row(scheme="standard", algorithm="implicit", requested="1", size=3, cost=0.01, mean=1e-5,
+        status="ok", cell="hexahedron", case="rod-MP2"):  # fmt: skip
+    return {
+        "case": case, "benchmark": "rod", "material": "MP2", "cell": cell, "scheme": scheme,
+        "algorithm": algorithm, "requested": requested, "substeps": 1, "mesh_size": size,
+        "dofs": 336, "critical_dt_s": math.nan, "status": status, "diverged_time": math.nan,
+        "setup_s": 0.1, "loop_s": cost * 10, "cost": cost, "interior_error_mean": mean,
+        "interior_error_max": 2 * mean, "relative_error_mean": 0.1, "relative_error_max": 0.2,
+        "truth_own_error": 6e-7,
+    }  # fmt: skip
+
+
+def test_the_study_holds_every_scheme_on_its_cells_and_three_sizes():
+    configs = list(study.configs(("rod-MP2", "block-MP2-w0.2")))
+    shapes = {
+        "rod-MP2": ("hexahedron", "tetrahedron"),
+        "block-MP2-w0.2": ("quadrilateral", "triangle"),
+    }
+    for case, cells in shapes.items():
+        mine = [c for c in configs if c.case == case]
+        assert {c.cell for c in mine} == set(cells)
+        assert len({c.mesh_size for c in mine}) == 3
+        schemes = {c.scheme.split(":")[0] for c in mine}
+        assert schemes == {"standard", "mean-dilatation", "hourglass", "anp", "penalty"}
+        # explicit-lumped at h itself only for Q1/P1 and the penalty (the paper's question)
+        at_h = {
+            c.scheme.split(":")[0]
+            for c in mine
+            if c.algorithm == "explicit-lumped" and c.substeps == 1
+        }
+        assert at_h == {"standard", "penalty"}
+    assert len({c.key() for c in configs}) == len(configs)
+
+
+def test_an_interrupted_study_resumes_from_its_rows(tmp_path, monkeypatch):
+    calls = []
+
+    def fake_run(config, truth, comm):
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        calls.append(config.key())
+        return row(config.scheme, config.algorithm, str(config.substeps), config.mesh_size,
+                   cell=config.cell, case=config.case)  # fmt: skip
+
+    monkeypatch.setattr(study, "run_config", fake_run)
+    monkeypatch.setattr(study, "load_truth", lambda case, comm: None)
+    with pytest.raises(KeyboardInterrupt):
+        study.run_study(tmp_path, ("rod-MP2",), quick=True)
+    kept = study.read_rows(tmp_path / "frontier.csv")
+    assert [study.row_key(r) for r in kept] == calls
+    first = list(calls)
+    calls.clear()
+    monkeypatch.setattr(
+        study, "run_config", lambda c, t, comm: (calls.append(c.key()), fake_row(c))[1]
+    )
+    rows = study.run_study(tmp_path, ("rod-MP2",), quick=True)
+    every = [c.key() for c in study.configs(("rod-MP2",), quick=True)]
+    assert calls == every[3:] and first == every[:3]
+    assert sorted(study.row_key(r) for r in rows) == sorted(every)
+
+
+def fake_row(config):
+    return row(config.scheme, config.algorithm, str(config.substeps), config.mesh_size,
+               cell=config.cell, case=config.case)  # fmt: skip
+
+
+def test_frontier_and_pareto_pick_the_known_runs():
+    rows = [
+        row("standard", cost=0.02, mean=4e-5),
+        row("standard", size=6, cost=2.0, mean=1e-5),  # too costly for real time
+        row("mean-dilatation", cost=0.01, mean=5e-6),
+        row("mean-dilatation", size=6, cost=0.5, mean=1e-6),
+        row("anp", cell="tetrahedron", cost=0.005, mean=3e-5),
+        row(
+            "penalty:nu_p=0.3,k=0.1",
+            "explicit-lumped",
+            cell="tetrahedron",
+            status="diverged",
+            cost=1e-4,
+            mean=math.nan,
+        ),  # fmt: skip
+    ]
+    best = frontier(rows)
+    assert [(r["scheme"], r["mesh_size"]) for r in best] == [
+        ("mean-dilatation", 6), ("anp", 3), ("standard", 3)
+    ]  # fmt: skip
+    front = pareto(rows)
+    assert [(r["scheme"], r["cost"]) for r in front] == [
+        ("anp", 0.005), ("mean-dilatation", 0.01), ("mean-dilatation", 0.5)
+    ]  # fmt: skip
+    text = markdown(rows, ("rod-MP2",), "header")
+    assert "closest run is mean-dilatation implicit on the size-6 mesh" in text
+    # the paper's grid (n = 3), implicit: Q1 4e-5 m^3 at 0.02 s/s, mean-dilatation 5e-6 at 0.01
+    assert "8 times closer to the truth (E_i mean) at 0.5 times the cost" in text

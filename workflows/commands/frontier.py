@@ -1,0 +1,82 @@
+"""`tissuebench frontier --out results`: the real-time frontier of SPEC 11.
+
+For block-MP2-w0.2, block-MP1-w0.2, rod-MP2 and the rod in MP3 (the compressible control),
+every scheme (Q1 or P1, mean-dilatation, hourglass, anp, penalty, with the hourglass and
+penalty parameters swept on the middle size) with implicit and explicit-lumped (at h = 1/30 s,
+and with the sub-steps that keep it stable) on three mesh sizes, graded against the truth
+(E_i, E_n) and timed on one core. Writes OUT/frontier/frontier.csv (a row as each run ends:
+an interrupted study resumes from it), OUT/frontier/frontier.md and a figure per case,
+OUT/frontier/frontier-CASE.png (about 25 min here, the truths cached; missing truths are
+computed first)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.meshes.errors import UserError
+from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.frontier import FRONTIER_CASES, read_rows, run_study
+from tissuebench.workflows.output import write_owned
+from tissuebench.workflows.reports.frontier import MARKER, markdown, plot
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "frontier",
+        help="the real-time frontier: every scheme against the truth, at its cost (SPEC 11)",
+        description=__doc__.split("\n\n")[1],
+    )
+    p.add_argument(
+        "--out", type=Path, default=Path("results"), help="output folder (default results)"
+    )
+    p.add_argument(
+        "--cases",
+        default=",".join(FRONTIER_CASES),
+        help=f"comma-separated truth cases (default {','.join(FRONTIER_CASES)})",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="the smallest mesh size only, no sweeps, into OUT/frontier-quick: checks the "
+        "workflow; never touches a full study's folder",
+    )
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    if MPI.COMM_WORLD.size > 1:
+        raise UserError("frontier times every run on one core: run it without mpiexec")
+    cases = tuple(c.strip() for c in args.cases.split(",") if c.strip())
+    unknown = [c for c in cases if c not in CASES]
+    if unknown or not cases:
+        raise UserError(
+            f"--cases: {', '.join(unknown) or 'none'}; the truth cases are {', '.join(CASES)}"
+        )
+    folder = args.out / ("frontier-quick" if args.quick else "frontier")
+    report = folder / "frontier.md"
+    if report.exists() and not report.read_text(errors="replace").startswith(MARKER):
+        raise UserError(f"{report}: exists and was not written by tissuebench frontier")
+    folder.mkdir(parents=True, exist_ok=True)
+    started, load = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()[0]
+    rows = run_study(folder, cases, args.quick)
+    ended = os.getloadavg()[0]
+    header = (
+        f"Written by `tissuebench frontier{' --quick' if args.quick else ''}` (runs from "
+        f"{started}, one core; load average {load:.2f} as it began, {ended:.2f} as it ended: "
+        "costs measured while other jobs ran are upper bounds). Rows: frontier.csv."
+    )
+    every = tuple(c for c in cases if any(r["case"] == c for r in rows))
+    for case in every:
+        write_owned(
+            folder / f"frontier-{case}.png",
+            lambda tmp, case=case: plot(tmp, case, [r for r in rows if r["case"] == case]),
+        )
+    text = markdown(read_rows(folder / "frontier.csv"), every, header)
+    write_owned(report, lambda tmp: tmp.write_text(text))
+    print(f"wrote {report}, {folder / 'frontier.csv'} and {folder}/frontier-*.png")
+    return 0

@@ -1,0 +1,264 @@
+"""The real-time frontier of SPEC 11: for each nearly incompressible case (and the
+compressible rod as the control), every scheme (solvers/schemes/) with the implicit reference
+algorithm and the paper's explicit-lumped, at h = 1/30 s and with the sub-steps that keep it
+stable, on three mesh sizes, graded against the truth (SPEC 10: E_i in m^2 on the block, m^3
+on the rod) and timed on one core. The frontier of a case is the smallest E_i reached at a cost
+of at most 1 s of wall time per simulated second.
+
+Cost: the time loop's wall seconds (every sub-step) over the simulated seconds T; the set-up
+(assembly, factorisation, the critical step's eigenvalues) is paid once per simulation and
+is reported beside it. One rank: the cost a surgical simulator pays on one core.
+
+Rows are written to DIR/frontier.csv as each run ends, so an interrupted study keeps what it
+finished and resumes from it.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+from tissuebench.meshes import get_benchmark, get_entry
+from tissuebench.meshes.benchmark import CELLS
+from tissuebench.metrics.compare import summarize
+from tissuebench.metrics.series import series_of
+from tissuebench.metrics.truth import grade_truth, load_truth, own_error
+from tissuebench.solvers.schemes import SCHEMES, scheme_label
+from tissuebench.solvers.simulate import simulate
+from tissuebench.solvers.substeps import sub_stepped
+from tissuebench.solvers.system import System
+from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.io.xdmf import gather_series
+
+# the cases of SPEC 11, the compressible control last
+FRONTIER_CASES = ("block-MP2-w0.2", "block-MP1-w0.2", "rod-MP2", "rod")
+SIZES = {"block": (10, 20, 40), "rod": (2, 3, 6)}  # three mesh sizes of each benchmark
+QUICK_SIZES = {"block": (10,), "rod": (2,)}
+# explicit-lumped at the benchmark's step ("large time-step"), and with the sub-steps that keep
+# it stable; implicit, the reference algorithm
+RUNS = (("implicit", 1), ("explicit-lumped", 1), ("explicit-lumped", "auto"))
+# explicit-lumped at h = 1/30 s, whether stable or not, with these schemes only: the paper's
+# element and Picinbono's remedy (the paper's question); auto takes k = 1 wherever h is stable
+AT_H = ("standard", "penalty")
+# the parameters swept on the middle mesh size (the defaults run on every size)
+SWEEPS = {
+    "hourglass": ("hourglass:c_hg=0.03", "hourglass:c_hg=1"),
+    "penalty": ("penalty:k=0", "penalty:k=1", "penalty:nu_p=0.4,k=0.1"),
+}
+REAL_TIME = 1.0  # s of wall time per simulated second
+COLUMNS = (
+    "case",
+    "benchmark",
+    "material",
+    "cell",
+    "scheme",
+    "algorithm",
+    "requested",
+    "substeps",
+    "mesh_size",
+    "dofs",
+    "critical_dt_s",
+    "status",
+    "diverged_time",
+    "setup_s",
+    "loop_s",
+    "cost",
+    "interior_error_mean",
+    "interior_error_max",
+    "relative_error_mean",
+    "relative_error_max",
+    "truth_own_error",
+)
+
+
+@dataclass(frozen=True)
+class Config:
+    """One run of the study: a truth case, its benchmark's cell shape and mesh size, a scheme
+    (canonical text), an algorithm and its sub-steps (k or "auto")."""
+
+    case: str
+    cell: str
+    scheme: str
+    algorithm: str
+    substeps: int | str
+    mesh_size: int
+
+    def key(self) -> tuple:
+        """The row key: what identifies the run in frontier.csv."""
+        return (
+            self.case,
+            self.cell,
+            self.scheme,
+            self.algorithm,
+            str(self.substeps),
+            self.mesh_size,
+        )
+
+
+def configs(cases: tuple[str, ...] = FRONTIER_CASES, quick: bool = False) -> Iterator[Config]:
+    """Every run of the study, in order."""
+    for case in cases:
+        benchmark = CASES[case][0]
+        sizes = (QUICK_SIZES if quick else SIZES)[benchmark]
+        gdim = get_entry(benchmark).gdim
+        for cell in CELLS[gdim]:
+            schemes = [name for name, s in SCHEMES.items() if cell in s.cells]
+            for size in sizes:
+                chosen = [scheme_label(s) for s in schemes]
+                if size == sizes[len(sizes) // 2] and not quick:
+                    chosen += [scheme_label(s) for name in schemes for s in SWEEPS.get(name, ())]
+                for scheme in chosen:
+                    for algorithm, k in RUNS:
+                        if k == 1 and algorithm != "implicit" and not scheme.startswith(AT_H):
+                            continue
+                        yield Config(case, cell, scheme, algorithm, k, size)
+
+
+def benchmark_of(config: Config, comm: MPI.Comm):
+    """The benchmark of a config: the case's load scale and needle width, its cell shape."""
+    name, _, _, scale, width = CASES[config.case]
+    options = {"load_scale": scale}
+    if width is not None:
+        options["needle_width"] = width
+    if config.cell != CELLS[get_entry(name).gdim][0]:
+        options["cell"] = config.cell
+    return get_benchmark(name, mesh_size=config.mesh_size, comm=comm, **options)
+
+
+def run_config(config: Config, truth, comm: MPI.Comm = MPI.COMM_SELF) -> dict:
+    """Run one config and grade it against the truth (TruthSamples): its row (COLUMNS)."""
+    benchmark, material, *_ = CASES[config.case]
+    bench = benchmark_of(config, comm)
+    start = time.perf_counter()
+    system = System(bench, material, scheme=config.scheme)
+    integrator, k, critical = sub_stepped(config.algorithm, system, bench.dt, config.substeps)
+    setup = time.perf_counter() - start
+    steps = round(bench.end_time / bench.dt)
+    try:
+        run = simulate(integrator, steps, bench.extent, config.algorithm)
+    finally:
+        integrator.destroy()
+    row = {
+        "case": config.case,
+        "benchmark": benchmark,
+        "material": material,
+        "cell": config.cell,
+        "scheme": config.scheme,
+        "algorithm": config.algorithm,
+        "requested": str(config.substeps),
+        "substeps": k,
+        "mesh_size": config.mesh_size,
+        "dofs": system.num_dofs(),
+        "critical_dt_s": critical,
+        "status": run.status,
+        "diverged_time": run.diverged_time,
+        "setup_s": setup,
+        "loop_s": run.wall_time_s,
+        "cost": run.wall_time_s / (steps * bench.dt),
+        "truth_own_error": own_error(truth),
+    }
+    for name in ("interior_error", "relative_error"):
+        row[f"{name}_mean"] = row[f"{name}_max"] = math.nan
+    if run.status == "ok":  # a diverged run did not reach T: it has no reading
+        mesh, data = gather_series(system.V, {"displacement": run.u})
+        points, cells, cell_type = mesh
+        gdim = system.gdim
+        series = series_of(
+            Path(f"{config.case}-{config.scheme}-{config.algorithm}.xdmf"),
+            "displacement",
+            points[:, :gdim],
+            cells,
+            cell_type,
+            np.arange(len(run.u)) * bench.dt,
+            data["displacement"][:, :, :gdim],
+        )
+        grading = grade_truth(truth, series, comm, surface=False)  # E_i and E_n
+        for name in ("interior_error", "relative_error"):
+            peak, mean = summarize(grading.curves[name])
+            row[f"{name}_max"], row[f"{name}_mean"] = peak, mean
+    return row
+
+
+TEXT = ("case", "benchmark", "material", "cell", "scheme", "algorithm", "requested", "status")
+
+
+def read_rows(path: Path) -> list[dict]:
+    """The rows of a frontier.csv, numbers as floats (ints where whole), NaN for empty."""
+    if not path.is_file():
+        return []
+    rows = []
+    with path.open(newline="") as f:
+        for raw in csv.DictReader(f):
+            row = {}
+            for key, value in raw.items():
+                if key in TEXT:
+                    row[key] = value
+                elif value == "":
+                    row[key] = math.nan
+                else:
+                    number = float(value)
+                    row[key] = int(number) if key in ("substeps", "mesh_size", "dofs") else number
+            rows.append(row)
+    return rows
+
+
+def append_row(path: Path, row: dict) -> None:
+    """Add one row to a frontier.csv (its header first if new)."""
+    new = not path.is_file()
+    with path.open("a", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        if new:
+            writer.writeheader()
+        writer.writerow({k: ("" if _missing(row[k]) else row[k]) for k in COLUMNS})
+
+
+def _missing(x) -> bool:
+    return x is None or (isinstance(x, float) and math.isnan(x))
+
+
+def row_key(row: dict) -> tuple:
+    """The key of a row, as Config.key()."""
+    return (
+        row["case"],
+        row["cell"],
+        row["scheme"],
+        row["algorithm"],
+        row["requested"],
+        row["mesh_size"],
+    )
+
+
+def run_study(
+    out: Path,
+    cases: tuple[str, ...] = FRONTIER_CASES,
+    quick: bool = False,
+    log: Callable[[str], None] = print,
+) -> list[dict]:
+    """Every config not yet in out/frontier.csv, each appended as it ends; returns all rows.
+    Serial (one core)."""
+    comm = MPI.COMM_SELF
+    path = out / "frontier.csv"
+    rows = read_rows(path)
+    done = {row_key(r) for r in rows}
+    todo = [c for c in configs(cases, quick) if c.key() not in done]
+    truths = {}
+    for i, config in enumerate(todo, 1):
+        if config.case not in truths:
+            truths[config.case] = load_truth(config.case, comm)
+        row = run_config(config, truths[config.case], comm)
+        append_row(path, row)
+        rows.append(row)
+        log(
+            f"[{i}/{len(todo)}] {config.case} {config.cell} n={config.mesh_size} {config.scheme} "
+            f"{config.algorithm} k={row['substeps']}: {row['status']}, E_i mean "
+            f"{row['interior_error_mean']:.3g}, {row['cost']:.3g} s per simulated s"
+        )
+    return rows

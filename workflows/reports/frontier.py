@@ -1,0 +1,252 @@
+"""The real-time frontier's report (SPEC 11, workflows/frontier.py): per case a figure of E_i
+against cost with the frontier drawn and the truth's own error shaded, the best run of each
+scheme and algorithm at a real-time cost, the paper's grid with and without the remedy, and
+the paper's question (the penalty at h = 1/30 s against the material's own Poisson ratio
+with sub-steps). Every number comes from frontier.csv."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from tissuebench.meshes import get_entry
+from tissuebench.solvers.truth.cases import CASES
+
+MARKER = "# The real-time frontier"
+PAPER_SIZE = {"block": 20, "rod": 3}  # the paper's grids
+UNITS = {"block": "m^2", "rod": "m^3"}
+PLAIN = {"quadrilateral": "Q1", "hexahedron": "Q1", "triangle": "P1", "tetrahedron": "P1"}
+REAL_TIME = 1.0
+
+
+def scheme_name(row: dict) -> str:
+    """The scheme as a reader knows it: Q1/P1 for the standard element, else its text."""
+    return PLAIN[row["cell"]] if row["scheme"] == "standard" else row["scheme"]
+
+
+def run_name(row: dict) -> str:
+    """scheme + algorithm, with the sub-steps asked for (auto) where the algorithm took any."""
+    steps = ", auto sub-steps" if row["requested"] == "auto" else ""
+    return f"{scheme_name(row)} {row['algorithm']}{steps}"
+
+
+def _ok(row: dict) -> bool:
+    return row["status"] == "ok" and math.isfinite(row["interior_error_mean"])
+
+
+def frontier(rows: list[dict], budget: float = REAL_TIME) -> list[dict]:
+    """The best (smallest E_i mean) finished run of each scheme and algorithm at a cost of at
+    most `budget` s per simulated s, best first."""
+    best: dict[str, dict] = {}
+    for r in rows:
+        if _ok(r) and r["cost"] <= budget:
+            name = run_name(r)
+            if name not in best or r["interior_error_mean"] < best[name]["interior_error_mean"]:
+                best[name] = r
+    return sorted(best.values(), key=lambda r: r["interior_error_mean"])
+
+
+def pareto(rows: list[dict]) -> list[dict]:
+    """The finished runs that no other run beats in both cost and E_i mean, by cost."""
+    done = sorted((r for r in rows if _ok(r)), key=lambda r: (r["cost"], r["interior_error_mean"]))
+    front, best = [], math.inf
+    for r in done:
+        if r["interior_error_mean"] < best:
+            front.append(r)
+            best = r["interior_error_mean"]
+    return front
+
+
+def _find(rows, cell, scheme, algorithm, requested, size):
+    for r in rows:
+        if (r["cell"], r["scheme"], r["algorithm"], r["requested"], r["mesh_size"]) == (
+            cell,
+            scheme,
+            algorithm,
+            requested,
+            size,
+        ):
+            return r
+    return None
+
+
+def _e(x: float) -> str:
+    return "diverged" if not math.isfinite(x) else f"{x:.3g}"
+
+
+def _reading(r: dict | None) -> str:
+    if r is None:
+        return "not run"
+    if r["status"] != "ok":
+        return f"diverged at t = {r['diverged_time']:.3g} s"
+    return f"E_i mean {r['interior_error_mean']:.3g}, max {r['interior_error_max']:.3g}"
+
+
+def case_section(case: str, rows: list[dict], figure: str) -> list[str]:
+    """The markdown of one case."""
+    benchmark, material, model, scale, width = CASES[case]
+    entry = get_entry(benchmark)
+    units = UNITS[benchmark]
+    own = rows[0]["truth_own_error"] if rows else math.nan
+    hex_cell = {2: "quadrilateral", 3: "hexahedron"}[entry.gdim]
+    tet_cell = {2: "triangle", 3: "tetrahedron"}[entry.gdim]
+    paper = PAPER_SIZE[benchmark]
+    where = f", needle width {width} m" if width else ""
+    out = [f"## {case}", ""]
+    out.append(
+        f"{benchmark}, {material}{where}, {model} model; the truth's own E_i max "
+        f"{own:.3g} {units} (no difference below it is a finding). E_i against the truth in "
+        f"{units}; cost in s of wall time per simulated second (the time loop, every sub-step, "
+        "one core)."
+    )
+    out += ["", f"![{case}]({figure})", ""]
+    best = frontier(rows)
+    if best:
+        top = best[0]
+        out.append(
+            f"**At <= {REAL_TIME:g} s per simulated second the closest run is {run_name(top)} "
+            f"on the size-{top['mesh_size']} mesh ({top['dofs']:,} dofs{_k(top)}): E_i mean "
+            f"{top['interior_error_mean']:.3g} {units}, max {top['interior_error_max']:.3g}, "
+            f"{top['cost']:.3g} s per simulated s.**"
+        )
+    q1 = _find(rows, hex_cell, "standard", "implicit", "1", paper)
+    md = _find(rows, hex_cell, "mean-dilatation", "implicit", "1", paper)
+    if q1 and md and _ok(q1) and _ok(md):
+        out += [
+            "",
+            f"On the paper's grid (size {paper}), implicit: Q1 {_reading(q1)}, "
+            f"{q1['cost']:.3g} s per simulated s; mean-dilatation {_reading(md)}, "
+            f"{md['cost']:.3g} s per simulated s: "
+            f"{q1['interior_error_mean'] / md['interior_error_mean']:.2g} times closer to the "
+            f"truth (E_i mean) at {md['cost'] / q1['cost']:.2g} times the cost of the loop.",
+        ]
+    out += ["", "| run | size | dofs | sub-steps | E_i mean | E_i max | cost (s/s) |"]
+    out.append("|---|---:|---:|---:|---:|---:|---:|")
+    for r in best:
+        out.append(
+            f"| {run_name(r)} | {r['mesh_size']} | {r['dofs']:,} | {r['substeps']} | "
+            f"{r['interior_error_mean']:.3g} | {r['interior_error_max']:.3g} | {r['cost']:.3g} |"
+        )
+    out += ["", "The paper's question, on its grid: the penalty at h = 1/30 s against the "
+            "material's own Poisson ratio with sub-steps (explicit-lumped):", ""]  # fmt: skip
+    for scheme in sorted({r["scheme"] for r in rows if r["scheme"].startswith("penalty")}):
+        r = _find(rows, tet_cell, scheme, "explicit-lumped", "1", paper)
+        if r is not None:
+            out.append(f"- {scheme}, h = 1/30 s: {_reading(r)}, {r['cost']:.3g} s per simulated s")
+    for scheme in ("standard", "anp"):
+        r = _find(rows, tet_cell, scheme, "explicit-lumped", "auto", paper)
+        if r is not None:
+            out.append(
+                f"- {scheme_name(r)}, {r['substeps']} sub-steps: {_reading(r)}, "
+                f"{r['cost']:.3g} s per simulated s"
+            )
+    out += ["", "<details><summary>Every run</summary>", ""]
+    out.append(
+        "| cell | scheme | algorithm | size | sub-steps | status | E_i mean | E_i max | cost |"
+    )
+    out.append("|---|---|---|---:|---:|---|---:|---:|---:|")
+    for r in sorted(
+        rows, key=lambda r: (r["cell"], r["scheme"], r["algorithm"], r["requested"], r["mesh_size"])
+    ):
+        out.append(
+            f"| {r['cell']} | {r['scheme']} | {r['algorithm']} ({r['requested']}) | "
+            f"{r['mesh_size']} | {r['substeps']} | {r['status']} | "
+            f"{_e(r['interior_error_mean'])} | {_e(r['interior_error_max'])} | {r['cost']:.3g} |"
+        )
+    out += ["", "</details>", ""]
+    return out
+
+
+def _k(r: dict) -> str:
+    return f", {r['substeps']} sub-steps of h/{r['substeps']}" if r["substeps"] > 1 else ""
+
+
+COLOURS = {
+    "Q1": "tab:blue",
+    "mean-dilatation": "tab:green",
+    "hourglass": "tab:olive",
+    "P1": "tab:orange",
+    "anp": "tab:red",
+    "penalty": "tab:purple",
+}
+MARKERS = {("implicit", "1"): "o", ("explicit-lumped", "1"): "^", ("explicit-lumped", "auto"): "s"}
+
+
+def plot(path: Path, case: str, rows: list[dict]) -> None:
+    """E_i mean against cost for every finished run of a case: colour by scheme, marker by
+    algorithm, the frontier (Pareto) drawn, the real-time budget and the truth's own error."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    benchmark = CASES[case][0]
+    fig, ax = plt.subplots(figsize=(10.5, 5.5), constrained_layout=True)
+    done = [r for r in rows if _ok(r)]
+    for r in done:
+        family = scheme_name(r).split(":")[0]
+        ax.scatter(
+            r["cost"],
+            r["interior_error_mean"],
+            c=COLOURS[family],
+            marker=MARKERS[(r["algorithm"], r["requested"])],
+            s=20
+            + 12
+            * {s: i for i, s in enumerate(sorted({x["mesh_size"] for x in rows}))}[r["mesh_size"]]
+            ** 2,
+            alpha=0.8,
+            edgecolors="k",
+            linewidths=0.4,
+        )
+    front = pareto(done)
+    if front:
+        ax.step(
+            [r["cost"] for r in front],
+            [r["interior_error_mean"] for r in front],
+            where="post",
+            color="k",
+            lw=1.2,
+            label="frontier (no run is both cheaper and closer)",
+        )
+        for r in front:
+            ax.annotate(
+                f"{scheme_name(r)} n={r['mesh_size']}",
+                (r["cost"], r["interior_error_mean"]),
+                textcoords="offset points",
+                xytext=(4, 4),
+                fontsize=7,
+            )
+    own = rows[0]["truth_own_error"] if rows else math.nan
+    values = [r["interior_error_mean"] for r in done]
+    if values and math.isfinite(own):
+        low = min(min(values), own) / 3
+        ax.axhspan(low, own, color="0.85", label=f"below the truth's own error ({own:.2g})")
+        ax.set_ylim(low, max(values) * 2)
+    ax.axvline(REAL_TIME, color="tab:red", ls="--", lw=1, label="real time: 1 s per simulated s")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("cost: wall s per simulated s (time loop, one core)")
+    ax.set_ylabel(f"E_i time-mean against the truth ({UNITS[benchmark]})")
+    ax.set_title(f"{case}: error against cost (size of marker: mesh size)")
+    for family, colour in COLOURS.items():
+        ax.scatter([], [], c=colour, marker="o", label=family)
+    for (algorithm, requested), marker in MARKERS.items():
+        steps = ", auto sub-steps" if requested == "auto" else ", h = 1/30 s"
+        ax.scatter([], [], c="w", edgecolors="k", marker=marker, label=algorithm + steps)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.grid(True, which="both", alpha=0.3)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def markdown(rows: list[dict], cases: tuple[str, ...], header: str) -> str:
+    """The whole report: its header (how and when it was made), then each case."""
+    out = [MARKER, "", header, ""]
+    for case in cases:
+        mine = [r for r in rows if r["case"] == case]
+        if mine:
+            out += case_section(case, mine, f"frontier-{case}.png")
+    return "\n".join(out) + "\n"
+
+
+__all__ = ["frontier", "markdown", "pareto", "plot"]
