@@ -277,3 +277,33 @@ def test_the_needles_stop_makes_the_block_first_order_in_time():
         run = truth.run(bench.dt, steps)
         d1, d2 = store.time_differences(truth, run, bench.dt, 1, steps, MPI.COMM_WORLD)
         assert low < np.log2(d1 / d2) < high, (steps, d1, d2)
+
+
+def test_the_target_is_a_fraction_of_the_truths_size():
+    """SPEC 10: target = 0.2 % of the truth's E_i against rest (maximum over steps). On a box of
+    volume V with u = (a t, 0, 0) at every point, E_i against rest at step i is V^(-1/3) V a t_i."""
+    from tissuebench.solvers.truth.samples import TruthSamples
+
+    steps, a = 4, 0.01
+    times = np.arange(steps + 1) / 30
+    V = 0.5 * 0.25 * 0.25
+    u = np.zeros((steps + 1, 27, 3))
+    u[:, :, 0] = a * times[:, None]
+    samples = TruthSamples(
+        case="rod", cell_type="hexahedron", times=times, vertices=np.zeros((8, 3)),
+        cells=np.array([[0, 1, 3, 2, 4, 5, 7, 6]]), boundary=np.array([[0, 2, 3, 1]]),
+        points=np.zeros((27, 3)), weights=np.full(27, V / 27),
+        u_vertices=np.zeros((steps + 1, 8, 3)), u_points=u,
+        own_error={"interior_error_max": 1e-6}, inputs={}, hierarchy={},
+    )  # fmt: skip
+    size = V ** (2 / 3) * a * times[-1]
+    assert store.size_of(samples) == pytest.approx(size, rel=1e-12)
+    store.judge(samples)
+    assert samples.own_error["target"] == pytest.approx(0.002 * size, rel=1e-12)
+    assert samples.own_error["meets_target"] is bool(1e-6 <= 0.002 * size)
+    samples.own_error["interior_error_max"] = 0.5 * 0.002 * size
+    store.judge(samples)
+    assert samples.own_error["meets_target"] is True
+    samples.own_error["interior_error_max"] = 2 * 0.002 * size
+    store.judge(samples)
+    assert samples.own_error["meets_target"] is False

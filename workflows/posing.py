@@ -161,8 +161,6 @@ def truth_case(
                     f"T = {entry.end_time:g} s; this export has h = {h:.6g} s, "
                     f"T = {h * steps:.6g} s",
                 }
-            unit = f"m^{entry.gdim}"
-            target = 1e-5 if entry.gdim == 3 else 2e-5
             return {
                 "case": case,
                 "compare": f"tissuebench compare truth:{case} CANDIDATE --out DIR",
@@ -170,7 +168,8 @@ def truth_case(
                 "displacement (Taylor-Hood Q2-Q1 for nu >= 0.45 and neo-Hookean), the "
                 "trapezoidal rule with consistent mass, on three refined grids and h/2",
                 "own_error": "its E_i max, estimated from its grids and h/2 and stated beside "
-                f"every grade against it (target {target:g} {unit}; results/truth.md)",
+                "every grade against it (target: 0.2 % of the truth's own E_i against "
+                "rest; results/truth.md)",
             }
     return {
         "case": None,
