@@ -12,14 +12,17 @@ Discretisation (all in SI units: m, s, Pa, kg/m^3):
       2 mu eps(u + beta v) : eps(w) - p div w - q (div(u + beta v) + p / lambda) = 0,
   exactly the linear law with stiffness-proportional damping beta sigma_lin(v), and free of
   volumetric locking as lambda -> infinity.
-- Taylor-Hood for `neo-hookean` (always, `mixed-nh`): unknowns (u, p, p_d). The elastic part
-  is the stationary point in p of psi_iso(F) + p (J - 1) - p^2 / (2 kappa), with
-  psi_iso = (mu/2)(J^(-2/3) I1 - 3): eliminating p = kappa (J - 1) gives SPEC 8's psi exactly.
+- Taylor-Hood for `neo-hookean` and `neo-hookean-barrier` (always, `mixed-nh`): unknowns
+  (u, p, p_d). The pressure p is the volumetric stress U'(J), held by the equation
+  q (U'(J) - p) / kappa = 0, and enters the stress as p J F^-T beside P_iso = dpsi_iso/dF,
+  psi_iso = (mu/2)(J^(-2/3) I1 - 3): with p = U'(J) this is SPEC 8's P exactly, for
+  U = (kappa/2)(J - 1)^2 (U' = kappa (J - 1)) and the barrier (kappa/4)(J^2 - 1 - 2 ln J)
+  (U' = (kappa/2)(J - 1/J)).
   The damping beta sigma_lin(v) = beta (2 mu eps(v) + lambda div v I) carries its volumetric
   part through p_d = lambda beta div v (a second Q1 field, again with 1/lambda), so that it
   does not lock either:
       P_iso(F) : grad w + p J F^-T : grad w + 2 mu beta eps(v) : eps(w) + p_d div w
-      + q (J - 1 - p / kappa) + q_d (beta div v - p_d / lambda) = 0.
+      + q (U'(J) - p) / kappa + q_d (beta div v - p_d / lambda) = 0.
   2D is plane strain (F33 = 1: I1 = tr(C_2D) + 1, J = det F_2D).
 - Time: the trapezoidal rule (Newmark beta = 1/4, gamma = 1/2, SPEC 3) with consistent mass,
   a_{n+1} = 4/h^2 (u_{n+1} - u_n - h v_n) - a_n, v_{n+1} = 2/h (u_{n+1} - u_n) - v_n; the
@@ -65,6 +68,12 @@ Motion = Callable[[float, np.ndarray], tuple]
 # body_force(x, t) -> a UFL vector in N/m^3, x the SpatialCoordinate, t a Constant (s)
 BodyForce = Callable[[ufl.core.expr.Expr, fem.Constant], ufl.core.expr.Expr]
 
+# the neo-Hookean models' volumetric stress over kappa, U'(J) / kappa (SPEC 8): p = U'(J) at the
+# stationary point of the mixed form
+VOLUMETRIC = {
+    "neo-hookean": lambda J: J - 1,  # U = (kappa/2) (J - 1)^2
+    "neo-hookean-barrier": lambda J: (J - 1 / J) / 2,  # U = (kappa/4) (J^2 - 1 - 2 ln J)
+}
 MIXED_NU = 0.45  # Poisson's ratio from which the linear law is solved in Taylor-Hood form
 LAG = 6  # Newton iterations between tangent refreshes of a neo-Hookean step
 LU = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
@@ -99,11 +108,14 @@ class Problem:
 
     @property
     def form(self) -> str:
-        """`displacement`, `mixed` (linear Taylor-Hood) or `mixed-nh` (neo-Hookean)."""
-        if self.model == "neo-hookean":
+        """`displacement`, `mixed` (linear Taylor-Hood) or `mixed-nh` (the neo-Hookean
+        models)."""
+        if self.model in VOLUMETRIC:
             return "mixed-nh"
         if self.model != "linear":
-            raise ValueError(f"the truth takes the models linear and neo-hookean, not {self.model}")
+            raise ValueError(
+                f"the truth takes the models linear, {', '.join(VOLUMETRIC)}, not {self.model}"
+            )
         nu = self.lmbda / (2 * (self.lmbda + self.mu))
         return "mixed" if nu >= MIXED_NU else "displacement"
 
@@ -233,7 +245,7 @@ class Truth:
             ufl.inner(P_iso + p * J * ufl.inv(F).T, ufl.grad(w))
             + 2 * mu * beta * ufl.inner(_eps(v), _eps(w))
             + pd * ufl.div(w)
-            + q * (J - 1 - p / kappa)
+            + q * (VOLUMETRIC[pb.model](J) - p / kappa)
             + qd * (beta * ufl.div(v) - pd / lmbda)
         )
 

@@ -184,9 +184,10 @@ def grid(case: str) -> str:
     """The levels' grids in words."""
     if case not in GRADED:
         return "uniform grids"
+    toward = "the needle's ends" if CASES[case][4] is not None else "the clamped face's edges"
     return (
-        f"grids graded toward the needle's ends (power {GRADING:g}; the levels nest, as "
-        "uniform refinement does)"
+        f"grids graded toward {toward} (power {GRADING:g}; the levels nest, as uniform "
+        "refinement does)"
     )
 
 
