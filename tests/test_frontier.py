@@ -55,7 +55,8 @@ def test_an_interrupted_study_resumes_from_its_rows(tmp_path, monkeypatch):
                    cell=config.cell, case=config.case)  # fmt: skip
 
     monkeypatch.setattr(study, "run_config", fake_run)
-    monkeypatch.setattr(study, "load_truth", lambda case, comm: None)
+    monkeypatch.setattr(study, "load_truth", lambda case, comm: "truth")
+    monkeypatch.setattr(study, "own_error", lambda truth: 6e-7)  # the rows' truth_own_error
     with pytest.raises(KeyboardInterrupt):
         study.run_study(tmp_path, ("rod-MP2",), quick=True)
     kept = study.read_rows(tmp_path / "frontier.csv")
@@ -69,6 +70,11 @@ def test_an_interrupted_study_resumes_from_its_rows(tmp_path, monkeypatch):
     every = [c.key() for c in study.configs(("rod-MP2",), quick=True)]
     assert calls == every[3:] and first == every[:3]
     assert sorted(study.row_key(r) for r in rows) == sorted(every)
+    # a truth computed again (another own error): every row of the case runs again
+    calls.clear()
+    monkeypatch.setattr(study, "own_error", lambda truth: 5e-7)
+    rows = study.run_study(tmp_path, ("rod-MP2",), quick=True)
+    assert calls == every and len(study.read_rows(tmp_path / "frontier.csv")) == len(every)
 
 
 def fake_row(config):

@@ -15,7 +15,6 @@ finished and resumes from it.
 
 from __future__ import annotations
 
-import csv
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -36,6 +35,8 @@ from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.substeps import sub_stepped
 from tissuebench.solvers.system import System
 from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.io.tables import append_row, write_rows
+from tissuebench.workflows.io.tables import read_rows as read_csv
 from tissuebench.workflows.io.xdmf import gather_series
 
 # the cases of SPEC 11, the compressible control last
@@ -195,33 +196,18 @@ def read_rows(path: Path) -> list[dict]:
     if not path.is_file():
         return []
     rows = []
-    with path.open(newline="") as f:
-        for raw in csv.DictReader(f):
-            row = {}
-            for key, value in raw.items():
-                if key in TEXT:
-                    row[key] = value
-                elif value == "":
-                    row[key] = math.nan
-                else:
-                    number = float(value)
-                    row[key] = int(number) if key in ("substeps", "mesh_size", "dofs") else number
-            rows.append(row)
+    for raw in read_csv(path):
+        row = {}
+        for key, value in raw.items():
+            if key in TEXT:
+                row[key] = value
+            elif value == "":
+                row[key] = math.nan
+            else:
+                number = float(value)
+                row[key] = int(number) if key in ("substeps", "mesh_size", "dofs") else number
+        rows.append(row)
     return rows
-
-
-def append_row(path: Path, row: dict) -> None:
-    """Add one row to a frontier.csv (its header first if new)."""
-    new = not path.is_file()
-    with path.open("a", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=COLUMNS)
-        if new:
-            writer.writeheader()
-        writer.writerow({k: ("" if _missing(row[k]) else row[k]) for k in COLUMNS})
-
-
-def _missing(x) -> bool:
-    return x is None or (isinstance(x, float) and math.isnan(x))
 
 
 def row_key(row: dict) -> tuple:
@@ -243,22 +229,79 @@ def run_study(
     log: Callable[[str], None] = print,
 ) -> list[dict]:
     """Every config not yet in out/frontier.csv, each appended as it ends; returns all rows.
-    Serial (one core)."""
+    Rows graded against another truth of their case than today's (its own error differs) are
+    dropped and run again. Serial (one core)."""
     comm = MPI.COMM_SELF
     path = out / "frontier.csv"
     rows = read_rows(path)
+    truths = {case: load_truth(case, comm) for case in cases}
+    # a row graded against another truth (computed again since: its own error differs) is stale
+    stale = [
+        r
+        for r in rows
+        if r["case"] in truths
+        and not math.isclose(r["truth_own_error"], own_error(truths[r["case"]]), rel_tol=1e-9)
+    ]
+    if stale:
+        log(f"{path}: {len(stale)} rows were graded against another truth of their case: run again")
+        rows = [r for r in rows if r not in stale]
+        write_rows(path, rows, COLUMNS)
     done = {row_key(r) for r in rows}
     todo = [c for c in configs(cases, quick) if c.key() not in done]
-    truths = {}
     for i, config in enumerate(todo, 1):
-        if config.case not in truths:
-            truths[config.case] = load_truth(config.case, comm)
         row = run_config(config, truths[config.case], comm)
-        append_row(path, row)
+        append_row(path, row, COLUMNS)
         rows.append(row)
         log(
             f"[{i}/{len(todo)}] {config.case} {config.cell} n={config.mesh_size} {config.scheme} "
             f"{config.algorithm} k={row['substeps']}: {row['status']}, E_i mean "
             f"{row['interior_error_mean']:.3g}, {row['cost']:.3g} s per simulated s"
+        )
+    return rows
+
+
+# --- the remedy's cost against Q1's, measured side by side ---------------------------------------
+
+PAIR_REPEATS = 5  # alternating runs of each; the median of each is compared
+
+
+def side_by_side(case: str, repeats: int = PAIR_REPEATS) -> list[dict]:
+    """Q1 and mean-dilatation on the paper's grid of a case, each with implicit and with
+    explicit-lumped (auto sub-steps), run in turn `repeats` times each (Q1, remedy, Q1, ...)
+    so that a busy machine slows both alike: per algorithm, the median time loop of each (s)
+    and their ratio. Serial."""
+    from tissuebench.workflows.reports.frontier import PAPER_SIZE
+
+    benchmark = CASES[case][0]
+    cell = CELLS[get_entry(benchmark).gdim][0]
+    rows = []
+    for algorithm, k in (("implicit", 1), ("explicit-lumped", "auto")):
+        loops: dict[str, list[float]] = {"standard": [], "mean-dilatation": []}
+        substeps = {}
+        for _ in range(repeats):
+            for scheme in loops:
+                config = Config(case, cell, scheme, algorithm, k, PAPER_SIZE[benchmark])
+                bench = benchmark_of(config, MPI.COMM_SELF)
+                system = System(bench, CASES[case][1], scheme=scheme)
+                integrator, substeps[scheme], _ = sub_stepped(algorithm, system, bench.dt, k)
+                steps = round(bench.end_time / bench.dt)
+                try:
+                    run = simulate(integrator, steps, bench.extent, algorithm, keep=False)
+                finally:
+                    integrator.destroy()
+                loops[scheme].append(run.wall_time_s / (steps * bench.dt))
+        q1, md = (float(np.median(loops[s])) for s in loops)
+        rows.append(
+            {
+                "case": case,
+                "algorithm": algorithm,
+                "mesh_size": PAPER_SIZE[benchmark],
+                "substeps_q1": substeps["standard"],
+                "substeps_remedy": substeps["mean-dilatation"],
+                "cost_q1": q1,
+                "cost_remedy": md,
+                "ratio": md / q1,
+                "repeats": repeats,
+            }
         )
     return rows

@@ -20,7 +20,8 @@ from mpi4py import MPI
 
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.workflows.frontier import FRONTIER_CASES, read_rows, run_study
+from tissuebench.workflows.frontier import FRONTIER_CASES, read_rows, run_study, side_by_side
+from tissuebench.workflows.io.tables import write_rows
 from tissuebench.workflows.output import write_owned
 from tissuebench.workflows.reports.frontier import MARKER, markdown, plot
 
@@ -64,6 +65,8 @@ def main(args: argparse.Namespace) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     started, load = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()[0]
     rows = run_study(folder, cases, args.quick)
+    timing = [t for case in cases for t in side_by_side(case, 2 if args.quick else 5)]
+    write_owned(folder / "frontier-timing.csv", lambda tmp: write_rows(tmp, timing))
     ended = os.getloadavg()[0]
     header = (
         f"Written by `tissuebench frontier{' --quick' if args.quick else ''}` (runs from "
@@ -76,7 +79,7 @@ def main(args: argparse.Namespace) -> int:
             folder / f"frontier-{case}.png",
             lambda tmp, case=case: plot(tmp, case, [r for r in rows if r["case"] == case]),
         )
-    text = markdown(read_rows(folder / "frontier.csv"), every, header)
+    text = markdown(read_rows(folder / "frontier.csv"), every, header, timing)
     write_owned(report, lambda tmp: tmp.write_text(text))
     print(f"wrote {report}, {folder / 'frontier.csv'} and {folder}/frontier-*.png")
     return 0

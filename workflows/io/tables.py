@@ -1,6 +1,6 @@
 """The CSV files of a run or a comparison, written and read here: metrics.csv (one row per run
-and step: the time in s, every metric of METRICS, the step's status) and tip.csv (the probe
-point's displacement in m)."""
+and step: the time in s, every metric of METRICS, the step's status), tip.csv (the probe
+point's displacement in m) and the rows of a study (write_rows, append_row)."""
 
 from __future__ import annotations
 
@@ -47,6 +47,33 @@ def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) ->
         for label, tip in tips.items():
             for i, t in enumerate(times[: len(tip)]):
                 writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in tip[i])])
+
+
+def _cell(x: object) -> object:
+    """A CSV cell: empty for None or NaN."""
+    return "" if x is None or (isinstance(x, float) and x != x) else x
+
+
+def write_rows(path: Path, rows: list[dict], columns: tuple[str, ...] | None = None) -> None:
+    """Rows as a CSV file: a header of `columns` (default: the first row's keys), then one
+    line a row, None and NaN as empty cells."""
+    columns = tuple(columns or (rows[0] if rows else ()))
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=columns)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _cell(row[k]) for k in columns})
+
+
+def append_row(path: Path, row: dict, columns: tuple[str, ...]) -> None:
+    """Add one row to a CSV file of `columns`, its header first if the file is new (a study
+    that keeps each result as it ends)."""
+    new = not Path(path).is_file()
+    with open(path, "a", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=columns)
+        if new:
+            writer.writeheader()
+        writer.writerow({k: _cell(row[k]) for k in columns})
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:

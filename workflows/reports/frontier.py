@@ -82,8 +82,8 @@ def _reading(r: dict | None) -> str:
     return f"E_i mean {r['interior_error_mean']:.3g}, max {r['interior_error_max']:.3g}"
 
 
-def case_section(case: str, rows: list[dict], figure: str) -> list[str]:
-    """The markdown of one case."""
+def case_section(case: str, rows: list[dict], figure: str, timing: list[dict] = ()) -> list[str]:
+    """The markdown of one case; `timing`: its rows of frontier.side_by_side."""
     benchmark, material, model, scale, width = CASES[case]
     entry = get_entry(benchmark)
     units = UNITS[benchmark]
@@ -120,6 +120,13 @@ def case_section(case: str, rows: list[dict], figure: str) -> list[str]:
             f"{q1['interior_error_mean'] / md['interior_error_mean']:.2g} times closer to the "
             f"truth (E_i mean) at {md['cost'] / q1['cost']:.2g} times the cost of the loop.",
         ]
+    if timing:
+        measured = "; ".join(_timing_words(t) for t in timing)
+        out += [
+            "",
+            "Mean-dilatation's cost against Q1's on the paper's grid, measured side by side "
+            f"(the median of {timing[0]['repeats']} runs of each, taken in turn): {measured}.",
+        ]
     out += ["", "| run | size | dofs | sub-steps | E_i mean | E_i max | cost (s/s) |"]
     out.append("|---|---:|---:|---:|---:|---:|---:|")
     for r in best:
@@ -155,6 +162,17 @@ def case_section(case: str, rows: list[dict], figure: str) -> list[str]:
         )
     out += ["", "</details>", ""]
     return out
+
+
+def _timing_words(t: dict) -> str:
+    """One algorithm's side-by-side timing in words."""
+    steps = ""
+    if t["algorithm"] != "implicit":
+        steps = f" (auto sub-steps: {t['substeps_q1']} and {t['substeps_remedy']})"
+    return (
+        f"{t['algorithm']}{steps} {t['cost_remedy']:.3g} against {t['cost_q1']:.3g} s per "
+        f"simulated s, ratio {t['ratio']:.2f}"
+    )
 
 
 def _k(r: dict) -> str:
@@ -239,13 +257,15 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
     plt.close(fig)
 
 
-def markdown(rows: list[dict], cases: tuple[str, ...], header: str) -> str:
-    """The whole report: its header (how and when it was made), then each case."""
+def markdown(rows: list[dict], cases: tuple[str, ...], header: str, timing: list[dict] = ()) -> str:
+    """The whole report: its header (how and when it was made), then each case; `timing`:
+    the rows of frontier.side_by_side."""
     out = [MARKER, "", header, ""]
     for case in cases:
         mine = [r for r in rows if r["case"] == case]
         if mine:
-            out += case_section(case, mine, f"frontier-{case}.png")
+            pairs = [t for t in timing if t["case"] == case]
+            out += case_section(case, mine, f"frontier-{case}.png", pairs)
     return "\n".join(out) + "\n"
 
 
