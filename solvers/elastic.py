@@ -125,8 +125,12 @@ class ElasticForces:
             cmap = mesh.topology.index_map(tdim)
             self._cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
             self._R_dofs = T.dofmap.list[self._cells, 0]
-        P = model.first_piola(F, system.mu, system.lmbda, self.R)
         dx = ufl.dx(metadata={"quadrature_degree": QUADRATURE_DEGREE})
+        self.Jbar = None
+        if getattr(system, "scheme", "standard").partition(":")[0] == "mean-dilatation":
+            P = self._f_bar(F, model, dx)
+        else:
+            P = model.first_piola(F, system.mu, system.lmbda, self.R)
         f_int = ufl.inner(P, ufl.grad(w)) * dx
         self.f_form = fem.form(f_int)
         # the Jacobian of a step: c_T K_T(u) + c_K K_0 (+ c_M M, consistent mass)
@@ -148,13 +152,42 @@ class ElasticForces:
         self.bcs = [fem.dirichletbc(zero, system.constrained_nodes, V)]
         self._J, self._d = None, None
 
+    def _f_bar(self, F: ufl.core.expr.Expr, model: Model, dx: ufl.Measure) -> ufl.core.expr.Expr:
+        """SPEC 11's mean-dilatation with a nonlinear model, F-bar (de Souza Neto et al.): the
+        stress of F_bar = (J_bar / J)^(1/d) F, J_bar the cell's mean J, taken in the virtual
+        work with the element's own gradient, P = (J_bar / J)^(1/d) P(F_bar) (the Kirchhoff
+        stress of F_bar pulled back with F). J_bar is a cell-wise constant updated with u, not
+        differentiated: the force is exact, a tangent from it is not (explicit schemes only)."""
+        system = self.system
+        if model.rotated:
+            raise ValueError(f"mean-dilatation (F-bar) takes no rotated model, not {model.name}")
+        Q = fem.functionspace(system.mesh, ("DG", 0))
+        self.Jbar = fem.Function(Q, name="mean_J")
+        self.Jbar.x.array[:] = 1.0
+        q = ufl.TestFunction(Q)
+        F_ = ufl.variable(F)
+        self._J_form = fem.form(ufl.det(F_) * q * dx)
+        volumes = dolfinx.fem.petsc.assemble_vector(fem.form(q * dx))
+        self._n_cells = Q.dofmap.index_map.size_local
+        self._inverse_volume = 1.0 / volumes.array_r[: self._n_cells].copy()
+        volumes.destroy()
+        J = ufl.det(F)
+        scale = (self.Jbar / J) ** (1.0 / system.gdim)
+        return scale * model.first_piola(scale * F, system.mu, system.lmbda, None)
+
     def set_u(self, u: PETSc.Vec) -> None:
-        """Take the owned values of u (m), update the ghosts and, for a rotated model, R."""
+        """Take the owned values of u (m), update the ghosts and, for a rotated model, R; for
+        F-bar, each cell's mean J."""
         n = u.getLocalSize()
         self.u.x.array[:n] = u.array_r
         self.u.x.scatter_forward()
         if self.R is not None:
             self._update_rotation()
+        if self.Jbar is not None:
+            b = dolfinx.fem.petsc.assemble_vector(self._J_form)  # ∫_e J dx, owned cells
+            self.Jbar.x.array[: self._n_cells] = b.array_r[: self._n_cells] * self._inverse_volume
+            self.Jbar.x.scatter_forward()
+            b.destroy()
 
     def _update_rotation(self) -> None:
         """R = the rotation of the polar decomposition of F at every cell centre (rotations)."""

@@ -266,3 +266,59 @@ def test_schemes_serial_equals_two_ranks():
     assert one.keys() == two.keys()
     for key in one:
         assert np.allclose(one[key], two[key], rtol=1e-9, atol=1e-15), (key, one[key], two[key])
+
+
+def f_bar_forces(gdim: int):
+    """(ElasticForces of neo-Hookean with mean-dilatation (F-bar), the same with the standard
+    element, the mean-dilatation System) on a small distorted block or rod grid, MP2."""
+    from tissuebench.meshes import get_benchmark
+    from tissuebench.solvers.elastic import ElasticForces
+    from tissuebench.solvers.models import get_model
+    from tissuebench.solvers.system import System
+
+    name, size = ("block", 4) if gdim == 2 else ("rod", 2)
+    systems = []
+    for scheme in ("mean-dilatation", "standard"):
+        bench = get_benchmark(name, mesh_size=size, comm=COMM)
+        x = bench.mesh.geometry.x
+        x[:, 0] += 0.01 * np.sin(9 * x[:, 1]) * x[:, 0] * (1 - x[:, 0])  # not parallelograms
+        systems.append(System(bench, "MP2", scheme=scheme))
+    model = get_model("neo-hookean")
+    return ElasticForces(systems[0], model), ElasticForces(systems[1], model), systems[0]
+
+
+@pytest.mark.parametrize("gdim", [2, 3])
+def test_f_bar_is_the_standard_element_for_a_homogeneous_deformation(gdim):
+    """J is the same at every point, so each cell's mean J is J and F_bar = F."""
+    fbar, plain, system = f_bar_forces(gdim)
+    n = system.V.dofmap.index_map.size_local
+    X = system.V.tabulate_dof_coordinates()[:n, :gdim]
+    A = np.array([[0.1, 0.05, 0.02], [-0.03, 0.08, 0.01], [0.02, -0.04, -0.05]])[:gdim, :gdim]
+    u = system.K.createVecRight()
+    u.array[:] = (X @ A.T).ravel()
+    f1, f2 = system.K.createVecLeft(), system.K.createVecLeft()
+    fbar.internal_force(u, f1)
+    plain.internal_force(u, f2)
+    f1.axpy(-1.0, f2)
+    assert f1.norm() < 1e-12 * f2.norm()
+
+
+@pytest.mark.parametrize("gdim", [2, 3])
+def test_f_bar_linearises_to_mean_dilatation(gdim):
+    """f_int(e u) / e -> K_md u as e -> 0 (first order in e), K_md the mean-dilatation
+    stiffness: F-bar's neo-Hookean keeps F's isochoric part and takes U(J_bar)."""
+    fbar, _, system = f_bar_forces(gdim)
+    u = system.K.createVecRight()
+    rng = np.random.default_rng(3)
+    u.array[:] = rng.standard_normal(u.getLocalSize()) * 1e-2
+    Ku = system.K.createVecLeft()
+    system.K.mult(u, Ku)
+    gaps = []
+    for e in (1e-3, 1e-4):
+        f, ue = system.K.createVecLeft(), u.copy()
+        ue.scale(e)
+        fbar.internal_force(ue, f)
+        f.scale(1 / e)
+        f.axpy(-1.0, Ku)
+        gaps.append(f.norm() / Ku.norm())
+    assert gaps[1] < 0.2 * gaps[0] and gaps[1] < 1e-3, gaps

@@ -10,6 +10,7 @@ from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS
+from tissuebench.solvers.models import LINEAR
 from tissuebench.solvers.options import check_petsc_options
 
 
@@ -238,21 +239,36 @@ def add_scheme_options(p: argparse.ArgumentParser) -> None:
 
 
 def scheme_options(
-    args: argparse.Namespace, gdim: int, options: dict, models: list[str]
+    args: argparse.Namespace,
+    gdim: int,
+    options: dict,
+    models: list[str],
+    algorithms: list[str] | None = None,
 ) -> tuple[str, int | str]:
-    """(scheme, substeps) from --scheme and --substeps, checked against the cells and the
-    models (UserError)."""
+    """(scheme, substeps) from --scheme and --substeps, checked against the cells, the models
+    and the algorithms (UserError): F-bar, mean-dilatation's nonlinear form, runs with the
+    explicit algorithms only, beside a linear implicit reference."""
     from tissuebench.solvers.schemes import STANDARD, check_cells, parse_scheme
     from tissuebench.solvers.substeps import parse_substeps
 
     scheme = args.scheme.strip()
     check_cells(scheme, options.get("cell", CELLS[gdim][0]))
     nonlinear = [m for m in models if not MODELS[m].linear]
-    if parse_scheme(scheme)[0] != STANDARD and nonlinear:
+    name = parse_scheme(scheme)[0]
+    if name not in (STANDARD, "mean-dilatation") and nonlinear:
         raise UserError(
-            f"--scheme {scheme.partition(':')[0]} runs the linear model only, not "
-            f"{', '.join(nonlinear)}"
+            f"--scheme {name} runs the linear model only, not {', '.join(nonlinear)} "
+            "(mean-dilatation has a nonlinear form, F-bar, for the explicit algorithms)"
         )
+    if name != STANDARD and nonlinear:
+        implicit = [a for a in algorithms or [] if not ALGORITHMS[a].explicit]
+        if implicit or LINEAR not in models:
+            raise UserError(
+                f"--scheme {name} with {', '.join(nonlinear)}: F-bar runs with the explicit "
+                "algorithms only (its cell-mean J is not differentiated: Newton would have no "
+                "exact tangent); give --algorithms explicit or explicit-lumped and keep linear "
+                "among --models for the implicit reference"
+            )
     try:
         substeps = parse_substeps(args.substeps)
     except ValueError as err:

@@ -76,7 +76,7 @@ def main(args: argparse.Namespace) -> int:
     algorithms = parse_algorithms(args.algorithms)
     models = parse_models(args.models)
     check_models_plane(models, args.plane, entry.gdim)
-    scheme, substeps = scheme_options(args, entry.gdim, options, models)
+    scheme, substeps = scheme_options(args, entry.gdim, options, models, algorithms)
     dt = positive(args.dt) if args.dt is not None else None
     end_time = positive(args.end_time) if args.end_time is not None else None
     material = get_material(args.material or entry.material)
