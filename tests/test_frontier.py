@@ -18,7 +18,7 @@ def row(scheme="standard", algorithm="implicit", requested="1", size=3, cost=0.0
         "dofs": 336, "critical_dt_s": math.nan, "status": status, "diverged_time": math.nan,
         "setup_s": 0.1, "loop_s": cost * 10, "cost": cost, "interior_error_mean": mean,
         "interior_error_max": 2 * mean, "relative_error_mean": 0.1, "relative_error_max": 0.2,
-        "truth_own_error": 6e-7,
+        "truth_own_error": 6e-7, "truth_size": 1e-4,
     }  # fmt: skip
 
 
@@ -110,3 +110,27 @@ def test_frontier_and_pareto_pick_the_known_runs():
     assert "closest run is mean-dilatation implicit on the size-6 mesh" in text
     # the paper's grid (n = 3), implicit: Q1 4e-5 m^3 at 0.02 s/s, mean-dilatation 5e-6 at 0.01
     assert "8 times closer to the truth (E_i mean) at 0.5 times the cost" in text
+
+
+def test_the_answer_reads_the_rows():
+    """results/README.md's SPEC 11 section: the closest real-time run with its share of the
+    truth's size (E_i max / size), the paper's grid Q1 against mean-dilatation, and the
+    paper's question where the penalty at h = 1/30 s diverged."""
+    from tissuebench.workflows.reports.frontier import answer
+
+    rows = [
+        row("standard", cost=0.02, mean=4e-5) | {"interior_error_max": 5e-5},
+        row("mean-dilatation", cost=0.01, mean=5e-6) | {"interior_error_max": 1e-5},
+        row("penalty:nu_p=0.3,k=0.1", "explicit-lumped", cell="tetrahedron", status="diverged",
+            mean=math.nan) | {"diverged_time": 0.2},
+        row("standard", "explicit-lumped", "auto", cell="tetrahedron", mean=3e-5)
+        | {"substeps": 23},
+    ]  # fmt: skip
+    for r in rows:
+        r["truth_size"] = 1e-4
+    text = " ".join(answer(rows))
+    assert "closest run is mean-dilatation implicit on the size-3 mesh" in text
+    assert "max 1e-05, 10 % of the truth's size" in text
+    assert "Q1 is 50 % off (E_i mean 4e-05) and mean-dilatation 10 % (E_i mean 5e-06)" in text
+    assert "penalty:nu_p=0.3,k=0.1 diverged at t = 0.2 s" in text
+    assert "with 23 sub-steps: E_i mean 3e-05" in text

@@ -35,6 +35,7 @@ from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.substeps import sub_stepped
 from tissuebench.solvers.system import System
 from tissuebench.solvers.truth.cases import CASES
+from tissuebench.solvers.truth.store import size_of
 from tissuebench.workflows.io.tables import append_row, write_rows
 from tissuebench.workflows.io.tables import read_rows as read_csv
 from tissuebench.workflows.io.xdmf import gather_series
@@ -79,6 +80,7 @@ COLUMNS = (
     "relative_error_mean",
     "relative_error_max",
     "truth_own_error",
+    "truth_size",
 )
 
 
@@ -167,6 +169,7 @@ def run_config(config: Config, truth, comm: MPI.Comm = MPI.COMM_SELF) -> dict:
         "loop_s": run.wall_time_s,
         "cost": run.wall_time_s / (steps * bench.dt),
         "truth_own_error": own_error(truth),
+        "truth_size": size_of(truth),
     }
     for name in ("interior_error", "relative_error"):
         row[f"{name}_mean"] = row[f"{name}_max"] = math.nan
@@ -208,7 +211,7 @@ def read_rows(path: Path) -> list[dict]:
             else:
                 number = float(value)
                 row[key] = int(number) if key in ("substeps", "mesh_size", "dofs") else number
-        rows.append(row)
+        rows.append({k: row.get(k, math.nan) for k in COLUMNS})
     return rows
 
 

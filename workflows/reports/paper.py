@@ -201,6 +201,11 @@ def paper_report(
         parts += large_deformation(out, large, limits)
         for name, s in large.items():
             parts += model_case_section(out, name, s)
+    if (out / "frontier" / "frontier.csv").is_file():  # SPEC 11, tissuebench frontier
+        from tissuebench.workflows.frontier import read_rows
+        from tissuebench.workflows.reports.frontier import answer
+
+        parts += answer(read_rows(out / "frontier" / "frontier.csv"))
     for extra, title in [
         ("stability.md", "Stability"),
         ("convergence.md", "Convergence"),
