@@ -147,6 +147,25 @@ def case_section(case: str, rows: list[dict], figure: str, timing: list[dict] = 
                 f"- {scheme_name(r)}, {r['substeps']} sub-steps: {_reading(r)}, "
                 f"{r['cost']:.3g} s per simulated s"
             )
+    measured = sorted(
+        (r for r in rows if r["requested"] == "auto" and math.isfinite(r["critical_dt_s"])),
+        key=lambda r: (r["cell"], r["scheme"], r["mesh_size"]),
+    )
+    if measured:
+        out += [
+            "",
+            "The explicit-lumped critical step of each scheme, measured on each mesh (the "
+            "largest eigenvalue of the free dofs, as `tissuebench stability` does), and the "
+            "sub-steps auto took for h = 1/30 s (h/k <= 0.9 x the critical step):",
+            "",
+            "| cell | scheme | size | critical step (s) | sub-steps |",
+            "|---|---|---:|---:|---:|",
+        ]
+        out += [
+            f"| {r['cell']} | {r['scheme']} | {r['mesh_size']} | {r['critical_dt_s']:.3g} | "
+            f"{r['substeps']} |"
+            for r in measured
+        ]
     out += ["", "<details><summary>Every run</summary>", ""]
     out.append(
         "| cell | scheme | algorithm | size | sub-steps | status | E_i mean | E_i max | cost |"
