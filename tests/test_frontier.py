@@ -10,6 +10,9 @@ from tissuebench.workflows import frontier as study
 from tissuebench.workflows.reports.frontier import frontier, markdown, pareto
 
 
+pytestmark = pytest.mark.serial  # the study runs on one core, never under mpiexec
+
+
 def row(scheme="standard", algorithm="implicit", requested="1", size=3, cost=0.01, mean=1e-5,
         status="ok", cell="hexahedron", case="rod-MP2"):  # fmt: skip
     return {
