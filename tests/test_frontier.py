@@ -9,7 +9,6 @@ import pytest
 from tissuebench.workflows import frontier as study
 from tissuebench.workflows.reports.frontier import frontier, markdown, pareto
 
-
 pytestmark = pytest.mark.serial  # the study runs on one core, never under mpiexec
 
 
