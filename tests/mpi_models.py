@@ -18,6 +18,7 @@ from tissuebench.solvers.system import System, gather_by_coordinates
 CASES = {
     "svk": ("implicit", "explicit-lumped", "implicit-lumped"),
     "neo-hookean": ("implicit", "explicit-lumped", "quasi-static"),
+    "neo-hookean-barrier": ("implicit", "explicit"),
     "corotational": ("implicit", "explicit-lumped", "explicit"),
 }
 N_STEPS = 20

@@ -216,6 +216,7 @@ def test_export_refusals(tmp_path):
         (dict(element="CPE4"), "inp", "element CPE4 is 2D and the benchmark is 3D"),
         (dict(element="C3D20"), "inp", "unknown element 'C3D20'"),
         (dict(model="corotational"), "inp", "corotational model has no CalculiX material"),
+        (dict(model="neo-hookean-barrier"), "inp", "barrier has no CalculiX material: .*NEO HOOKE"),
         (dict(element="C3D8"), "json", "--element applies to --format inp only"),
     ]:
         with pytest.raises(UserError, match=message) as info:

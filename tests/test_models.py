@@ -26,7 +26,7 @@ from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.system import System
 
 comm = MPI.COMM_WORLD
-NONLINEAR = ["svk", "neo-hookean", "corotational"]
+NONLINEAR = ["svk", "neo-hookean", "neo-hookean-barrier", "corotational"]
 SOFT = Material("soft", E=1000.0, nu=0.3, rho=1000.0)  # alpha = beta = 0
 
 

@@ -416,6 +416,7 @@ def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
     s = large["rod-s1"]
     s.files += ["errors.png", "realism.png", "tip_path.png"]
     tips = {"linear": [0.034, -0.1223], "neo-hookean": [0.0213, -0.1249]}
+    tips["neo-hookean-barrier"] = [0.0214, -0.1248]
     tips["corotational"] = [0.0197, -0.1234]
     for model, tip in tips.items():
         update(s.runs[run_label("quasi-static", model)], tip_displacement_final=[*tip, 0.0])
@@ -429,12 +430,12 @@ def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
     assert "shapes.png" not in section  # not among the case's files
     assert (
         "linear (0.034, -0.1223) m, neo-hookean (0.0213, -0.1249) m, "
-        "corotational (0.0197, -0.1234) m" in section
+        "neo-hookean-barrier (0.0214, -0.1248) m, corotational (0.0197, -0.1234) m" in section
     )
     assert "svk: its quasi-static run diverged, no static tip" in section
     assert (
         "| rod-s1 | (0.034, -0.1223) | diverged at t = 0.0333 s | (0.0213, -0.1249) | "
-        "(0.0197, -0.1234) |" in lines
+        "(0.0214, -0.1248) | (0.0197, -0.1234) |" in lines
     )
 
 

@@ -98,8 +98,9 @@ def model_case(
     **options,
 ) -> "Case":
     """Every algorithm with every model on one material (SPEC section 8), against `reference`,
-    a run label that must be among them. Without one, the reference is `implicit`, or
-    `implicit+neo-hookean` when `linear` is not among the models, and it always runs."""
+    a run label that must be among them. Without one, the reference is `implicit` with the
+    first of linear, neo-hookean and neo-hookean-barrier among the models (with neo-hookean
+    when none is), and it always runs."""
     runs = {run_label(a, m): (a, m) for m in models for a in algorithms}
     if reference is not None and reference not in runs:
         raise UserError(
@@ -107,7 +108,8 @@ def model_case(
             "name one of them, ALGORITHM or ALGORITHM+MODEL"
         )
     if reference is None:
-        model = LINEAR if LINEAR in models else REFERENCE_MODEL
+        preferred = (LINEAR, REFERENCE_MODEL, "neo-hookean-barrier")
+        model = next((m for m in preferred if m in models), REFERENCE_MODEL)
         reference = run_label(REFERENCE, model)
         runs = {reference: (REFERENCE, model), **runs}
     specs = [RunSpec(label, a, material, m) for label, (a, m) in runs.items()]

@@ -57,7 +57,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--reference",
         help="the run the others are measured against, ALGORITHM or ALGORITHM+MODEL "
-        "(default implicit, or implicit+neo-hookean when linear is not among the models)",
+        "(default implicit with the first of linear, neo-hookean and neo-hookean-barrier "
+        "among the models; implicit+neo-hookean when none is)",
     )
     add_benchmark_options(p, BENCHMARKS)
     p.add_argument(

@@ -23,7 +23,8 @@ The CalculiX deck
 plane stress, thickness 1 m), one *NSET per set, *MATERIAL with *ELASTIC (linear; with
 NLGEOM it is St Venant-Kirchhoff: `svk`) or *HYPERELASTIC, NEO HOOKE with C10 = mu/2,
 D1 = 2/kappa (`neo-hookean`, NLGEOM), *DENSITY, *DAMPING ALPHA, BETA (Rayleigh, whole model);
-`corotational` has no CalculiX counterpart and is refused. Dynamic: one *STEP of fixed
+`corotational` has no CalculiX counterpart and is refused, and so is `neo-hookean-barrier`
+(NEO HOOKE is the (J - 1)^2 law, another than its name says). Dynamic: one *STEP of fixed
 increments h up to T, *DYNAMIC, DIRECT, ALPHA=0 (the trapezoidal rule); static: one
 *STATIC step of length h per t_i (a linear static step is solved once, at its end). The
 constrained nodes by *BOUNDARY (a moving component with an *AMPLITUDE in total time through
@@ -532,6 +533,14 @@ def default_element(dim: int, plane: str | None) -> str:
 
 
 def check_inp_model(model: str) -> None:
+    """ExportError (one line) for a model that CalculiX has no material for."""
+    if model == "neo-hookean-barrier":
+        raise ExportError(
+            "neo-hookean-barrier has no CalculiX material: CalculiX's NEO HOOKE is the "
+            "(kappa/2)(J - 1)^2 law, neo-hookean, not the barrier's (kappa/4)(J^2 - 1 - 2 ln J); "
+            "export it as json, or export --models neo-hookean for a deck of that law (a run "
+            "of it graded against the barrier's truth carries the difference of the laws)"
+        )
     if model == "corotational":
         raise ExportError(
             "the corotational model has no CalculiX material: export it as json, or use "

@@ -42,8 +42,13 @@ JSON alone. One object:
 - `material`: {"name", "E" (Pa), "nu", "rho" (kg/m^3), "alpha" (1/s), "beta" (s)};
   `damping`: {"C": "alpha M + beta K_0", "K_0": words, ...}: Rayleigh damping with K_0 the
   linear stiffness at rest, for every model (the nonlinear ones too).
-- `model`: "linear", "svk", "neo-hookean" or "corotational"; `procedure`: "dynamic" or
-  "static".
+- `model`: "linear", "svk", "neo-hookean", "neo-hookean-barrier" or "corotational";
+  `model_law`: that model's law in words (MODEL_LAWS: its stress or strain energy in the
+  material's Lamé constants; for the neo-Hookean pair, which one CalculiX's NEO HOOKE is);
+  `procedure`: "dynamic" or "static". The large cases (the rod MP3 at load scale 3, the
+  block at 2) use "neo-hookean-barrier": the (J - 1)^2 law costs at most kappa/2 per unit
+  volume to crush a volume to nothing, so under large loads its continuum problem need not
+  have a solution (SPEC 8).
 - `algorithm`: our reference's integrator, which `reference` ran: for "dynamic" {"name":
   "implicit", "scheme", "newmark_beta": 0.25, "newmark_gamma": 0.5, "update", "equation",
   "mass": "consistent", "damping", "initial_acceleration", "nonlinear_solve"}; for "static"
@@ -53,8 +58,8 @@ JSON alone. One object:
   node) where the displacement is interpolated and reported; not a metric.
 - `metrics`: {"E_n", "E_s", "E_i": definition and unit}: what `tissuebench compare` grades.
 - `truth`: {"case": name, "compare": the command, "what", "own_error"} when a converged
-  reference of this case exists (rod, rod-nh-s1, rod-nh-s3, block-MP1-w0.2, block-MP2-w0.2,
-  block-MP1-nh-s2-w0.2, at the benchmark's h and T), else {"case": null, "why": words}.
+  reference of this case exists (rod, rod-nh-s1, rod-nhb-s3, rod-MP2, block-MP1-w0.2,
+  block-MP2-w0.2, at the benchmark's h and T), else {"case": null, "why": words}.
 - `reference`: null, or {"file": the XDMF beside the JSON, "field": "displacement",
   "run": its run label, "status": "ok" | "diverged", "steps": last step kept,
   "wall_time_s": s}: our run's displacement at every t_i on these nodes.
@@ -172,6 +177,39 @@ DAMPING = {
     "departure from this benchmark, graded as such: meshes/BENCHMARKS.md gives its measured "
     "cost",
 }
+
+
+# the law of each model (SPEC 8), as `model_law` states it; mu, lambda the material's Lame
+# constants (Pa) of E and nu (plane stress: lambda* = 2 mu lambda / (lambda + 2 mu))
+HYPERELASTIC = (
+    "P = dpsi/dF, F = I + grad u, J = det F, I1 = tr(F^T F), kappa = lambda + 2 mu / 3 (Pa); "
+    "in 2D plane strain, F33 = 1"
+)
+MODEL_LAWS = {
+    "linear": "small strain: sigma = 2 mu eps + lambda tr(eps) I, eps = (grad u + grad u^T) / 2 "
+    "(f_int = K u); mu, lambda the Lame constants of E and nu (Pa)",
+    "svk": "St Venant-Kirchhoff: P = F S, S = lambda tr(E) I + 2 mu E, E = (F^T F - I) / 2; "
+    "2D plane strain",
+    "neo-hookean": "psi = (mu/2)(J^(-2/3) I1 - 3) + (kappa/2)(J - 1)^2 (J/m^3); "
+    + HYPERELASTIC
+    + ". CalculiX's and Abaqus's NEO HOOKE with C10 = mu/2, D1 = 2/kappa",
+    "neo-hookean-barrier": "psi = (mu/2)(J^(-2/3) I1 - 3) + (kappa/4)(J^2 - 1 - 2 ln J) "
+    "(J/m^3), Simo and Taylor's volumetric energy; "
+    + HYPERELASTIC
+    + ". Equal to neo-hookean to second order in J - 1, but its energy grows without bound "
+    "as J -> 0, so no finite load crushes a volume to nothing (neo-hookean's costs at most "
+    "kappa/2 per unit volume): the law of the large cases. Not CalculiX's NEO HOOKE, which is "
+    "the (kappa/2)(J - 1)^2 law: a simulator with that law differs from this one at large "
+    "compression, and the difference is part of its error",
+    "corotational": "per cell, R = the rotation of the polar decomposition of F at the cell "
+    "centre; f_int,e = R K_e (R^T x_e - X_e), x_e = X_e + u_e, K_e the linear element "
+    "stiffness; tangent R K_e R^T",
+}
+
+
+def model_law(model: str) -> str:
+    """The law of an elastic model in words (MODEL_LAWS; an unknown model: its name only)."""
+    return MODEL_LAWS.get(model, f"the {model} model (SPEC 8)")
 
 
 def units(dim: int) -> dict[str, str]:
@@ -311,6 +349,7 @@ def to_json(data: Exported) -> dict:
         "material": asdict(data.material),
         "damping": DAMPING,
         "model": data.model,
+        "model_law": model_law(data.model),
         "procedure": data.procedure,
         "algorithm": algorithm(data.procedure),
         "initial_state": "zero",

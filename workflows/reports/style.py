@@ -37,6 +37,7 @@ MODEL_STYLE = {
     "linear": ("C0", "-"),
     "svk": ("C3", "-."),
     "neo-hookean": ("C2", "-"),
+    "neo-hookean-barrier": ("C2", ":"),
     "corotational": ("C1", "--"),
 }
 HEAT_CMAP = "magma_r"  # light: close to the reference; dark: far from it
