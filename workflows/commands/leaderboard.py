@@ -1,10 +1,11 @@
 """`tissuebench leaderboard --out results`: OUT/leaderboard.md, OUT/leaderboard.csv and a
 figure per case (workflows/ranking.py), rendered from the record OUT/leaderboard.json with the
 users' compare folders read, checked against their case and graded against its truth (no
-rerun: seconds). `--rerun [CASE ...]`: every algorithm and model of ours and every outside
-simulator that poses those cases (all when none is named) run, graded against one reference
-and timed in this session; the other cases keep their recorded rows and say when they were
-timed.
+rerun: seconds; a user's row new to the record gets our implicit run on its own mesh for its
+error budget, workflows/user_mesh.py: a few seconds on the rod). `--rerun [CASE ...]`: every
+algorithm and model of ours and every outside simulator that poses those cases (all when none
+is named) run, graded against one reference and timed in this session; the other cases keep
+their recorded rows and say when they were timed.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import re
 import sys
 from dataclasses import asdict, fields
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 
@@ -60,6 +62,9 @@ from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
 from tissuebench.workflows.summary import CaseSummary
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.truth.samples import TruthSamples
 
 FOLDER = "leaderboard"
 MARKER = "# Leaderboard: accuracy against cost"
@@ -377,25 +382,36 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
         del truth
 
 
-def error_budget(rows: list[Row], only: list[Row] | None = None) -> None:
+def error_budget(
+    rows: list[Row],
+    only: list[Row] | None = None,
+    board: Board | None = None,
+    truth: TruthSamples | None = None,
+) -> None:
     """The error budget (SPEC 10) of every row of a case graded against the truth, in
     row.budget (time-mean E_i, m^gdim): total (the row against the truth), discretisation
     (our implicit on the row's mesh against the truth), algorithm (the row against our
     implicit on its mesh: the same-mesh column on our grid; graded here on our simplices),
-    model (none: the linear case's model is the truth's). Only the rows of `only` when it is
-    given (the others keep theirs). Rank 0."""
+    model (none: the linear case's model is the truth's). A user's row on a mesh of its own,
+    given the case's `board` and its `truth` (TruthSamples), gets our implicit run here on that
+    mesh (workflows/user_mesh.py: all four parts, or one line on why not). Only the rows of
+    `only` when it is given (the others keep theirs). Rank 0."""
     from tissuebench.workflows.grading import grade
 
     reference = next((r for r in rows if r.reference and r.truth), None)
-    if reference is None:
+    if reference is None and (board is None or truth is None):
         return
-    implicit = {r.mesh.split(":")[0]: r for r in rows if r.label.startswith(f"{reference.label} (")}
+    implicit = {
+        r.mesh.split(":")[0]: r
+        for r in rows
+        if reference is not None and r.label.startswith(f"{reference.label} (")
+    }
     for row in rows if only is None else only:
         if not row.truth:
             continue
         b = {"total": row.truth.get(f"{E_I}_mean")}
         ours, how = None, None
-        if row.mesh == reference.mesh:  # our grid (ours, SfePy's, CalculiX's)
+        if reference is not None and row.mesh == reference.mesh:  # our grid (ours, SfePy's, ...)
             ours = reference
             element = row.label.rsplit("-", 1)[-1] if row.source.startswith("CalculiX") else ""
             if element and element != "C3D8":
@@ -409,13 +425,20 @@ def error_budget(rows: list[Row], only: list[Row] | None = None) -> None:
                 "our implicit on our tetrahedron grid (6 per hexahedron on the same nodes; "
                 "the diagonals may differ)"
             )
+        elif row.source == "user" and board is not None and truth is not None and row.series:
+            from tissuebench.workflows.user_mesh import budget_on_mesh
+
+            row.budget = {**b, **budget_on_mesh(board, row, truth)}  # our implicit on its mesh
+            continue
+        elif row.source == "user" and board is not None and truth is None:
+            how = f"the truth {board.truth} is not computed here to grade our implicit on its mesh"
         elif row.source == "user" and row.mesh == "?":  # compare recorded no mesh
             how = "its mesh is not known here"
         else:
             how = "no run of our implicit on its mesh in this case"
         b["discretisation"] = None if ours is None else ours.truth.get(f"{E_I}_mean")
         b["discretisation_how"] = how
-        if ours is reference:
+        if ours is not None and ours is reference:
             b["algorithm"] = 0.0 if row is reference else row.errors.get(f"{E_I}_mean")
         elif ours is row:
             b["algorithm"] = 0.0
@@ -563,11 +586,17 @@ def grade_users(
     for board in boards:
         mine = list(users.get(board.name, []))
         rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
+        kept = set()  # ids of the rows whose budget the record holds, complete
         for row in mine:
             before = (graded or {}).get(user_key(row))
             if before is not None and before.truth and not row.truth:
                 row.truth, row.truth_note = dict(before.truth), before.truth_note
-        if board.truth is not None and any(not r.truth for r in mine):
+            if before is not None and before.truth == row.truth and complete(before.budget):
+                row.budget = dict(before.budget)
+                kept.add(id(row))
+        pending = [r for r in mine if id(r) not in kept]
+        run_here = any(r.truth and r.series for r in pending)  # our implicit on a user's mesh
+        if board.truth is not None and (any(not r.truth for r in mine) or run_here):
             if board.truth not in truths:
                 truths[board.truth] = load_cached(board.truth, comm=MPI.COMM_SELF)
             truth = truths[board.truth]
@@ -576,7 +605,7 @@ def grade_users(
                 f"on one core, once), then `tissuebench leaderboard --out {out}` grades "
                 "against it"
             )
-            if truth is None:
+            if truth is None and any(not r.truth for r in mine):
                 warn(
                     f"{board.name}: {sum(not r.truth for r in mine)} user row(s) not graded "
                     f"against the truth {board.truth}, which is not computed here: " + todo
@@ -591,7 +620,15 @@ def grade_users(
         mark_pareto(rows[board.name])
         if any(truth_error(r, k) is not None for r in rows[board.name] for k in ("mean", "max")):
             mark_truth_pareto(rows[board.name])
-            error_budget(rows[board.name], only=mine)
+            truth = truths.get(board.truth)
+            error_budget(rows[board.name], only=pending, board=board, truth=truth)
+
+
+def complete(budget: dict) -> bool:
+    """Whether an error budget holds all four parts as finite numbers."""
+    return all(
+        finite(budget.get(part)) for part in ("total", "discretisation", "algorithm", "model")
+    )
 
 
 def unchanged(path: Path) -> bool:
