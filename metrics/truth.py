@@ -340,8 +340,9 @@ PREFIX = "truth:"
 
 def truth_case(reference: str | Path, reference_field: str | None = None) -> str | None:
     """The SPEC 10 case of a reference given as `truth:CASE`; None for a reference file.
-    InputError (one line) for a case without a truth: a point-needle block case (w = 0), or a
-    name not in SPEC 10's table; and for a --reference-field, which a truth has no use for."""
+    InputError (one line) for a case without a truth: a point-needle block case (w = 0), the
+    large block (a neo-Hookean one, block-MP1-nh-s2-w0.2 as it was), or a name not in SPEC 10's
+    table; and for a --reference-field, which a truth has no use for."""
     text = str(reference)
     if not text.startswith(PREFIX):
         return None
@@ -355,6 +356,12 @@ def truth_case(reference: str | Path, reference_field: str | None = None) -> str
     if case in CASES:
         return case
     blocks = ", ".join(c for c in CASES if CASES[c][0] == "block")
+    if case.startswith("block") and "-nh" in case:
+        raise InputError(
+            f"{text}: the block has no large-deformation truth (SPEC 10: a needle bonded to the "
+            "tissue and pushed far has no converging solution); grade it against implicit on "
+            f"its own mesh. The block's truth cases are linear: {blocks}"
+        )
     width = case.rpartition("-w")[2] if "-w" in case else "0"
     try:
         point_needle = case.startswith("block") and float(width) == 0

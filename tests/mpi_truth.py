@@ -14,8 +14,8 @@ out = {}
 for case, sizes, steps in [
     ("rod", (1, 2), 8),
     ("block-MP2-w0.2", (10, 20), 6),
-    ("rod-nh-s3", (1,), 4),
-    ("block-MP1-nh-s2-w0.2", (4,), 4),
+    ("rod-nh-s1", (1,), 4),  # the mixed form with the (J - 1)^2 law
+    ("rod-nhb-s3", (1,), 4),  # and with the barrier law
 ]:
     runs = []
     for n in sizes:

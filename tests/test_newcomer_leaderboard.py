@@ -112,7 +112,7 @@ def test_a_folder_of_another_case_is_told_which_case_it_belongs_to(tmp_path):
     line = {x.split(": ")[0]: x for x in skipped}
     big, fine, alone = (line[str(user / name)] for name in ("big", "fine", "alone"))
     assert not any("{" in x for x in skipped), skipped
-    assert "graded against rod MP3 neo-hookean, load scale s = 3, 3D" in big
+    assert "graded against rod MP3 neo-hookean-barrier, load scale s = 3, 3D" in big
     assert big.endswith(
         f"it belongs to rod-MP3-s3: move it to {tmp_path / 'leaderboard/rod-MP3-s3/user/big'}, "
         "or compare against rod-MP3's reference"
@@ -205,11 +205,17 @@ def test_export_says_its_case_and_the_compare_line(tmp_path):
         "YOUR_SERIES --out results/leaderboard/rod-MP3/user/NAME --label NAME --wall-time "
         "SECONDS; tissuebench leaderboard --out results"
     )
-    s3 = ["--material", "MP3", "--models", "neo-hookean", "--load-scale", "3", "--no-reference"]
-    done = tissuebench("export", "rod", *s3, "--out", tmp_path / "s3.json")
+    s3 = ["--material", "MP3", "--load-scale", "3", "--no-reference"]
+    done = tissuebench("export", "rod", *s3, "--models", "neo-hookean-barrier", "--out",
+                       tmp_path / "s3.json")  # fmt: skip
     assert done.returncode == 0 and done.stdout.splitlines()[-1].startswith(
-        "leaderboard case: rod-MP3-s3; its truth rod-nh-s3 is computed once"
+        "leaderboard case: rod-MP3-s3; its truth rod-nhb-s3 is computed once"
     )
+    done = tissuebench("export", "rod", *s3, "--models", "neo-hookean", "--out",
+                       tmp_path / "s3-nh.json")  # fmt: skip
+    assert done.returncode == 0 and done.stdout.splitlines()[-1].startswith(
+        "leaderboard case: none"
+    )  # SPEC 8: the large rod's law is the barrier's
     done = tissuebench("export", "rod", "--mesh-size", "4", "--no-reference", "--out",
                        tmp_path / "rod4.json")  # fmt: skip
     last = done.stdout.strip().splitlines()[-1]

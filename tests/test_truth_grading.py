@@ -213,10 +213,17 @@ def test_a_candidate_that_stops_or_diverges_or_starts_at_h():
 def test_truth_case_names():
     assert truth_case("rod") is None and truth_case(Path("ref.xdmf")) is None
     assert truth_case(Path("truth:block-MP2-w0.2")) == "block-MP2-w0.2"
-    for name in ("block-MP1", "block-MP2-w0", "block-MP1-nh-s2"):
+    for name in ("block-MP1", "block-MP2-w0"):
         with pytest.raises(InputError, match="this case has no converged reference.*w = 0.2 m: "
-                           "block-MP1-w0.2, block-MP2-w0.2, block-MP1-nh-s2-w0.2"):  # fmt: skip
+                           "block-MP1-w0.2, block-MP2-w0.2$"):  # fmt: skip
             truth_case(f"truth:{name}")
+    for name in ("block-MP1-nh-s2-w0.2", "block-MP1-nhb-s2-w0.2"):  # SPEC 10: dropped
+        with pytest.raises(InputError, match="no large-deformation truth.*linear: "
+                           "block-MP1-w0.2, block-MP2-w0.2$"):  # fmt: skip
+            truth_case(f"truth:{name}")
+    assert truth_case("truth:rod-nhb-s3") == "rod-nhb-s3"
+    with pytest.raises(InputError, match="no such truth case"):
+        truth_case("truth:rod-nh-s3")  # the (J - 1)^2 law at s = 3: no solution to converge to
     with pytest.raises(InputError, match="no such truth case; the cases .* are rod, rod-nh-s1"):
         truth_case("truth:beam")
 

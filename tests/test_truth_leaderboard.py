@@ -119,22 +119,23 @@ def test_truth_columns_are_the_grade_of_the_rows_own_series(tmp_path, cached):
 
 
 def test_a_case_without_a_truth_gets_empty_columns_and_one_line(tmp_path, cached):
-    """block-MP1 (point needle: no truth) and rod-MP3-s3 (its truth rod-nh-s3 not computed):
+    """block-MP1 (point needle: no truth) and rod-MP3-s3 (its truth rod-nhb-s3 not computed):
     no truth columns filled in the CSV, one line in the case's header, no truth section."""
     _, calls = cached
     point = next(b for b in leaderboard.BOARDS if b.name == "block-MP1")
     s3 = next(b for b in leaderboard.BOARDS if b.name == "rod-MP3-s3")
-    assert point.truth is None and s3.truth == "rod-nh-s3"
+    assert point.truth is None and s3.truth == "rod-nhb-s3"
+    assert s3.model == "neo-hookean-barrier" and s3.simulator_model == "neo-hookean"
     from dataclasses import replace
 
     point, s3 = replace(point), replace(s3)  # the module's boards stay as they are
     u = written(tmp_path, "run.xdmf", affine(3))
     rows = {
         point.name: [row("implicit", case=point.name, series=str(u))],
-        s3.name: [row("implicit+neo-hookean", case=s3.name, series=str(u))],
+        s3.name: [row("implicit+neo-hookean-barrier", case=s3.name, series=str(u))],
     }
     leaderboard.grade_truths([point, s3], rows, log=lambda line: None)
-    assert calls == ["rod-nh-s3"]  # never the point-needle case; the truth never computed
+    assert calls == ["rod-nhb-s3"]  # never the point-needle case; the truth never computed
     path = tmp_path / f"lb-{COMM.rank}.csv"
     write_csv(path, [r for board in rows.values() for r in board])
     with open(path, newline="") as f:
@@ -147,7 +148,9 @@ def test_a_case_without_a_truth_gets_empty_columns_and_one_line(tmp_path, cached
     lines = [line for line in text.splitlines() if line.startswith("Truth (SPEC 10)")]
     assert len(lines) == 2
     assert "point (w = 0)" in lines[0] and "converges to no solution" in lines[0]
-    assert "rod-nh-s3, not computed on this machine (tissuebench truth rod-nh-s3: about" in lines[1]
+    assert (
+        "rod-nhb-s3, not computed on this machine (tissuebench truth rod-nhb-s3: about" in lines[1]
+    )
     assert "### Against the truth" not in text
 
 
@@ -229,7 +232,7 @@ def test_a_truth_whose_levels_do_not_converge_grades_nothing(tmp_path, monkeypat
     )
     s3 = replace(next(b for b in leaderboard.BOARDS if b.name == "rod-MP3-s3"))
     u = written(tmp_path, "run.xdmf", affine(3))
-    rows = {s3.name: [row("implicit+neo-hookean", case=s3.name, series=str(u))]}
+    rows = {s3.name: [row("implicit+neo-hookean-barrier", case=s3.name, series=str(u))]}
     leaderboard.grade_truths([s3], rows, log=lambda line: None)
     assert rows[s3.name][0].truth == {} and s3.truth_band is None
     assert "its levels do not converge and it states no own error" in s3.truth_note

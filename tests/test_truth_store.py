@@ -239,7 +239,8 @@ def test_the_cache_key_follows_the_code_not_its_text(tmp_path, monkeypatch):
 def test_the_report_says_what_the_smallest_jacobian_means():
     """truth.md names an inverted state (some J <= 0, SPEC 8) and, where the levels move
     apart while J falls on every finer level, the crushed material and the bound kappa of
-    the neo-Hookean volumetric stress (MP3: lambda + 2 mu / 3 = 3,889 Pa)."""
+    the neo-Hookean volumetric stress (MP3: lambda + 2 mu / 3 = 3,889 Pa); for the barrier
+    law, whose volumetric stress has no such bound, not that bound."""
     from tissuebench.workflows.commands.truth import jacobian_cell, jacobian_lines
 
     h = {
@@ -247,13 +248,16 @@ def test_the_report_says_what_the_smallest_jacobian_means():
         "min_jacobian_at": [[10.0, 0.0, 0.0, 0.0]] * 2 + [[9.5, 0.004, 0.004, 0.246]],
     }
     assert jacobian_cell(h, 2) == "0.05 (t = 9.5 s, X = (0.004, 0.004, 0.246) m)"
-    crushed = " ".join(jacobian_lines("rod-nh-s3", h, [2e-4, 6e-4]))
+    crushed = " ".join(jacobian_lines("rod-nh-s1", h, [2e-4, 6e-4]))
     assert "0.6, 0.3, 0.05" in crushed and "kappa = 3889 Pa" in crushed
-    assert jacobian_lines("rod-nh-s3", h, [6e-4, 2e-4]) == []  # the levels converge: no word
+    barrier = " ".join(jacobian_lines("rod-nhb-s3", h, [2e-4, 6e-4]))
+    assert "0.6, 0.3, 0.05" in barrier and "grows without bound" in barrier
+    assert "cannot exceed" not in barrier and "crushed further" not in barrier
+    assert jacobian_lines("rod-nh-s1", h, [6e-4, 2e-4]) == []  # the levels converge: no word
     h["min_jacobian"][1] = [1.0, 0.7]  # J does not fall on every level: no word either
-    assert jacobian_lines("rod-nh-s3", h, [2e-4, 6e-4]) == []
+    assert jacobian_lines("rod-nh-s1", h, [2e-4, 6e-4]) == []
     h["min_jacobian"][2] = [1.0, -0.01]
-    assert "inverted" in " ".join(jacobian_lines("rod-nh-s3", h, [6e-4, 2e-4]))
+    assert "inverted" in " ".join(jacobian_lines("rod-nh-s1", h, [6e-4, 2e-4]))
 
 
 def test_time_order_is_observed_and_capped_by_the_rule():

@@ -206,7 +206,7 @@ def run_board(
                 mesh_size=summary.mesh_size,
                 options=board.options,
                 material=get_material(board.material),
-                model=board.model,
+                model=board.simulator_model or board.model,
                 h=summary.h,
                 steps=summary.steps,
                 variants=list(chosen) if chosen is not None else None,

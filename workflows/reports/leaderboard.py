@@ -438,7 +438,9 @@ def markdown(
         "# Leaderboard: accuracy against cost",
         "",
         "Written by `tissuebench leaderboard --out results`. Every run of a case is graded "
-        "against the same reference (our `implicit`, with the case's model) by the same code "
+        "against the same reference (our `implicit`, with the case's model; the simulators of a "
+        "case whose model none of them has, with the model the case gives them instead) by the "
+        "same code "
         "as `tissuebench compare`: E_i is the interior error (SPEC 6), E_n the relative nodal "
         "error; time-mean and maximum over steps 1..N. Cost is the wall time per simulated "
         "second, and per dof.",
