@@ -13,6 +13,7 @@ import pytest
 import ufl
 from dolfinx import fem
 from helpers import run_script
+from test_truth import locking_solution
 
 from tissuebench.meshes.errors import UserError
 from tissuebench.solvers.schemes import SCHEMES, parse_scheme, scheme_label
@@ -127,21 +128,6 @@ def test_remedies_give_the_plain_elements_forces_for_an_affine_field(cell):
     for scheme, f in forces.items():
         f.axpy(-1.0, reference)
         assert f.norm() < 1e-13 * reference.norm(), scheme
-
-
-def locking_solution(mu: float, lmbda: float):
-    """A displacement that vanishes on the unit square's boundary with div u = (mu/lambda)
-    Delta phi: the pressure -lambda div u stays bounded as lambda -> infinity."""
-
-    def exact(x, m):
-        s, pi = m.sin, np.pi
-        r = mu / lmbda * pi
-        return [
-            s(pi * x[0]) ** 2 * s(2 * pi * x[1]) + r * s(2 * pi * x[0]) * s(pi * x[1]) ** 2,
-            -s(2 * pi * x[0]) * s(pi * x[1]) ** 2 + r * s(pi * x[0]) ** 2 * s(2 * pi * x[1]),
-        ]
-
-    return exact
 
 
 def manufactured_error(scheme: str, cell: dolfinx.mesh.CellType, n: int, nu: float) -> float:

@@ -11,13 +11,17 @@ from ufl.core.expr import Expr
 from tissuebench.solvers.models.model import Model
 
 
+def isochoric_energy(F: Expr, mu: Expr | float) -> Expr:
+    """(mu/2)(J^(-2/3) I1 - 3) in J/m^3, the part both neo-Hookean laws share."""
+    d = ufl.shape(F)[0]
+    I1 = ufl.tr(F.T * F) + (3 - d)  # the out-of-plane stretch 1 in plane strain
+    return mu / 2 * (ufl.det(F) ** (-2 / 3) * I1 - 3)
+
+
 def strain_energy(F: Expr, mu: Expr | float, lmbda: Expr | float) -> Expr:
     """psi(F) in J/m^3."""
-    d = ufl.shape(F)[0]
-    J = ufl.det(F)
-    I1 = ufl.tr(F.T * F) + (3 - d)  # the out-of-plane stretch 1 in plane strain
     kappa = lmbda + 2 * mu / 3
-    return mu / 2 * (J ** (-2 / 3) * I1 - 3) + kappa / 2 * (J - 1) ** 2
+    return isochoric_energy(F, mu) + kappa / 2 * (ufl.det(F) - 1) ** 2
 
 
 def first_piola(F: Expr, mu: Expr | float, lmbda: Expr | float, R: Expr | None = None) -> Expr:

@@ -13,15 +13,14 @@ import ufl
 from ufl.core.expr import Expr
 
 from tissuebench.solvers.models.model import Model
+from tissuebench.solvers.models.neo_hookean import isochoric_energy
 
 
 def strain_energy(F: Expr, mu: Expr | float, lmbda: Expr | float) -> Expr:
     """psi(F) in J/m^3 (mu, lmbda in Pa; F dimensionless)."""
-    d = ufl.shape(F)[0]
     J = ufl.det(F)
-    I1 = ufl.tr(F.T * F) + (3 - d)  # the out-of-plane stretch 1 in plane strain
     kappa = lmbda + 2 * mu / 3
-    return mu / 2 * (J ** (-2 / 3) * I1 - 3) + kappa / 4 * (J**2 - 1 - 2 * ufl.ln(J))
+    return isochoric_energy(F, mu) + kappa / 4 * (J**2 - 1 - 2 * ufl.ln(J))
 
 
 def first_piola(F: Expr, mu: Expr | float, lmbda: Expr | float, R: Expr | None = None) -> Expr:

@@ -12,27 +12,14 @@ every cell, so K u is P1's (the patch test)."""
 
 from __future__ import annotations
 
-import ufl
 from dolfinx import fem
 
-from tissuebench.solvers.schemes.scheme import (
-    Scheme,
-    add,
-    assemble,
-    bulk_modulus,
-    deviator,
-    projected_product,
-)
+from tissuebench.solvers.schemes.scheme import Scheme, split_stiffness
 
 
 def stiffness(V, mu, lmbda, parameters):
-    d = V.mesh.geometry.dim
-    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-    dev_u, dev_w = deviator(ufl.sym(ufl.grad(u))), deviator(ufl.sym(ufl.grad(w)))
-    K_dev = assemble(2 * mu * ufl.inner(dev_u, dev_w) * ufl.dx)
-    Q = fem.functionspace(V.mesh, ("Lagrange", 1))
-    K_vol = projected_product(V, Q, ufl.div)  # sum_n V_n theta_n(u) theta_n(w)
-    return add(K_dev, K_vol, bulk_modulus(mu, lmbda, d))
+    # the volumetric part: sum_n V_n theta_n(u) theta_n(w)
+    return split_stiffness(V, mu, lmbda, fem.functionspace(V.mesh, ("Lagrange", 1)))
 
 
 SCHEME = Scheme(

@@ -108,6 +108,20 @@ def projected_product(
     return K
 
 
+def split_stiffness(
+    V: fem.FunctionSpace, mu: float, lmbda: float, Q: fem.FunctionSpace
+) -> PETSc.Mat:
+    """∫ 2 mu dev eps(u) : dev eps(w) dx + kappa_d ∫ (P div u)(P div w) dx: the deviatoric part
+    fully integrated, the volumetric part with the dilatation projected onto Q by its lumped
+    mass (projected_product): each cell's mean on a piecewise-constant Q, each node's
+    volume-weighted mean on P1. kappa_d = lambda + 2 mu / d."""
+    d = V.mesh.geometry.dim
+    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+    dev_u, dev_w = deviator(ufl.sym(ufl.grad(u))), deviator(ufl.sym(ufl.grad(w)))
+    K_dev = assemble(2 * mu * ufl.inner(dev_u, dev_w) * ufl.dx)
+    return add(K_dev, projected_product(V, Q, ufl.div), bulk_modulus(mu, lmbda, d))
+
+
 def add(K: PETSc.Mat, other: PETSc.Mat, scale: float = 1.0) -> PETSc.Mat:
     """K += scale other in place, with the union of both patterns; frees other, returns K."""
     K.axpy(scale, other, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
