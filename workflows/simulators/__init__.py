@@ -9,7 +9,9 @@ One module per simulator, with a small fixed interface (as benchopt's solvers):
 - `available() -> str | None`: None when it can run here, else one line saying what is
   missing and how to install it.
 - `variants(data: Exported) -> dict[str, str]`: the variants that pose this export
-  faithfully, name -> one line of what the variant is (scheme, element, parameters).
+  faithfully, name -> one line of what the variant is (scheme, element, parameters), ending
+  with how the export's E and nu become the simulator's own parameters, with their values
+  (`given`).
 - `skipped(data: Exported) -> dict[str, str]`: what it cannot pose of this export and why
   (name -> one line; {} when nothing is left out).
 - `run(data: Exported, variant: str, workdir: Path) -> ExternalRun`: run one variant in
@@ -98,6 +100,15 @@ def integrated(
         reason=said,
         timing=timing,
         version=version,
+    )
+
+
+def given(material) -> str:
+    """The export's elastic constants in words, as a row states what it was given: "E = 60000
+    Pa, nu = 0.495 (mu = 20067 Pa, lambda = 1.9866e+06 Pa)"."""
+    return (
+        f"E = {material.E:g} Pa, nu = {material.nu:g} (mu = {material.mu:.5g} Pa, "
+        f"lambda = {material.lmbda:.5g} Pa)"
     )
 
 

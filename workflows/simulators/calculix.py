@@ -32,7 +32,7 @@ import numpy as np
 
 from tissuebench.solvers import interrupt
 from tissuebench.workflows.io.calculix import ELEMENTS
-from tissuebench.workflows.simulators import ExternalRun
+from tissuebench.workflows.simulators import ExternalRun, given
 
 NAME = "calculix"
 TITLE = "CalculiX"
@@ -73,17 +73,33 @@ def variants(data) -> dict[str, str]:
         return {}
     flags = ", NLGEOM" if data.model != "linear" else ""
     if data.procedure == "static":
-        return {f"static-{e}": f"*STATIC{flags}, one step per t_i, {e}" for e in elements(data)}
+        return {
+            f"static-{e}": f"*STATIC{flags}, one step per t_i, {e}; {elastic(data)}"
+            for e in elements(data)
+        }
     known = ""  # departures measured in tests/test_export.py, said where they apply
     if data.model != "linear" and data.material.beta > 0:
         known += "; NLGEOM damps with beta K(u), the SPEC with beta K_0"
     if any(np.abs(m[0]).max() > 0 for m in data.motions.values()):
         known += "; CalculiX's prescribed motion in *DYNAMIC departs from the SPEC's"
     return {
-        f"{scheme}-{e}": f"*DYNAMIC, DIRECT, ALPHA={alpha:g}{flags}, {e}, fixed h{known}"
+        f"{scheme}-{e}": f"*DYNAMIC, DIRECT, ALPHA={alpha:g}{flags}, {e}, fixed h{known}; "
+        + elastic(data)
         for scheme, alpha in SCHEMES.items()
         for e in elements(data)
     }
+
+
+def elastic(data) -> str:
+    """How the deck takes the export's E and nu (io/calculix.py's *MATERIAL), with values."""
+    m = data.material
+    if data.model == "neo-hookean":
+        kappa = m.lmbda + 2 * m.mu / 3
+        return (
+            f"*HYPERELASTIC, NEO HOOKE with C10 = mu/2 = {m.mu / 2:.5g} Pa, D1 = 2/kappa = "
+            f"{2 / kappa:.5g} 1/Pa of {given(m)}"
+        )
+    return f"*ELASTIC with the export's {given(m)}"
 
 
 def skipped(data) -> dict[str, str]:

@@ -99,7 +99,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
+from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
 from tissuebench.workflows.simulators.newton import conforming, split_hexahedra, tet_volumes
 
 if TYPE_CHECKING:
@@ -194,7 +194,19 @@ def variants(data: Exported) -> dict[str, str]:
         return {}
     if wall(data) is None:
         return {}
-    return {name: spec[2] for name, spec in VARIANTS.items() if data.model in spec[1]}
+    return {
+        name: f"{spec[2]}; {elastic_words(data.material, name)}"
+        for name, spec in VARIANTS.items()
+        if data.model in spec[1]
+    }
+
+
+def elastic_words(material: Material, variant: str) -> str:
+    """How the variant's DeformableBodyConfig takes the export's E and nu, with values."""
+    E, nu = drake_elasticity(material, variant)
+    if variant != "neo-hookean":
+        return f"set_youngs_modulus, set_poissons_ratio: the export's {given(material)}"
+    return f"E_D = {E:.6g} Pa, nu_D = {nu:.6g} of the export's {given(material)}"
 
 
 def skipped(data: Exported) -> dict[str, str]:

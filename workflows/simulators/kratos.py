@@ -111,7 +111,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
+from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
 
 if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
@@ -213,7 +213,8 @@ def variants(data: Exported) -> dict[str, str]:
     if data.procedure != "dynamic" or data.model != "linear":
         return {}
     element = {"hexahedron": ("hex8", "tet4"), "quadrilateral": ("quad4",)}.get(data.cell_type, ())
-    return {name: spec[4] for name, spec in VARIANTS.items() if spec[0] in element}
+    elastic = f"YOUNG_MODULUS, POISSON_RATIO: the export's {given(data.material)}"
+    return {name: f"{spec[4]}; {elastic}" for name, spec in VARIANTS.items() if spec[0] in element}
 
 
 def skipped(data: Exported) -> dict[str, str]:

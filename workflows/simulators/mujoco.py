@@ -104,7 +104,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
+from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
 from tissuebench.workflows.simulators.newton import (
     conforming,
     lumped_masses,
@@ -188,7 +188,10 @@ def variants(data: Exported) -> dict[str, str]:
     export's model); empty where skipped() says why."""
     if not _posed(data):
         return {}
-    return {name: f"{line}; {MODELS[data.model]}" for name, (_, _, line) in VARIANTS.items()}
+    elastic = f"<elasticity young poisson>: the export's {given(data.material)}"
+    return {
+        name: f"{line}; {MODELS[data.model]}; {elastic}" for name, (_, _, line) in VARIANTS.items()
+    }
 
 
 def skipped(data: Exported) -> dict[str, str]:

@@ -87,7 +87,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
+from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
 
 NAME = "newton"
 
@@ -146,7 +146,7 @@ VARIANTS = {
         10,
         0,
         "SolverSemiImplicit (symplectic Euler), 10 substeps of h/10 (stable from 3 on rod "
-        "n = 3); neo-Hookean of Smith et al., k_mu = 4mu/3, k_lambda = lambda + 5mu/6, "
+        "MP3, n = 3); neo-Hookean of Smith et al., k_mu = 4mu/3, k_lambda = lambda + 5mu/6, "
         "k_damp = 2 beta mu",
     ),
     "xpbd": (
@@ -194,7 +194,24 @@ def variants(data) -> dict[str, str]:
         return {}
     if any(np.any(np.abs(np.asarray(x)) > 0) for motion in data.motions.values() for x in motion):
         return {}
-    return {name: spec[4] for name, spec in VARIANTS.items()}
+    return {
+        name: f"{spec[4]}; {elastic_words(data.material, name)}" for name, spec in VARIANTS.items()
+    }
+
+
+def elastic_words(material, variant: str) -> str:
+    """How the variant takes the export's E and nu, with values (module docstring)."""
+    solver, element = VARIANTS[variant][:2]
+    if element == "springs":
+        return (
+            f"k from E = {material.E:g} Pa; the network's nu is 1/4 whatever the export's "
+            f"(nu = {material.nu:g} is not posed)"
+        )
+    k_mu, k_lambda, k_damp = tet_parameters(material, solver)
+    return (
+        f"k_mu = {k_mu:.5g} Pa, k_lambda = {k_lambda:.5g} Pa, k_damp = {k_damp:.5g} Pa s of the "
+        f"export's {given(material)}"
+    )
 
 
 def skipped(data) -> dict[str, str]:

@@ -124,6 +124,9 @@ def run_variant(
     if graded is not None:
         run = graded["runs"][label]
         entry.update({k: v for k, v in run.items() if k not in ("status", "wall_time_s")})
+        # the simulator's own words on why it failed ("diverged at step 3 (t = 0.1 s): 12
+        # tetrahedra inverted") say more than compare's reading of its series
+        entry["reason"] = result.reason or run.get("reason")
         if run["status"] != "ok" and entry["status"] == "ok":
             entry["status"] = "diverged" if run["diverged_step"] is not None else run["status"]
     if comm.rank == 0:

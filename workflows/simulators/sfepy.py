@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun
+from tissuebench.workflows.simulators import ExternalRun, given
 
 if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
@@ -120,7 +120,9 @@ def variants(data: Exported) -> dict[str, str]:
     dynamic export of the linear model; none for the static procedure or another model."""
     if data.model != "linear" or data.procedure != "dynamic":
         return {}
-    return {name: spec[3] for name, spec in VARIANTS.items()}
+    plane = f", plane {data.plane or 'strain'}" if data.dim == 2 else ""
+    elastic = f"D = stiffness_from_youngpoisson of the export's {given(data.material)}{plane}"
+    return {name: f"{spec[3]}; {elastic}" for name, spec in VARIANTS.items()}
 
 
 def skipped(data: Exported) -> dict[str, str]:
