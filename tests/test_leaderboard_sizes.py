@@ -78,3 +78,23 @@ def test_what_the_finest_mesh_changes_is_said_from_the_rows():
         "falling: not its mesh's)",
     ]
     assert "Finished at n = 3, not at n = 12: explicit." in lines
+
+
+def test_the_rod_mp2_boards_are_the_linear_rods_at_three_sizes():
+    """issue 32, item 1: rod-MP2 is a leaderboard case at the three rod sizes, graded against
+    the truth rod-MP2, with the same simulators and variants as the MP3 rod at each size."""
+    from tissuebench.workflows.ranking import BOARDS
+
+    cases = {b.name: b for b in BOARDS}
+    mp2 = [cases[name] for name in ("rod-MP2", "rod-MP2-n6", "rod-MP2-n12")]
+    mp3 = [cases[name] for name in ("rod-MP3", "rod-MP3-n6", "rod-MP3-n12")]
+    assert [b.mesh_size or 3 for b in mp2] == [3, 6, 12]
+    for b, same in zip(mp2, mp3, strict=True):
+        assert (b.benchmark, b.material, b.model, b.models) == ("rod", "MP2", "linear", ("linear",))
+        assert (b.truth, b.sizes, b.options) == ("rod-MP2", "rod-MP2", {})
+        assert (b.simulators, b.variants, b.mesh_size) == (
+            same.simulators,
+            same.variants,
+            same.mesh_size,
+        )
+    assert [b.name for b in size_series(BOARDS)[-1]] == ["rod-MP2", "rod-MP2-n6", "rod-MP2-n12"]

@@ -210,6 +210,32 @@ BOARDS = [
         variants=N12_VARIANTS,
         skip_note=N12_NOTE,
     ),
+    # the linear rod in the prostate-like MP2 (nu = 0.495, SPEC 10/11, issue 32) at the three
+    # sizes, each simulator posed as on the MP3 rod: where nearly incompressible tissue loses
+    *(
+        Board(
+            "rod-MP2" if n == 3 else f"rod-MP2-n{n}",
+            "rod",
+            "MP2",
+            "linear",
+            description=f"Bending rod (SPEC 5), MP2 (E = 60 kPa, nu = 0.495: nearly "
+            f"incompressible, SPEC 11), n = {n}: {words} hexahedra ({dofs} dofs), h = 1/30 s, "
+            f"T = 10 s, linear model; as rod-MP3{suffix} in the prostate's material.",
+            mesh_size=None if n == 3 else n,
+            truth="rod-MP2",
+            sizes="rod-MP2",
+            **(
+                {"variants": N12_VARIANTS, "skip_note": f"as on rod-MP3-n12, {N12_NOTE}"}
+                if n == 12
+                else {}
+            ),
+        )
+        for n, words, dofs, suffix in (
+            (3, "6 x 3 x 3", "336", ""),
+            (6, "12 x 6 x 6", "1,911", "-n6"),
+            (12, "24 x 12 x 12", "12,675", "-n12"),
+        )
+    ),
 ]
 
 
