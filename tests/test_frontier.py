@@ -20,7 +20,7 @@ def row(scheme="standard", algorithm="implicit", requested="1", size=3, cost=0.0
         "dofs": 336, "critical_dt_s": math.nan, "status": status, "diverged_time": math.nan,
         "setup_s": 0.1, "loop_s": cost * 10, "cost": cost, "interior_error_mean": mean,
         "interior_error_max": 2 * mean, "relative_error_mean": 0.1, "relative_error_max": 0.2,
-        "truth_own_error": 6e-7, "truth_size": 1e-4,
+        "truth_own_error": 6e-7, "truth_size": 1e-4, "timings": 1,
     }  # fmt: skip
 
 
@@ -136,3 +136,25 @@ def test_the_answer_reads_the_rows():
     assert "Q1 is 50 % off (E_i mean 4e-05) and mean-dilatation 10 % (E_i mean 5e-06)" in text
     assert "penalty:nu_p=0.3,k=0.1 diverged at t = 0.2 s" in text
     assert "with 23 sub-steps: E_i mean 3e-05" in text
+
+
+def test_a_cost_near_the_budget_is_timed_again_and_the_smaller_kept(tmp_path, monkeypatch):
+    """Rows within RETIME are timed once more; the smaller time stands, the row says it was
+    timed twice, and it is not timed a third time."""
+    rows = [row(cost=0.5), row("mean-dilatation", cost=0.001), row("anp", cost=2.0)]
+    study.write_rows(tmp_path / "frontier.csv", rows, study.COLUMNS)
+    # the rows' loops took 10 x cost seconds for 10 simulated s: again 3 s, then 30 s
+    again = iter([3.0, 30.0])
+    monkeypatch.setattr(study, "loop_seconds", lambda config: next(again))
+    kept = study.retime(tmp_path, log=lambda line: None)
+    costs = {r["scheme"]: (r["cost"], r["timings"]) for r in kept}
+    assert costs["standard"] == (pytest.approx(0.3), 2)  # faster the second time
+    assert costs["anp"] == (pytest.approx(2.0), 2)  # slower: the first time stands
+    assert costs["mean-dilatation"] == (pytest.approx(0.001), 1)  # far from the budget
+    assert study.read_rows(tmp_path / "frontier.csv") == kept
+
+    def never(config):
+        raise AssertionError("timed a third time")
+
+    monkeypatch.setattr(study, "loop_seconds", never)
+    study.retime(tmp_path, log=lambda line: None)

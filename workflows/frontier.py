@@ -81,6 +81,7 @@ COLUMNS = (
     "relative_error_max",
     "truth_own_error",
     "truth_size",
+    "timings",
 )
 
 
@@ -170,6 +171,7 @@ def run_config(config: Config, truth, comm: MPI.Comm = MPI.COMM_SELF) -> dict:
         "cost": run.wall_time_s / (steps * bench.dt),
         "truth_own_error": own_error(truth),
         "truth_size": size_of(truth),
+        "timings": 1,
     }
     for name in ("interior_error", "relative_error"):
         row[f"{name}_mean"] = row[f"{name}_max"] = math.nan
@@ -210,7 +212,8 @@ def read_rows(path: Path) -> list[dict]:
                 row[key] = math.nan
             else:
                 number = float(value)
-                row[key] = int(number) if key in ("substeps", "mesh_size", "dofs") else number
+                whole = key in ("substeps", "mesh_size", "dofs", "timings")
+                row[key] = int(number) if whole else number
         rows.append({k: row.get(k, math.nan) for k in COLUMNS})
     return rows
 
@@ -263,6 +266,60 @@ def run_study(
             f"{row['interior_error_mean']:.3g}, {row['cost']:.3g} s per simulated s"
         )
     return rows
+
+
+# --- timing again where the budget is decided ----------------------------------------------------
+
+RETIME = (0.1, 20.0)  # s per simulated s: the finished runs timed again, near the budget of 1
+
+
+def loop_seconds(config: Config) -> float:
+    """The wall time (s) of one config's time loop, run again without grading. Serial."""
+    benchmark, material, *_ = CASES[config.case]
+    bench = benchmark_of(config, MPI.COMM_SELF)
+    system = System(bench, material, scheme=config.scheme)
+    integrator, _, _ = sub_stepped(config.algorithm, system, bench.dt, config.substeps)
+    try:
+        run = simulate(integrator, round(bench.end_time / bench.dt), bench.extent, keep=False)
+    finally:
+        integrator.destroy()
+    return run.wall_time_s
+
+
+def retime(out: Path, log: Callable[[str], None] = print) -> list[dict]:
+    """Time again, once, every finished run of out/frontier.csv timed only once whose cost lies
+    within RETIME, and keep the smaller of its two times (other jobs on the machine only add
+    time): a cost near the budget is then not decided by one noisy timing. Rewrites the file
+    after each run; returns all rows."""
+    path = out / "frontier.csv"
+    rows = read_rows(path)
+    low, high = RETIME
+    todo = [
+        r
+        for r in rows
+        if r["status"] == "ok"
+        and low <= r["cost"] <= high
+        and not (isinstance(r["timings"], int) and r["timings"] >= 2)
+    ]
+    for i, r in enumerate(todo, 1):
+        k = r["requested"] if r["requested"] == "auto" else int(r["requested"])
+        config = Config(r["case"], r["cell"], r["scheme"], r["algorithm"], k, r["mesh_size"])
+        seconds = loop_seconds(config)
+        simulated = r["loop_s"] / r["cost"]
+        before = r["cost"]
+        r["loop_s"] = min(r["loop_s"], seconds)
+        r["cost"] = r["loop_s"] / simulated
+        r["timings"] = 2
+        write_rows(path, rows, COLUMNS)
+        again = seconds / simulated
+        log(f"[{i}/{len(todo)}] {run_words(r)}: {before:.3g}, then {again:.3g} s per simulated s")
+    return rows
+
+
+def run_words(r: dict) -> str:
+    """A row's run in a few words."""
+    what = f"{r['scheme']} {r['algorithm']} ({r['requested']})"
+    return f"{r['case']} {r['cell']} n={r['mesh_size']} {what}"
 
 
 # --- the remedy's cost against Q1's, measured side by side ---------------------------------------
