@@ -206,6 +206,8 @@ def read_rows(path: Path) -> list[dict]:
     for raw in read_csv(path):
         row = {}
         for key, value in raw.items():
+            if key is None:  # cells past the header's (a file of an older version)
+                continue
             if key in TEXT:
                 row[key] = value
             elif value == "":
@@ -253,6 +255,8 @@ def run_study(
     if stale:
         log(f"{path}: {len(stale)} rows were graded against another truth of their case: run again")
         rows = [r for r in rows if r not in stale]
+        write_rows(path, rows, COLUMNS)
+    if rows:  # today's columns (a file of an older version may lack some)
         write_rows(path, rows, COLUMNS)
     done = {row_key(r) for r in rows}
     todo = [c for c in configs(cases, quick) if c.key() not in done]
