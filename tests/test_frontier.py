@@ -136,6 +136,8 @@ def test_the_answer_reads_the_rows():
     assert "Q1 is 50 % off (E_i mean 4e-05) and mean-dilatation 10 % (E_i mean 5e-06)" in text
     assert "penalty:nu_p=0.3,k=0.1 diverged at t = 0.2 s" in text
     assert "with 23 sub-steps: E_i mean 3e-05" in text
+    assert "closest runs are: rod-MP2: mean-dilatation implicit, n = 3, 10 %" in text
+    assert "With an explicit loop (sub-steps included): rod-MP2: P1 explicit-lumped" in text
 
 
 def test_a_cost_near_the_budget_is_timed_again_and_the_smaller_kept(tmp_path, monkeypatch):

@@ -355,4 +355,42 @@ def answer(rows: list[dict], link: str = "frontier/frontier.md") -> list[str]:
                 f"sub-steps: {_reading(plain)} at {plain['cost']:.2g} s per simulated s."
             )
         out += [" ".join(lines), ""]
+    out += _verdict(rows, [c for c in cases if CASES[c][1] == "MP2"])
     return out
+
+
+def _verdict(rows: list[dict], cases: list[str]) -> list[str]:
+    """For prostate-like tissue: the closest real-time run of each nearly incompressible case,
+    and the closest with an explicit algorithm (what a surgical simulator's loop runs), in one
+    paragraph; the scheme named where every case agrees."""
+    if not cases:
+        return []
+    best, explicit = {}, {}
+    for case in cases:
+        mine = frontier([r for r in rows if r["case"] == case])
+        if mine:
+            best[case] = mine[0]
+        fast = [r for r in mine if r["algorithm"] != "implicit"]
+        if fast:
+            explicit[case] = fast[0]
+    if not best:
+        return []
+    families = {scheme_name(r).split(":")[0] for r in best.values()}
+    said = "; ".join(
+        f"{case}: {run_name(r)}, n = {r['mesh_size']}, {_share(r)} of the truth's size"
+        for case, r in best.items()
+    )
+    text = f"**For prostate-like tissue (MP2) at real-time cost**, the closest runs are: {said}."
+    if len(families) == 1:
+        text += f" Both cases agree on the scheme: {families.pop()}."
+    if explicit:
+        text += (
+            " With an explicit loop (sub-steps included): "
+            + "; ".join(
+                f"{case}: {run_name(r)}, n = {r['mesh_size']}, {r['substeps']} sub-steps, "
+                f"{_share(r)}, {r['cost']:.2g} s per simulated s"
+                for case, r in explicit.items()
+            )
+            + "."
+        )
+    return [text, ""]
