@@ -1,0 +1,156 @@
+"""The leaderboard's cases (`BOARDS`): each a benchmark posed once (material, model, options,
+mesh size, h, T), the models of ours it runs, the outside simulators and their variants, and
+its truth (SPEC 10). workflows/ranking.py reads and ranks them; a case is one entry here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from tissuebench.solvers import MODELS
+from tissuebench.workflows.simulators import SIMULATORS
+
+
+@dataclass
+class Board:
+    """One leaderboard case: a benchmark posed once (material, model, options at the
+    benchmark's default mesh, h and T), our algorithms with `models`, and the simulators."""
+
+    name: str
+    benchmark: str
+    material: str
+    model: str  # the reference's model (and the model the simulators are given, by default)
+    models: tuple[str, ...] = ("linear",)  # ours
+    options: dict = field(default_factory=dict)
+    simulators: tuple[str, ...] = tuple(SIMULATORS)
+    description: str = ""
+    mesh_size: int | None = None  # None: the benchmark's default
+    end_time: float | None = None  # s; None: the benchmark's default
+    truth: str | None = None  # its SPEC 10 truth case (None: it has none, truth_note says why)
+    truth_note: str = ""  # one line on the truth in the case's header (why none, not computed)
+    truth_band: float | None = None  # the truth's own E_i max (m^gdim), once it is loaded
+    # simulator -> the variants run on this case (a simulator not named: every variant), with
+    # `skip_note` saying why the others are not
+    variants: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    skip_note: str = ""
+    sizes: str | None = None  # the series of mesh sizes it belongs to (size_table), if any
+    session: str = ""  # when its runs were timed ("" : the session writing the leaderboard)
+    machine: str = ""  # where (machine(); "": this machine)
+    # the machine's one-minute load average when its timing began and ended ((), not measured)
+    load: tuple[float, ...] = ()
+    # the model the simulators are given (None: `model`), when none of them has the reference's
+    simulator_model: str | None = None
+
+
+# --- the cases -------------------------------------------------------------------------------
+
+# At n = 12 (12,675 dofs) each simulator runs the variants that a user would run at that size
+# and that the closing note of issue 27 asks for (Drake linear, MuJoCo, Kratos tetrahedra and
+# hexahedra); the explicit ones are unstable at h = 1/30 s on that mesh
+N12_VARIANTS = {
+    "calculix": (),
+    "sfepy": ("newmark",),
+    "newton": (),
+    "mujoco": ("discrete",),
+    "kratos": ("hex8-newmark", "tet4-newmark"),
+    "drake": ("linear",),
+}
+N12_NOTE = (
+    "at n = 12 only the variants above run: the explicit ones are unstable at h = 1/30 s on "
+    "this mesh, and the others cost too much for one timing session here (measured, 30 steps "
+    "on this machine under load, per simulated second): CalculiX C3D8 53 s and C3D8I 120 s "
+    "(ccx factorises at every increment), Newton VBD 88 s; the Kratos and Drake rows above "
+    "factorise their matrix at every step too (Eigen's SparseLU; Drake's own solver)"
+)
+
+# The cases: the paper's block and rod (linear), and SPEC 8's rod at three times its load
+# (neo-hookean-barrier reference, every model of ours; the simulators with neo-hookean, the
+# law theirs approximate: none has the barrier), at each benchmark's default mesh, h and T.
+BOARDS = [
+    Board(
+        "block-MP1",
+        "block",
+        "MP1",
+        "linear",
+        description="Block and needle (SPEC 4), MP1, 20 x 20 quadrilaterals, plane strain, "
+        "h = 1/30 s, T = 10 s, linear model.",
+        truth_note="none: the needle is a point (w = 0), and refinement converges to no "
+        "solution (SPEC 10); the block's truth is posed with a needle of width 0.2 m "
+        "(block-MP1-w0.2: the mesh-sensitivity-block-MP1 case below).",
+    ),
+    Board(
+        "rod-MP3",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, 6 x 3 x 3 hexahedra, h = 1/30 s, T = 10 s, "
+        "linear model.",
+        truth="rod",
+        sizes="rod-MP3",
+    ),
+    Board(
+        "rod-MP3-s3",
+        "rod",
+        "MP3",
+        "neo-hookean-barrier",
+        models=tuple(MODELS),
+        options={"load_scale": 3.0},
+        description="Bending rod, MP3, load scale s = 3 (SPEC 8): large deformation, against "
+        "implicit+neo-hookean-barrier; ours with every model, the simulators with their "
+        "neo-Hookean laws (none has the barrier: CalculiX's NEO HOOKE is neo-hookean), graded "
+        "on the same mesh against implicit+neo-hookean.",
+        truth="rod-nhb-s3",
+        simulator_model="neo-hookean",
+    ),
+    # the linear rod at two finer meshes (issue 27): how each run's cost grows with its dofs
+    # and where its accuracy against the truth stops improving
+    Board(
+        "rod-MP3-n6",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, n = 6: 12 x 6 x 6 hexahedra (1,911 dofs), "
+        "h = 1/30 s, T = 10 s, linear model; as rod-MP3 on a mesh twice as fine.",
+        mesh_size=6,
+        truth="rod",
+        sizes="rod-MP3",
+    ),
+    Board(
+        "rod-MP3-n12",
+        "rod",
+        "MP3",
+        "linear",
+        description="Bending rod (SPEC 5), MP3, n = 12: 24 x 12 x 12 hexahedra (12,675 dofs), "
+        "h = 1/30 s, T = 10 s, linear model; as rod-MP3 on a mesh four times as fine.",
+        mesh_size=12,
+        truth="rod",
+        sizes="rod-MP3",
+        variants=N12_VARIANTS,
+        skip_note=N12_NOTE,
+    ),
+    # the linear rod in the prostate-like MP2 (nu = 0.495, SPEC 10/11, issue 32) at the three
+    # sizes, each simulator posed as on the MP3 rod: where nearly incompressible tissue loses
+    *(
+        Board(
+            "rod-MP2" if n == 3 else f"rod-MP2-n{n}",
+            "rod",
+            "MP2",
+            "linear",
+            description=f"Bending rod (SPEC 5), MP2 (E = 60 kPa, nu = 0.495: nearly "
+            f"incompressible, SPEC 11), n = {n}: {words} hexahedra ({dofs} dofs), h = 1/30 s, "
+            f"T = 10 s, linear model; as rod-MP3{suffix} in the prostate's material.",
+            mesh_size=None if n == 3 else n,
+            truth="rod-MP2",
+            sizes="rod-MP2",
+            **(
+                {"variants": N12_VARIANTS, "skip_note": f"as on rod-MP3-n12, {N12_NOTE}"}
+                if n == 12
+                else {}
+            ),
+        )
+        for n, words, dofs, suffix in (
+            (3, "6 x 3 x 3", "336", ""),
+            (6, "12 x 6 x 6", "1,911", "-n6"),
+            (12, "24 x 12 x 12", "12,675", "-n12"),
+        )
+    ),
+]
