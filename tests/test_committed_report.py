@@ -21,10 +21,14 @@ pytestmark = pytest.mark.serial  # reads the repository's files only
 def test_the_claims_verdicts_are_what_the_committed_runs_give():
     summaries = {c.name: read_case_summary(RESULTS / c.name) for c in cases()}
     assert all(s is not None for s in summaries.values())
-    report = (RESULTS / "README.md").read_text()
-    judged = claims(RESULTS, summaries)
-    assert "holds" in judged or "does not hold" in judged
-    assert judged in report
+    report = (RESULTS / "README.md").read_text().splitlines()
+    judged = claims(RESULTS, summaries).splitlines()
+    # claim 3 reads the 40 s runs' XDMF series, which git does not keep: on a fresh clone it
+    # is "not judged" until make paper has run; every other line is judged from git's files
+    lines = [line for line in judged if "not judged" not in line]
+    assert sum("Verdict:" in line for line in lines) >= 3  # claims 1, 2 (or 5), 6 at least
+    missing = [line for line in lines if line not in report]
+    assert not missing, missing
 
 
 def test_the_spec_11_answer_is_what_the_committed_frontier_gives():
