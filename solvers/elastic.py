@@ -165,13 +165,12 @@ class ElasticForces:
         self.Jbar = fem.Function(Q, name="mean_J")
         self.Jbar.x.array[:] = 1.0
         q = ufl.TestFunction(Q)
-        F_ = ufl.variable(F)
-        self._J_form = fem.form(ufl.det(F_) * q * dx)
+        J = ufl.det(F)
+        self._J_form = fem.form(J * q * dx)
         volumes = dolfinx.fem.petsc.assemble_vector(fem.form(q * dx))
         self._n_cells = Q.dofmap.index_map.size_local
         self._inverse_volume = 1.0 / volumes.array_r[: self._n_cells].copy()
         volumes.destroy()
-        J = ufl.det(F)
         scale = (self.Jbar / J) ** (1.0 / system.gdim)
         return scale * model.first_piola(scale * F, system.mu, system.lmbda, None)
 
