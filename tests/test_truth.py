@@ -341,19 +341,21 @@ def test_where_modified_newton_fails_full_newton_takes_the_step(monkeypatch):
     built = []
     original = solver.Truth._newton_solver
 
-    def one_iteration(self, lag):
-        problem = original(self, lag)
-        built.append(lag)
-        if lag != 1:
+    def one_iteration(self, full):
+        problem = original(self, full=full)
+        built.append(full)
+        if not full:
             problem.solver.setTolerances(max_it=1)
         return problem
 
     monkeypatch.setattr(solver.Truth, "_newton_solver", one_iteration)
     truth, bench = case_truth("rod-nhb-s3", 1)
     fallen = truth.run(bench.dt, 4)
-    assert built == [solver.LAG, 1]  # the full Newton was needed, and built once
+    # every step: the modified Newton fails, is built again for the next, and hands the step to
+    # the full Newton, built once
+    assert built == [False, True, False, False, False]
     monkeypatch.setattr(solver.Truth, "_newton_solver", original)
-    monkeypatch.setattr(solver, "LAG", 1)  # full Newton from the first iteration
+    monkeypatch.setattr(solver, "KEEP", 1)  # a new tangent at every iteration: full Newton
     full, _ = case_truth("rod-nhb-s3", 1)
     assert np.allclose(fallen.u, full.run(bench.dt, 4).u, rtol=0, atol=1e-11)
 

@@ -21,6 +21,7 @@ Units: SI (m, s); E_i in m^3 (rod) and m^2 (block).
 from __future__ import annotations
 
 import ast
+import contextlib
 import hashlib
 import json
 import math
@@ -377,9 +378,8 @@ def _progress(comm: MPI.Comm, total: int, desc: str):
     together (interrupt.checkpoint)."""
     from tqdm import tqdm
 
-    bar = tqdm(
-        total=total, desc=desc, unit="step", leave=False, disable=comm.rank != 0, mininterval=0.5
-    )
+    quiet = comm.rank != 0 or os.environ.get("TISSUEBENCH_PROGRESS_BARS") == "0"  # a worker
+    bar = tqdm(total=total, desc=desc, unit="step", leave=False, disable=quiet, mininterval=0.5)
 
     def on_step(i: int) -> None:
         bar.update(1)
@@ -667,6 +667,73 @@ def remove_stale_temporaries(folder: Path, log: Callable[[str], None] | None = N
     return removed
 
 
+WAIT_REPORT_SECONDS = 60.0  # how often a process waiting for another's computation says so
+WAIT_POLL_SECONDS = 2.0
+
+
+def lock_path(case: str, quick: bool = False) -> Path:
+    """The file that says a case's truth is being computed: {"pid", "started", "expected_s"}."""
+    path = cache_path(case, quick)
+    return path.with_name(f".{path.stem}.computing")
+
+
+def computing(case: str, quick: bool = False) -> dict | None:
+    """The lock of a computation of this case under way in another process (alive here), else
+    None; a lock whose process has gone is removed."""
+    lock = lock_path(case, quick)
+    try:
+        held = json.loads(lock.read_text())
+        pid = int(held["pid"])
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, TypeError):
+        held, pid = None, -1
+    if pid == os.getpid():  # this process's own
+        return None
+    if held is not None and _alive(pid):
+        return held
+    lock.unlink(missing_ok=True)  # unreadable, or its process has gone
+    return None
+
+
+def _take_lock(case: str, quick: bool) -> bool:
+    """Create the case's lock for this process; False where another process holds it (True,
+    without a lock, where the cache folder cannot be written)."""
+    lock = lock_path(case, quick)
+    text = json.dumps(
+        {"pid": os.getpid(), "started": time.time(), "expected_s": expected_seconds(case, quick)}
+    )
+    try:
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except FileExistsError:
+        return False
+    except OSError:  # a cache that cannot be written: computed without a lock (and not kept)
+        return True
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    return True
+
+
+def wait_for(case: str, quick: bool, say: Callable[[str], None]) -> None:
+    """Wait while another process computes this case, saying so now and every
+    WAIT_REPORT_SECONDS (who, since when, about how long is left)."""
+    last = -math.inf
+    while (held := computing(case, quick)) is not None:
+        now = time.time()
+        if now - last >= WAIT_REPORT_SECONDS:
+            elapsed = now - float(held.get("started", now))
+            left = float(held.get("expected_s", 0.0)) - elapsed
+            say(
+                f"truth {case}{' (quick)' if quick else ''}: being computed by process "
+                f"{held['pid']} for {elapsed / 60:.0f} min "
+                + (f"(about {left / 60:.0f} min left)" if left > 0 else "(past its estimate)")
+                + "; waiting for it"
+            )
+            last = now
+        time.sleep(WAIT_POLL_SECONDS)
+
+
 def truth_samples(
     case: str,
     quick: bool = False,
@@ -681,10 +748,29 @@ def truth_samples(
     check_case(case)
     say = log if (log is not None and comm.rank == 0) else (lambda line: None)
     path = cache_path(case, quick) if comm.rank == 0 else None
-    samples, problem = _read(case, quick) if comm.rank == 0 else (None, None)
-    if comm.bcast(samples is not None if comm.rank == 0 else None):
+    locked = False
+    while True:  # another process computing this case: wait for it, then read its result
+        if comm.rank == 0:
+            wait_for(case, quick, log or _stderr)
+        samples, problem = _read(case, quick) if comm.rank == 0 else (None, None)
+        if comm.rank == 0 and samples is None:
+            locked = _take_lock(case, quick)
+        if comm.bcast(samples is not None or locked if comm.rank == 0 else None):
+            break
+    locked = comm.bcast(locked if comm.rank == 0 else None)
+    if not locked:
         say(f"truth {case}{' (quick)' if quick else ''}: from the cache, {path}")
         return samples
+    try:
+        return _compute_and_store(case, quick, comm, log, say, path, problem)
+    finally:
+        if comm.rank == 0:
+            with contextlib.suppress(OSError):
+                lock_path(case, quick).unlink(missing_ok=True)
+
+
+def _compute_and_store(case, quick, comm, log, say, path, problem) -> TruthSamples | None:
+    """truth_samples' computation, under the case's lock."""
     if problem:
         (log or _stderr)(f"truth {case}{' (quick)' if quick else ''}: {problem}; computed again")
     say(

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -43,10 +44,12 @@ from tissuebench.solvers.truth.store import (
     cache_dir,
     check_case,
     expected_seconds,
+    is_cached,
     load_cached,
     truth_samples,
 )
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
+from tissuebench.workflows.truth_jobs import compute_in_parallel
 
 if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples
@@ -81,6 +84,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "the workflow; never replaces a full truth.md",
     )
     p.add_argument("--force", action="store_true", help="let a --quick run replace a full truth.md")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=min(2, os.cpu_count() or 1),
+        help="cases computed at a time, each in a process of its own on one core (default: "
+        "the cores, at most 2; one rank only: under mpiexec the ranks share each case)",
+    )
+    # a worker of --jobs: compute and cache the cases, write no report
+    p.add_argument("--compute-only", action="store_true", help=argparse.SUPPRESS)
     p.set_defaults(func=main)
 
 
@@ -420,6 +432,12 @@ def main(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     names = list(args.cases)
     cases = requested(names)
+    if args.jobs < 1:
+        raise UserError(f"--jobs must be at least 1, not {args.jobs}")
+    if args.compute_only:  # a worker of --jobs
+        for case in cases:
+            truth_samples(case, args.quick, comm, log=lambda line: print(line, flush=True))
+        return 0
     out = args.out
     check_writable(out, comm, owned=[f"{NAME}.md", f"{NAME}.csv"])
     collective(comm, lambda: check_target(out, args.quick, args.force))
@@ -430,9 +448,13 @@ def main(args: argparse.Namespace) -> int:
         if comm.rank == 0:
             print(line, flush=True)
 
+    failed = []
+    todo = [c for c in cases if not is_cached(c, args.quick, comm)]
+    if comm.size == 1 and args.jobs > 1 and len(todo) > 1:
+        failed = compute_in_parallel(todo, args.quick, args.jobs, say)
     summaries = {}
     for case in CASES:
-        if case in cases:
+        if case in cases and case not in failed:
             samples = truth_samples(case, args.quick, comm, log=say)
         else:  # reported if it is in the cache already
             samples = load_cached(case, args.quick, comm)
@@ -455,6 +477,9 @@ def main(args: argparse.Namespace) -> int:
     collective(comm, write, out)
     interrupt.will_write([])
     say(f"wrote {out / NAME}.md and {out / NAME}.csv")
+    if failed:
+        say(f"truth: not computed, their workers failed (their lines above): {', '.join(failed)}")
+        return 1
     return 0
 
 

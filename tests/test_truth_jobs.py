@@ -1,0 +1,124 @@
+"""A truth being computed (issue 33): the computing process holds the case's lock, any other
+that needs the case waits for it, says so and reads its result instead of computing it
+again; a lock whose process has gone is removed. `truth all --jobs 2` computes two cases at
+a time in worker processes, each under its lock, and caches the same truths as one at a time.
+
+The waiting tests use small synthetic truths (test_newcomer_truth_cache.synthetic) in a
+cache of their own; the command test computes two quick truths for real."""
+
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+from helpers import tissuebench
+from test_newcomer_truth_cache import synthetic
+
+from tissuebench.solvers.truth import store
+from tissuebench.solvers.truth.samples import TruthSamples
+
+pytestmark = pytest.mark.serial  # other processes hold the locks
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TISSUEBENCH_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(store, "WAIT_POLL_SECONDS", 0.05)
+    return store.cache_path("rod", quick=True)
+
+
+@pytest.fixture
+def computed(monkeypatch):
+    """The cases store.compute is asked for (a synthetic truth each), with the lock's holder
+    at that moment."""
+    calls = []
+
+    def compute(case, quick=False, comm=None, log=None):
+        calls.append((case, store.computing(case, quick), store.lock_path(case, quick).exists()))
+        return synthetic(case, quick)
+
+    monkeypatch.setattr(store, "compute", compute)
+    return calls
+
+
+def hold_lock(case: str, pid: int) -> None:
+    lock = store.lock_path(case, True)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    lock.write_text(f'{{"pid": {pid}, "started": {time.time() - 120}, "expected_s": 600}}')
+
+
+def test_a_reader_waits_for_the_process_computing_it_and_reads_its_result(cache, computed):
+    other = subprocess.Popen(["sleep", "60"])  # the process computing the case
+    try:
+        hold_lock("rod", other.pid)
+        lines = []
+
+        def finish():  # what the other process does when its computation ends
+            time.sleep(0.5)
+            synthetic().save(cache)
+            store.lock_path("rod", True).unlink()
+
+        threading.Thread(target=finish).start()
+        samples = store.truth_samples("rod", quick=True, log=lines.append)
+    finally:
+        other.kill()
+        other.wait()
+    assert computed == []  # read, not computed again
+    assert isinstance(samples, TruthSamples) and samples.case == "rod"
+    waiting = [line for line in lines if "being computed by process" in line]
+    assert len(waiting) == 1 and f"process {other.pid} for 2 min" in waiting[0]
+    assert "about 8 min left" in waiting[0]
+
+
+def test_a_lock_whose_process_has_gone_is_removed_and_the_case_computed(cache, computed):
+    gone = subprocess.Popen(["true"])
+    gone.wait()
+    hold_lock("rod", gone.pid)
+    samples = store.truth_samples("rod", quick=True)
+    assert samples is not None and store.load_cached("rod", quick=True) is not None
+    # computed once, under a lock of this process's own, which is gone afterwards
+    assert [(case, exists) for case, _, exists in computed] == [("rod", True)]
+    assert computed[0][1] is None  # computing() ignores this process's own lock
+    assert not store.lock_path("rod", True).exists()
+
+
+def test_the_lock_goes_when_the_computation_fails(cache, monkeypatch):
+    def fail(case, quick=False, comm=None, log=None):
+        assert store.lock_path(case, quick).exists()
+        raise RuntimeError("truth: Newton did not converge")
+
+    monkeypatch.setattr(store, "compute", fail)
+    with pytest.raises(RuntimeError, match="Newton"):
+        store.truth_samples("rod", quick=True)
+    assert not store.lock_path("rod", True).exists()
+
+
+def test_truth_all_with_two_jobs_caches_what_one_at_a_time_does(tmp_path, monkeypatch):
+    """Two quick cases, two workers at once; then the same two cases one at a time in another
+    cache: the cached truths are the same, value for value."""
+    env_cache = {}
+    for jobs in (2, 1):
+        cache = tmp_path / f"cache{jobs}"
+        out = tmp_path / f"out{jobs}"
+        monkeypatch.setenv("TISSUEBENCH_CACHE", str(cache))
+        result = tissuebench(
+            "truth", "rod", "block-MP1-w0.2", "--quick", "--jobs", str(jobs), "--out", str(out)
+        )
+        assert result.returncode == 0, result.stderr[-2000:]
+        env_cache[jobs] = cache
+        if jobs == 2:
+            said = result.stdout
+            assert "truth: computing 2 cases, 2 at a time" in said
+            assert said.count("truth: started ") == 2 and said.count(" s of CPU; ") == 2
+            assert (
+                "[block-MP1-w0.2] block-MP1-w0.2 n=40:" in said
+            )  # a worker's lines, prefixed with its case
+        assert (out / "truth.md").is_file()
+    for case in ("rod", "block-MP1-w0.2"):
+        name = f"{case}-quick-*.npz"
+        (a,), (b,) = (list((env_cache[j] / "truth").glob(name)) for j in (2, 1))
+        assert a.name == b.name  # the same inputs, the same key
+        with np.load(a) as x, np.load(b) as y:
+            assert np.array_equal(x["u_points"], y["u_points"])
+    assert not list((env_cache[2] / "truth").glob(".*.computing"))
