@@ -245,14 +245,12 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
             lw=1.2,
             label="frontier (no run is both cheaper and closer)",
         )
-        for r in front:
-            ax.annotate(
-                f"{scheme_name(r)} n={r['mesh_size']}",
-                (r["cost"], r["interior_error_mean"]),
-                textcoords="offset points",
-                xytext=(4, 4),
-                fontsize=7,
-            )
+        labels = [
+            (f"{scheme_name(r)} n={r['mesh_size']}", (r["cost"], r["interior_error_mean"]))
+            for r in front
+        ]
+    else:
+        labels = []
     own = rows[0]["truth_own_error"] if rows else math.nan
     values = [r["interior_error_mean"] for r in done]
     if values and math.isfinite(own):
@@ -272,8 +270,41 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
         ax.scatter([], [], c="w", edgecolors="k", marker=marker, label=algorithm + steps)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(True, which="both", alpha=0.3)
+    place_labels(fig, ax, labels)
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+LABEL_STEP = 9  # points: how far a label moves down (then up) from one that it would cover
+
+
+def place_labels(fig, ax, labels: list[tuple[str, tuple[float, float]]]) -> None:
+    """Annotate each point (text, (x, y)) beside it, moving a label that would cover one
+    placed before it down or up by LABEL_STEP points until it is clear (at most 6 tries each
+    way; then it stays where it covers least). The axes' layout is settled first."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    placed = []
+    for text, xy in labels:
+        offsets = [4 + k * LABEL_STEP * sign for k in range(7) for sign in (-1, 1)][1:]
+        best = None
+        for dy in offsets:
+            note = ax.annotate(text, xy, textcoords="offset points", xytext=(4, dy), fontsize=7)
+            box = note.get_window_extent(renderer)
+            cover = sum(
+                max(0.0, min(box.x1, b.x1) - max(box.x0, b.x0))
+                * max(0.0, min(box.y1, b.y1) - max(box.y0, b.y0))
+                for b in placed
+            )
+            if best is None or cover < best[0]:
+                if best is not None:
+                    best[1].remove()
+                best = (cover, note, box)
+            else:
+                note.remove()
+            if cover == 0:
+                break
+        placed.append(best[2])
 
 
 def markdown(rows: list[dict], cases: tuple[str, ...], header: str, timing: list[dict] = ()) -> str:
