@@ -122,3 +122,17 @@ def test_truth_all_with_two_jobs_caches_what_one_at_a_time_does(tmp_path, monkey
         with np.load(a) as x, np.load(b) as y:
             assert np.array_equal(x["u_points"], y["u_points"])
     assert not list((env_cache[2] / "truth").glob(".*.computing"))
+
+
+def test_a_reader_that_does_not_wait_says_the_case_is_being_computed(cache):
+    """load_cached (the leaderboard's reader) does not wait: one line says who computes it."""
+    other = subprocess.Popen(["sleep", "60"])
+    try:
+        hold_lock("rod", other.pid)
+        lines = []
+        assert store.load_cached("rod", quick=True, log=lines.append) is None
+    finally:
+        other.kill()
+        other.wait()
+    assert len(lines) == 1 and f"being computed by process {other.pid}" in lines[0]
+    assert lines[0].endswith("not read until it ends")

@@ -610,13 +610,17 @@ def load_cached(
     log: Callable[[str], None] | None = None,
 ) -> TruthSamples | None:
     """The cached truth of a case on rank 0 if there is a readable one for today's inputs (else
-    None); None on other ranks. Whether one was found is the same on every rank: found(...).
-    An unreadable file is said in one line to `log` (default stderr; rank 0), with the command
-    that computes the truth again, and counts as not computed."""
+    None, said in one line where another process is computing it); None on other ranks.
+    Whether one was found is the same on every rank: found(...). An unreadable file is said in
+    one line to `log` (default stderr; rank 0), with the command that computes the truth
+    again, and counts as not computed."""
     samples = None
     if comm.rank == 0:
         samples, problem = _read(case, quick)
-        if problem:
+        held = computing(case, quick) if samples is None else None
+        if held is not None:  # a reader does not wait: it says why there is none yet
+            (log or _stderr)(f"{being_computed(case, quick, held)}; not read until it ends")
+        elif problem:
             (log or _stderr)(
                 f"truth {case}{' (quick)' if quick else ''}: {problem}; it counts as not "
                 f"computed: `tissuebench truth {case}{' --quick' if quick else ''}` computes it "
@@ -715,6 +719,18 @@ def _take_lock(case: str, quick: bool) -> bool:
     return True
 
 
+def being_computed(case: str, quick: bool, held: dict) -> str:
+    """'truth CASE: being computed by process N for M min (about K min left)', from its lock."""
+    now = time.time()
+    elapsed = now - float(held.get("started", now))
+    left = float(held.get("expected_s", 0.0)) - elapsed
+    return (
+        f"truth {case}{' (quick)' if quick else ''}: being computed by process {held['pid']} "
+        f"for {elapsed / 60:.0f} min "
+        + (f"(about {left / 60:.0f} min left)" if left > 0 else "(past its estimate)")
+    )
+
+
 def wait_for(case: str, quick: bool, say: Callable[[str], None]) -> None:
     """Wait while another process computes this case, saying so now and every
     WAIT_REPORT_SECONDS (who, since when, about how long is left)."""
@@ -722,14 +738,7 @@ def wait_for(case: str, quick: bool, say: Callable[[str], None]) -> None:
     while (held := computing(case, quick)) is not None:
         now = time.time()
         if now - last >= WAIT_REPORT_SECONDS:
-            elapsed = now - float(held.get("started", now))
-            left = float(held.get("expected_s", 0.0)) - elapsed
-            say(
-                f"truth {case}{' (quick)' if quick else ''}: being computed by process "
-                f"{held['pid']} for {elapsed / 60:.0f} min "
-                + (f"(about {left / 60:.0f} min left)" if left > 0 else "(past its estimate)")
-                + "; waiting for it"
-            )
+            say(f"{being_computed(case, quick, held)}; waiting for it")
             last = now
         time.sleep(WAIT_POLL_SECONDS)
 

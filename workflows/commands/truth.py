@@ -12,7 +12,7 @@ E_i max in space and time and whether it meets SPEC 10's target, 0.2 % of the tr
 E_i against rest) and DIR/truth.csv (case,level,dofs,time,u_x,u_y,u_z: the rod cases' tip at
 t = 1, 2, ..., 10 s on every level, the finest labelled `truth`). Cases not named are
 reported from the cache when they are there, else as not yet computed with their expected
-cost. --quick: rod n = 1, 2, 4 and block N = 10, 20, 40 to T = 1 s (30 steps), a check of
+cost. With more than one case to compute, one rank and --jobs N > 1 (default: the cores, at most 2), the cases run N at a time in worker processes (workflows/truth_jobs.py). --quick: rod n = 1, 2, 4 and block N = 10, 20, 40 to T = 1 s (30 steps), a check of
 the workflow, cached under its own key; it never replaces a full truth.md (--force does).
 """
 
