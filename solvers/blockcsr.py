@@ -113,15 +113,20 @@ def _cpu_key():
 
 
 def compile_module(
-    prefix: str, source: str, declarations: str, comm: MPI.Comm | None = None
+    prefix: str,
+    source: str,
+    declarations: str,
+    comm: MPI.Comm | None = None,
+    flags: list[str] | None = None,
 ) -> ModuleType:
     """A cffi module (.ffi, .lib) of C `source` with the prototypes `declarations`, compiled
-    with FLAGS on first use and kept in cache_dir() under `prefix` and a hash of the source,
-    the flags and the CPU (so that an edited source or another CPU compiles anew). Under MPI,
-    rank 0 of `comm` compiles and the others wait."""
+    with FLAGS (and `flags`) on first use and kept in cache_dir() under `prefix` and a hash of
+    the source, the flags and the CPU (so that an edited source or another CPU compiles anew).
+    Under MPI, rank 0 of `comm` compiles and the others wait."""
     import cffi
 
-    key = source + declarations + " ".join(FLAGS) + _cpu_key()
+    flags = FLAGS + (flags or [])
+    key = source + declarations + " ".join(flags) + _cpu_key()
     name = f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:16]}"
     folder = cache_dir()
     found = sorted(folder.glob(name + ".*so")) if folder.exists() else []
@@ -129,7 +134,7 @@ def compile_module(
         folder.mkdir(parents=True, exist_ok=True)
         ffi = cffi.FFI()
         ffi.cdef(declarations)
-        ffi.set_source(name, source, extra_compile_args=FLAGS)
+        ffi.set_source(name, source, extra_compile_args=flags)
         with tempfile.TemporaryDirectory(dir=folder) as tmp:
             built = Path(ffi.compile(tmpdir=tmp))
             os.replace(built, folder / built.name)  # atomic: other processes see all or nothing

@@ -41,11 +41,16 @@ if TYPE_CHECKING:
     from tissuebench.solvers.models.model import Model
 
 CELLS = ("triangle", "quadrilateral", "tetrahedron", "hexahedron")
+LANES = 8  # cells per batch: one AVX-512 register of doubles per batched value
+# the lane loop around the model's stress (OpenMP's simd pragma only, no runtime); without
+# trapping math a select such as J > 0 ? a : NAN vectorises (no value changes)
+SIMD_FLAGS = ["-fopenmp-simd", "-fno-trapping-math"]
 
 PREAMBLE = r"""
 #include <math.h>
 #include <stdint.h>
 #include <stddef.h>
+#include <string.h>
 
 static inline void cofactor(const double* restrict F, double* restrict C)
 {
@@ -72,6 +77,22 @@ static inline double determinant(const double* restrict F)
 #endif
 }
 
+/* x^(-1/3) for a positive normal x, to round-off: a first guess from the exponent (x as a
+   float: the inverse cube root's bit trick), then Newton's y <- y (4 - x y^3) / 3, which
+   converges quadratically and divides nothing (vectorisable, unlike libm's cbrt). NaN for
+   x <= 0 and not finite beyond the float range (1e-38 to 3e38). */
+static inline double inv_cbrt(double x)
+{
+  float xf = (float)x;
+  int32_t i;
+  memcpy(&i, &xf, sizeof i);
+  i = 0x54a2fa8c - i / 3;
+  memcpy(&xf, &i, sizeof i);
+  double y = xf;
+  for (int k = 0; k < 4; ++k) y = y * (4.0 - x * y * y * y) * (1.0 / 3.0);
+  return x > 0.0 ? y : NAN;
+}
+
 static inline void stress(const double* restrict F, double J, const double* restrict R,
                           double mu, double lmbda, double* restrict P)
 {
@@ -82,43 +103,78 @@ STRESS_BODY
 KERNEL = r"""
 #define GS (D * D + 1) /* doubles per point: J_e^-1, then w |det J_e| */
 
+/* Every array below is batched: W cells side by side, the lane (cell) index last, so that
+   each loop over the lanes is one SIMD operation. */
+
 /* F = I + H Jinv with H = sum_a u_a (x) dN_a (the reference gradient of u) */
-static inline void deformation(const double ue[NN][D], const double dN[NN][D],
-                               const double* restrict Jinv, double* restrict F)
+static inline void deformation(const double ue[NN][D][W], const double dN[NN][D],
+                               const double* restrict Jinv, double F[D * D][W])
 {
-  double H[D][D] = {{0.0}};
+  double H[D][D][W] = {{{0.0}}};
   for (int a = 0; a < NN; ++a)
     for (int i = 0; i < D; ++i)
-      for (int k = 0; k < D; ++k) H[i][k] += ue[a][i] * dN[a][k];
+      for (int k = 0; k < D; ++k)
+        for (int l = 0; l < W; ++l) H[i][k][l] += ue[a][i][l] * dN[a][k];
   for (int i = 0; i < D; ++i)
-    for (int j = 0; j < D; ++j) {
-      double s = (i == j);
-      for (int k = 0; k < D; ++k) s += H[i][k] * Jinv[k * D + j];
-      F[i * D + j] = s;
-    }
+    for (int j = 0; j < D; ++j)
+      for (int l = 0; l < W; ++l) {
+        double s = (i == j);
+        for (int k = 0; k < D; ++k) s += H[i][k][l] * Jinv[(k * D + j) * W + l];
+        F[i * D + j][l] = s;
+      }
 }
 
 /* fe_a += Q dN_a with Q = scale P Jinv^T */
-static inline void scatter(const double* restrict P, double scale, const double dN[NN][D],
-                           const double* restrict Jinv, double fe[NN][D])
+static inline void scatter(const double P[D * D][W], const double scale[W],
+                           const double dN[NN][D], const double* restrict Jinv,
+                           double fe[NN][D][W])
 {
-  double Q[D][D];
+  double Q[D][D][W];
   for (int i = 0; i < D; ++i)
-    for (int k = 0; k < D; ++k) {
-      double s = 0.0;
-      for (int j = 0; j < D; ++j) s += P[i * D + j] * Jinv[k * D + j];
-      Q[i][k] = scale * s;
-    }
+    for (int k = 0; k < D; ++k)
+      for (int l = 0; l < W; ++l) {
+        double s = 0.0;
+        for (int j = 0; j < D; ++j) s += P[i * D + j][l] * Jinv[(k * D + j) * W + l];
+        Q[i][k][l] = scale[l] * s;
+      }
   for (int a = 0; a < NN; ++a)
-    for (int i = 0; i < D; ++i) {
-      double s = 0.0;
-      for (int k = 0; k < D; ++k) s += Q[i][k] * dN[a][k];
-      fe[a][i] += s;
+    for (int i = 0; i < D; ++i)
+      for (int l = 0; l < W; ++l) {
+        double s = 0.0;
+        for (int k = 0; k < D; ++k) s += Q[i][k][l] * dN[a][k];
+        fe[a][i][l] += s;
+      }
+}
+
+/* the stress of one lane, its matrices by value: so the lane loop below vectorises (gcc
+   does not vectorise it with the lane's arrays passed by address) */
+typedef struct { double a[D * D]; } Mat;
+static inline Mat lane_stress(Mat F, double J, Mat R, double mu, double lmbda)
+{
+  Mat P;
+  stress(F.a, J, ROTATED ? R.a : NULL, mu, lmbda, P.a);
+  return P;
+}
+
+/* P = stress(F) lane by lane, J = det F, R the lanes' rotations (rotated models) */
+static inline void stresses(const double F[D * D][W], const double J[W],
+                            const double R[D * D][W], double mu, double lmbda,
+                            double P[D * D][W])
+{
+#pragma omp simd
+  for (int l = 0; l < W; ++l) {
+    Mat Fl, Rl;
+    for (int k = 0; k < D * D; ++k) {
+      Fl.a[k] = F[k][l];
+      Rl.a[k] = ROTATED ? R[k][l] : 0.0;
     }
+    const Mat Pl = lane_stress(Fl, J[l], Rl, mu, lmbda);
+    for (int k = 0; k < D * D; ++k) P[k][l] = Pl.a[k];
+  }
 }
 
 #if ROTATED
-/* R of F = R U by X <- (g X + X^-T / g) / 2, g = det(X)^(-1/D), from X = F, until no entry
+/* R of F = R U by X <- (g X + X^-T / g) / 2, g = det(X)^(-1/d), from X = F, until no entry
    changes by more than POLAR_STOP (solvers/elastic.py _polar_newton); 0 if it fails */
 static int polar(const double* restrict F, double* restrict R)
 {
@@ -128,7 +184,11 @@ static int polar(const double* restrict F, double* restrict R)
   double det = determinant(X);
   if (!(det > 0.0) || !isfinite(det)) return 0;
   for (int it = 0; it < POLAR_MAX; ++it) {
-    double scale = pow(det, -1.0 / D);
+#if D == 2
+    double scale = 1.0 / sqrt(det); /* det^(-1/D), as pow would give it, to round-off */
+#else
+    double scale = inv_cbrt(det);
+#endif
     const double work = 0.5 / (scale * det);
     scale *= 0.5;
     double change = 0.0;
@@ -150,77 +210,107 @@ static int polar(const double* restrict F, double* restrict R)
 }
 #endif
 
-/* f += f_int of the cells (cells[0..n-1], or 0..n-1 if cells is NULL); returns the number
-   of cells whose R failed (rotated models: their index in failed[], F at their centre in
-   R[cell], and no force), and sets *min_det (and *nonfinite if some det F is not finite).
-   With given_R, R[cell] is taken as it is. */
-int32_t forces(int32_t n, const int32_t* restrict cells, const int32_t* restrict dofs,
-               const double* restrict geo, const double* restrict centre,
-               const double* restrict u, double* restrict f, double mu, double lmbda,
-               double* restrict R, int32_t given_R, int32_t* restrict failed,
-               double* restrict min_det, int32_t* restrict nonfinite)
+/* f += f_int of n cells in batches of W (dofs [batch][a][lane], geo [batch][q][k][lane],
+   centre and R [batch][k][lane]; the last batch padded with copies of real cells, which are
+   not scattered). Rotated models: R of each cell by polar() unless given_R; a cell where it
+   fails gets F at its centre in R, its index in failed[] and no force; returns how many.
+   *min_det: the smallest det F; *nonfinite: whether some det F is not finite. */
+int32_t forces(int32_t n, const int32_t* restrict dofs, const double* restrict geo,
+               const double* restrict centre, const double* restrict u, double* restrict f,
+               double mu, double lmbda, double* restrict R, int32_t given_R,
+               int32_t* restrict failed, double* restrict min_det, int32_t* restrict nonfinite)
 {
   int32_t nfailed = 0, bad = 0;
   double smallest = INFINITY;
-  for (int32_t m = 0; m < n; ++m) {
-    const int32_t c = cells ? cells[m] : m;
-    const int32_t* restrict cd = dofs + (int64_t)c * NN;
-    const double* restrict g = geo + (int64_t)c * NQ * GS;
-    double ue[NN][D], fe[NN][D];
+  const int32_t nb = (n + W - 1) / W;
+  for (int32_t m = 0; m < nb; ++m) {
+    const int32_t* restrict cd = dofs + (int64_t)m * NN * W;
+    const double* restrict g = geo + (int64_t)m * NQ * GS * W;
+    double ue[NN][D][W], fe[NN][D][W];
+    int skip[W];
+    for (int l = 0; l < W; ++l) skip[l] = (int64_t)m * W + l >= n;
     for (int a = 0; a < NN; ++a)
-      for (int i = 0; i < D; ++i) {
-        ue[a][i] = u[(int64_t)cd[a] * D + i];
-        fe[a][i] = 0.0;
-      }
-    const double* Rc = NULL;
+      for (int i = 0; i < D; ++i)
+        for (int l = 0; l < W; ++l) {
+          ue[a][i][l] = u[(int64_t)cd[a * W + l] * D + i];
+          fe[a][i][l] = 0.0;
+        }
 #if ROTATED
-    double* Rcell = R + (int64_t)c * D * D;
+    double(*Rb)[W] = (double(*)[W])(R + (int64_t)m * D * D * W);
     if (!given_R) {
-      double Fc[D * D];
-      deformation(ue, DNC, centre + (int64_t)c * D * D, Fc);
-      if (!polar(Fc, Rcell)) {
-        for (int k = 0; k < D * D; ++k) Rcell[k] = Fc[k];
-        failed[nfailed++] = c;
-        continue;
+      double Fc[D * D][W];
+      deformation(ue, DNC, centre + (int64_t)m * D * D * W, Fc);
+      for (int l = 0; l < W; ++l) {
+        double Fl[D * D], Rl[D * D];
+        for (int k = 0; k < D * D; ++k) Fl[k] = Fc[k][l];
+        const int ok = polar(Fl, Rl);
+        for (int k = 0; k < D * D; ++k) Rb[k][l] = ok ? Rl[k] : Fl[k];
+        if (!ok && !skip[l]) {
+          failed[nfailed++] = m * W + l;
+          skip[l] = 1;
+        }
       }
     }
-    Rc = Rcell;
+    const double(*Rc)[W] = (const double(*)[W])Rb;
+#else
+    const double(*Rc)[W] = NULL;
 #endif
-    double F[NQ][D * D], J[NQ];
+    double F[NQ][D * D][W], J[NQ][W];
     for (int q = 0; q < NQ; ++q) {
-      deformation(ue, DN[q], g + q * GS, F[q]);
-      J[q] = determinant(F[q]);
-      if (!isfinite(J[q])) bad = 1;
-      else if (J[q] < smallest) smallest = J[q];
+      deformation(ue, DN[q], g + q * GS * W, F[q]);
+      for (int l = 0; l < W; ++l) {
+        double Fl[D * D];
+        for (int k = 0; k < D * D; ++k) Fl[k] = F[q][k][l];
+        const double j = determinant(Fl);
+        J[q][l] = j;
+        bad |= !(j - j == 0.0); /* NaN or infinite */
+        smallest = j < smallest ? j : smallest;
+      }
     }
 #if FBAR
-    double volume = 0.0, integral = 0.0;
-    for (int q = 0; q < NQ; ++q) {
-      volume += g[q * GS + D * D];
-      integral += g[q * GS + D * D] * J[q];
+    double Jbar[W];
+    for (int l = 0; l < W; ++l) {
+      double volume = 0.0, integral = 0.0;
+      for (int q = 0; q < NQ; ++q) {
+        volume += g[(q * GS + D * D) * W + l];
+        integral += g[(q * GS + D * D) * W + l] * J[q][l];
+      }
+      Jbar[l] = integral / volume;
     }
-    const double Jbar = integral / volume;
 #endif
     for (int q = 0; q < NQ; ++q) {
-      double P[D * D];
+      double P[D * D][W], scale[W];
+      const double* restrict wdetJ = g + (q * GS + D * D) * W;
 #if FBAR
-      const double ratio = Jbar / J[q];
+      double Fb[D * D][W], s[W];
+      for (int l = 0; l < W; ++l) {
 #if D == 2
-      const double s = sqrt(ratio);
+        s[l] = sqrt(Jbar[l] / J[q][l]);
 #else
-      const double s = cbrt(ratio);
+        s[l] = inv_cbrt(J[q][l] / Jbar[l]);
 #endif
-      double Fb[D * D];
-      for (int k = 0; k < D * D; ++k) Fb[k] = s * F[q][k];
-      stress(Fb, determinant(Fb), Rc, mu, lmbda, P);
-      scatter(P, s * g[q * GS + D * D], DN[q], g + q * GS, fe);
+        scale[l] = s[l] * wdetJ[l];
+      }
+      double Jb[W];
+      for (int k = 0; k < D * D; ++k)
+        for (int l = 0; l < W; ++l) Fb[k][l] = s[l] * F[q][k][l];
+      for (int l = 0; l < W; ++l) {
+        double Fl[D * D];
+        for (int k = 0; k < D * D; ++k) Fl[k] = Fb[k][l];
+        Jb[l] = determinant(Fl);
+      }
+      stresses((const double(*)[W])Fb, Jb, Rc, mu, lmbda, P);
 #else
-      stress(F[q], J[q], Rc, mu, lmbda, P);
-      scatter(P, g[q * GS + D * D], DN[q], g + q * GS, fe);
+      for (int l = 0; l < W; ++l) scale[l] = wdetJ[l];
+      stresses((const double(*)[W])F[q], J[q], Rc, mu, lmbda, P);
 #endif
+      scatter((const double(*)[W])P, scale, DN[q], g + q * GS * W, fe);
     }
-    for (int a = 0; a < NN; ++a)
-      for (int i = 0; i < D; ++i) f[(int64_t)cd[a] * D + i] += fe[a][i];
+    for (int l = 0; l < W; ++l) {
+      if (skip[l]) continue;
+      for (int a = 0; a < NN; ++a)
+        for (int i = 0; i < D; ++i) f[(int64_t)cd[a * W + l] * D + i] += fe[a][i][l];
+    }
   }
   *min_det = smallest;
   *nonfinite = bad;
@@ -241,9 +331,8 @@ void explicit_update(int64_t n, const double* restrict f, const double* restrict
 """
 
 DECLARATIONS = """
-int32_t forces(int32_t, const int32_t*, const int32_t*, const double*, const double*,
-               const double*, double*, double, double, double*, int32_t, int32_t*, double*,
-               int32_t*);
+int32_t forces(int32_t, const int32_t*, const double*, const double*, const double*, double*,
+               double, double, double*, int32_t, int32_t*, double*, int32_t*);
 void explicit_update(int64_t, const double*, const double*, const double*, const double*,
                      double*, double*, double);
 """
@@ -279,7 +368,7 @@ def source(model: Model, cell: str, gdim: int, fbar: bool) -> str:
     dNc = element.tabulate(1, centre)[1 : 1 + tdim, 0, :, 0].T  # (a, k)
     nq, nn = dN.shape[:2]
     head = (
-        f"#define D {gdim}\n#define NN {nn}\n#define NQ {nq}\n"
+        f"#define W {LANES}\n#define D {gdim}\n#define NN {nn}\n#define NQ {nq}\n"
         f"#define ROTATED {int(model.rotated)}\n#define FBAR {int(fbar)}\n"
         f"#define POLAR_STOP {elastic.POLAR_STOP!r}\n"
         f"#define POLAR_MAX {elastic.POLAR_MAX_ITERATIONS}\n"
@@ -288,13 +377,33 @@ def source(model: Model, cell: str, gdim: int, fbar: bool) -> str:
     return head + PREAMBLE.replace("STRESS_BODY", model.c_stress) + tables + KERNEL
 
 
+def batched(x: np.ndarray) -> np.ndarray:
+    """Per-cell data x (shape (n, ...)) in the loop's layout (nb, ..., LANES): LANES cells side
+    by side, the last batch padded with copies of the first cell (at least one batch)."""
+    n = len(x)
+    nb = max(1, -(-n // LANES))
+    padded = np.zeros((nb * LANES,) + x.shape[1:], dtype=x.dtype)
+    padded[:n] = x
+    if n:
+        padded[n:] = x[0]
+    return np.ascontiguousarray(np.moveaxis(padded.reshape((nb, LANES) + x.shape[1:]), 1, -1))
+
+
+def unbatched(x: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """The data of `cells` (shape (len(cells), ...)) from a batched array."""
+    return x[cells // LANES, ..., cells % LANES]  # advanced indices first: (cells, ...)
+
+
 class CompiledForces:
     """f_int(u) and the smallest det F of `model` on the vector P1/Q1 space V (block size gdim),
     Lamé constants mu and lmbda (Pa), by the compiled element loop; F-bar if `fbar`.
 
     `evaluate(u)` takes the owned dof values of u (m) and returns f_int (N) on the owned dofs
     (a view of an internal array, valid until the next call); `min_det` is then the smallest
-    det F at a quadrature point of this rank's cells (-inf if one is not finite)."""
+    det F at a quadrature point of this rank's cells (-inf if one is not finite).
+
+    Memory: per owned cell, (D^2 + 1) doubles per quadrature point (640 bytes on a Q1
+    hexahedron, 160 on a quadrilateral), its dofs, and for a rotated model 2 D^2 doubles."""
 
     def __init__(self, V: fem.FunctionSpace, model: Model, mu: float, lmbda: float, fbar: bool):
         import dolfinx.la
@@ -311,7 +420,7 @@ class CompiledForces:
         tdim = mesh.topology.dim
         n_cells = mesh.topology.index_map(tdim).size_local
         self.n_cells = n_cells
-        self.dofs = np.ascontiguousarray(V.dofmap.list[:n_cells], dtype=np.int32)
+        dofs = V.dofmap.list[:n_cells].astype(np.int32)
         # the geometry of each owned cell: its nodes in the same local order as V's dofs
         # (both P1/Q1 on the same reference cell)
         x = mesh.geometry.x[:, :gdim]
@@ -320,41 +429,60 @@ class CompiledForces:
         points, weights = basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
         element = basix.create_element(basix.ElementFamily.P, cell_type, 1)
         nq = len(weights)
-        self.geo = np.empty((n_cells, nq, gdim * gdim + 1))
+        geo = np.empty((n_cells, nq, gdim * gdim + 1))
         for q in range(nq):
             dN = element.tabulate(1, points[q : q + 1])[1 : 1 + tdim, 0, :, 0]  # (k, a)
             Je = np.einsum("cai,ka->cik", nodes, dN)  # dx_i / dxi_k
-            self.geo[:, q, : gdim * gdim] = np.linalg.inv(Je).reshape(n_cells, -1)
-            self.geo[:, q, -1] = weights[q] * np.abs(np.linalg.det(Je))
-        self.centre = np.zeros((n_cells, gdim, gdim))
-        self.R = np.zeros((n_cells if model.rotated else 1, gdim, gdim))
+            geo[:, q, : gdim * gdim] = np.linalg.inv(Je).reshape(n_cells, -1)
+            geo[:, q, -1] = weights[q] * np.abs(np.linalg.det(Je))
+        self.dofs, self.geo = batched(dofs), batched(geo)
+        del geo
+        self.centre = self.R = np.zeros((1, gdim * gdim, LANES))
         if model.rotated:
             centre = basix.geometry(cell_type).mean(axis=0)[None, :]
             dN = element.tabulate(1, centre)[1 : 1 + tdim, 0, :, 0]
-            self.centre = np.linalg.inv(np.einsum("cai,ka->cik", nodes, dN))
+            inverse = np.linalg.inv(np.einsum("cai,ka->cik", nodes, dN))
+            self.centre = batched(inverse.reshape(n_cells, -1))
+            self.R = np.zeros_like(self.centre)
         self._failed = np.zeros(max(n_cells, 1), dtype=np.int32)
         self._u = dolfinx.la.vector(V.dofmap.index_map, gdim)
         self._f = dolfinx.la.vector(V.dofmap.index_map, gdim)
         self.n_owned = V.dofmap.index_map.size_local * gdim
         self.module = compile_module(
-            "_tissuebench_forces", source(model, cell, gdim, fbar), DECLARATIONS, mesh.comm
+            "_tissuebench_forces",
+            source(model, cell, gdim, fbar),
+            DECLARATIONS,
+            mesh.comm,
+            SIMD_FLAGS,
         )
         ffi = self.module.ffi
         self._min, self._bad = ffi.new("double*"), ffi.new("int32_t*")
-        self._fp = ffi.from_buffer("double[]", self._f.array)
-        self._args = (
-            ffi.from_buffer("int32_t[]", self.dofs),
-            ffi.from_buffer("double[]", self.geo),
-            ffi.from_buffer("double[]", self.centre),
-            ffi.from_buffer("double[]", self._u.array),
-            self._fp,
-            self.mu,
-            self.lmbda,
-            ffi.from_buffer("double[]", self.R),
-        )
+        self._arrays = (ffi.from_buffer("double[]", self._u.array), self._f.array)
         self.min_det = np.inf
         self.u = self._u.array  # the last evaluation's u, owned and ghost dofs (m)
         self.fallbacks = 0  # evaluations in which some cell's R came from the Python path
+
+    def _forces(
+        self, n: int, dofs: np.ndarray, geo: np.ndarray, R: np.ndarray, given_R: bool
+    ) -> tuple[int, float]:
+        """The loop over n cells of batched data: (cells whose R failed, smallest det F)."""
+        ffi, lib = self.module.ffi, self.module.lib
+        n_failed = lib.forces(
+            n,
+            ffi.from_buffer("int32_t[]", dofs),
+            ffi.from_buffer("double[]", geo),
+            ffi.from_buffer("double[]", self.centre),
+            self._arrays[0],
+            ffi.from_buffer("double[]", self._f.array),
+            self.mu,
+            self.lmbda,
+            ffi.from_buffer("double[]", R),
+            int(given_R),
+            ffi.from_buffer("int32_t[]", self._failed),
+            self._min,
+            self._bad,
+        )
+        return n_failed, (-np.inf if self._bad[0] else self._min[0])
 
     def evaluate(self, u: np.ndarray) -> np.ndarray:
         """f_int(u) (N) on the owned dofs for the owned dof values u (m): a view of an internal
@@ -364,27 +492,20 @@ class CompiledForces:
         self._u.array[: self.n_owned] = u
         self._u.scatter_forward()
         self._f.array[:] = 0.0
-        lib, ffi = self.module.lib, self.module.ffi
-        failed = ffi.from_buffer("int32_t[]", self._failed)
-        n_failed = lib.forces(
-            self.n_cells, ffi.NULL, *self._args, 0, failed, self._min, self._bad
-        )
-        smallest = -np.inf if self._bad[0] else self._min[0]
+        n_failed, self.min_det = self._forces(self.n_cells, self.dofs, self.geo, self.R, False)
         if n_failed:  # R by the Python path (the SVD where Newton fails) for those cells
             self.fallbacks += 1
             cells = self._failed[:n_failed].copy()
-            self.R[cells] = elastic.rotations(self.R[cells])
-            lib.forces(
+            d = self.gdim
+            F = unbatched(self.R, cells).reshape(-1, d, d)
+            R = elastic.rotations(F).reshape(n_failed, d * d)
+            self._forces(
                 n_failed,
-                ffi.from_buffer("int32_t[]", cells),
-                *self._args,
-                1,
-                failed,
-                self._min,
-                self._bad,
+                batched(unbatched(self.dofs, cells)),
+                batched(unbatched(self.geo, cells)),
+                batched(R),
+                True,
             )
-            smallest = -np.inf if self._bad[0] else min(smallest, self._min[0])
-        self.min_det = smallest
         self._f.scatter_reverse(InsertMode.add)
         return self._f.array[: self.n_owned]
 

@@ -355,7 +355,8 @@ def integrator(
         return QuasiStaticModel(system, h, model, prefix, solver)
     if scheme.explicit:
         cell = system.mesh.topology.cell_name()
-        if scheme.lumped and not scheme.stiffness_damping and compiled_forces.available(model, cell):
+        fused = scheme.lumped and not scheme.stiffness_damping
+        if fused and compiled_forces.available(model, cell):
             return ExplicitLumpedModel(system, h, scheme, model, prefix, solver)
         return ExplicitModel(system, h, scheme, model, prefix, solver)
     return NewtonModel(system, h, scheme, model, prefix, solver)

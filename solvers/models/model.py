@@ -24,9 +24,10 @@ class Model:
     `void stress(const double* F, double J, const double* R, double mu, double lmbda,
     double* P)` with F, R and P row-major D x D (D = gdim, a macro), J = det F, R the cell's
     rotation (NULL unless `rotated`), mu and lmbda in Pa, P in Pa; `cofactor(F, C)` (C = cof F
-    = J F^-T) is at hand. The explicit schemes assemble f_int with it in a compiled element
-    loop (solvers/compiled_forces.py); a model without it takes the UFL form there too. It
-    must agree with `first_piola` (tests/test_compiled_forces.py)."""
+    = J F^-T) and `inv_cbrt(x)` (x^(-1/3)) are at hand, and libm, though a libm call keeps the
+    loop over a batch of cells from vectorising. The explicit schemes assemble f_int with it
+    in a compiled element loop (solvers/compiled_forces.py); a model without it takes the UFL
+    form there too. It must agree with `first_piola` (tests/test_compiled_forces.py)."""
 
     name: str
     first_piola: Callable[..., ufl.core.expr.Expr]
