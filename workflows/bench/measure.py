@@ -73,12 +73,20 @@ OURS_CASES = [
     ("explicit", "direct"),
     ("quasi-static", "direct"),
 ]
-# SPEC 8: the explicit-lumped step with a nonlinear model, run in the sweep beside the linear
-# one (same worker, same h: the linear scheme's); the first has a real-time target
+# SPEC 8 and 11: the explicit-lumped step with a nonlinear model or a remedy, run in the sweep
+# beside the linear one (same worker, same h: the linear scheme's on the plain Q1 mesh); the
+# first has a real-time target. A label's "@SCHEME" names a SPEC 11 scheme (case_scheme):
+# mean-dilatation with a nonlinear model is F-bar; alone, the linear B-bar stiffness.
 MODEL_CASES = [
     ("explicit-lumped+neo-hookean", "-"),
     ("explicit-lumped+corotational", "-"),
+    ("explicit-lumped+svk", "-"),
+    ("explicit-lumped+neo-hookean-barrier", "-"),
+    ("explicit-lumped+neo-hookean@mean-dilatation", "-"),
+    ("explicit-lumped@mean-dilatation", "-"),
 ]
+# `tissuebench bench --only explicit-models`: these cases alone, 1 rank (measure_explicit)
+EXPLICIT_CASES = [("explicit-lumped", "-"), *MODEL_CASES]
 MAIN_CASES = {
     ("explicit-lumped", "-"),
     ("implicit", "direct"),
@@ -118,9 +126,15 @@ def key(case: tuple) -> str:
 def split_case_label(label: str) -> tuple[str, str]:
     """(algorithm, model) of a case's first entry, 'explicit-lumped+neo-hookean' or
     'implicit' (the linear model): the run label of SPEC 8 (solvers/models.split_label,
-    without importing the solvers)."""
-    algorithm, _, model = label.partition("+")
+    without importing the solvers), any '@SCHEME' left out (case_scheme)."""
+    algorithm, _, model = label.partition("@")[0].partition("+")
     return algorithm, model or "linear"
+
+
+def case_scheme(label: str) -> str:
+    """The SPEC 11 scheme of a case's label ('mean-dilatation' of
+    'explicit-lumped+neo-hookean@mean-dilatation'), 'standard' without '@'."""
+    return label.partition("@")[2] or "standard"
 
 
 def get(rec: dict, side: str, case: tuple, field: str) -> object:
@@ -268,10 +282,17 @@ def ours_worker(spec: dict) -> dict:
             beta=system.material.beta,
         )
 
+    systems = {"standard": system}  # a case with '@SCHEME' runs on that scheme's system
     displacements = {}
     for label, solver, steps in spec["cases"]:
         algorithm, model = split_case_label(label)
         newton = model != "linear" and algorithm not in EXPLICIT
+        scheme = case_scheme(label)
+        if scheme not in systems:
+            comm.Barrier()
+            start = time.perf_counter()
+            systems[scheme] = System(bench, scheme=scheme)
+            out.setdefault("assembly_s", {})[f"system {scheme}"] = time.perf_counter() - start
         record = {"h": h[label], "steps": steps}
         times, iterations = [], []
         gc.collect()
@@ -281,7 +302,7 @@ def ours_worker(spec: dict) -> dict:
             start = time.perf_counter()
             integrator = get_integrator(
                 algorithm,
-                system,
+                systems[scheme],
                 h[label],
                 solver="direct" if solver == "-" else solver,
                 model=model,
@@ -305,7 +326,7 @@ def ours_worker(spec: dict) -> dict:
             record["steps_s"] = times
             finite = bool(np.isfinite(state.u.array_r).all())
             record["finite"] = bool(comm.allreduce(finite, op=MPI.LAND))
-            gathered = gather_by_coordinates(system.V, state.u.array_r, comm)
+            gathered = gather_by_coordinates(systems[scheme].V, state.u.array_r, comm)
             if comm.rank == 0:
                 displacements[key((label, solver))] = gathered[1]
                 displacements["x"] = gathered[0][:, : system.gdim]
@@ -316,6 +337,9 @@ def ours_worker(spec: dict) -> dict:
             if "setup_s" in record:  # the step that failed
                 record["steps_done"] = len(times)
                 record["diverged_t"] = (len(times) + 1) * h[label]
+                if len(times) >= WARMUP[STEPS] + 5:  # the cost of the steps before it
+                    record["step_s"] = median_step(times)
+                    record["steps_s"] = times
         if iterations:
             record["iterations"] = float(np.mean(iterations))
         if newton:  # Newton iterations of each step that converged
@@ -524,6 +548,58 @@ def compare_displacements(
     }
 
 
+def sweep_sizes(mode: str) -> list[tuple[str, int, int]]:
+    """(benchmark, size, dofs) of the sweep: the rod at ROD_SIZES, then the block at the sizes
+    whose dofs come closest to the rod's."""
+    sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
+    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
+    return sizes
+
+
+def measure_explicit(mode: str, out: Path, log: Callable[[str], None]) -> list[dict]:
+    """`tissuebench bench --only explicit-models`: the sweep's sizes with EXPLICIT_CASES only
+    (the linear explicit-lumped step and the same step with each model or remedy, one 1-rank
+    worker per size, STEPS steps each, no budget), the records as measure's with "ours1"
+    only. Writes a partial DIR/performance-explicit.json after each size."""
+    tmp = make_temporary(out / f"{PREFIX}bench-explicit-tmp")
+    timeout = 2 * sum(BUDGET[mode].values()) + 300
+    records = []
+    for benchmark, size, dofs in sweep_sizes(mode):
+        tag = f"{benchmark}-{size}"
+        start = time.perf_counter()
+        spec = {
+            "benchmark": benchmark,
+            "size": size,
+            "cases": [(*c, STEPS) for c in EXPLICIT_CASES],
+            "triad": False,
+        }
+        rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
+        rec["ours1"] = run_worker("ours", 1, spec, tmp, tag + "-ours1", timeout)
+        rec["wall_s"] = time.perf_counter() - start
+        records.append(rec)
+        partial = json.dumps({"mode": mode, "partial": True, "records": records})
+        write_owned(out / "performance-explicit.json", lambda tmp: tmp.write_text(partial))
+        linear = get(rec, "ours1", EXPLICIT_CASES[0], "step_s")
+        ratios = [
+            f"{c[0].removeprefix('explicit-lumped')} "
+            + (
+                f"{get(rec, 'ours1', c, 'step_s') / linear:.2f}"
+                if linear and get(rec, "ours1", c, "step_s")
+                else "-"
+            )
+            for c in MODEL_CASES
+        ]
+        error = rec["ours1"].get("error")
+        log(
+            f"{benchmark:5s} size {size:4d}  {dofs:7d} dofs  {rec['wall_s']:6.1f} s  linear "
+            + (f"{linear * 1e3:.3g} ms; /linear: " if linear else "- ; ")
+            + ", ".join(ratios)
+            + (f"  ({error})" if error else "")
+        )
+    remove_temporary(tmp)
+    return records
+
+
 def measure(
     mode: str, out: Path, log: Callable[[str], None]
 ) -> tuple[list[dict], list[dict], dict, list[dict]]:
@@ -538,9 +614,7 @@ def measure(
     all_peer_cases = peer_cases(pardiso_available())
     timeout = 2 * sum(BUDGET[mode].values()) + 300  # a worker that hangs, not one that is slow
     records = []
-    sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
-    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
-    for benchmark, size, dofs in sizes:
+    for benchmark, size, dofs in sweep_sizes(mode):
         tag = f"{benchmark}-{size}"
         rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
         start = time.perf_counter()
