@@ -424,7 +424,7 @@ class CompiledForces:
         # the geometry of each owned cell: its nodes in the same local order as V's dofs
         # (both P1/Q1 on the same reference cell)
         x = mesh.geometry.x[:, :gdim]
-        nodes = x[mesh.geometry.dofmap[:n_cells]]  # (cell, a, i)
+        nodes = x[mesh.geometry.dofmaps[0][:n_cells]]  # (cell, a, i)
         cell_type = getattr(basix.CellType, cell)
         points, weights = basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
         element = basix.create_element(basix.ElementFamily.P, cell_type, 1)

@@ -10,11 +10,14 @@ import platform
 from pathlib import Path
 
 from tissuebench.workflows.bench.measure import (
+    BLOCK,
+    BLOCK_WARM,
     BUDGET,
     CAPACITY_CASES,
     DIRECT_TOL,
     MAIN_CASES,
     MODEL_CASES,
+    ROUNDS,
     SAFETY,
     SHORT,
     STEPS,
@@ -333,10 +336,16 @@ def write_explicit_report(records: list[dict], mode: str, wall: float, out: Path
         f"`tissuebench bench --only explicit-models{' --quick' if mode == 'quick' else ''}`: "
         f"{mode} mode, {wall:.0f} s wall. Machine: {machine_description()}. One worker process "
         f"per size, 1 rank, {', '.join(THREAD_VARS)} = 1. The machine is shared: timings are "
-        "noisy, and every ratio below comes from measurements taken in one worker.",
+        "noisy, so the cases of a size run side by side in their worker "
+        "(workflows/bench/measure.py explicit_worker): every integrator is built and started, "
+        f"then in each of {ROUNDS} rounds every case takes {BLOCK} steps in a row, the last "
+        f"{BLOCK - BLOCK_WARM} timed (the first {BLOCK_WARM} bring its own data back into the "
+        "caches); a change of load during the run weighs on every case alike.",
         "",
         f"Sizes: rod n = {sizes['rod']}; block N = {sizes['block']} (the dofs closest to the "
-        f"rod's). Per step: median of steps {WARMUP[STEPS] + 1}..{STEPS} of {STEPS}.",
+        f"rod's). Per step: the median of a case's {ROUNDS * (BLOCK - BLOCK_WARM)} timed steps. "
+        "A case that diverges (an inverted element: the block's point needle at the linear "
+        "scheme's step) keeps the median of its timed steps before (see Failures).",
         "",
         "## Targets",
         "",
