@@ -251,7 +251,10 @@ int32_t forces(int32_t n, const int32_t* restrict dofs, const double* restrict g
         }
       }
     }
-    const double(*Rc)[W] = (const double(*)[W])Rb;
+    double Rloc[D * D][W]; /* a local copy: the stress loop then vectorises */
+    for (int k = 0; k < D * D; ++k)
+      for (int l = 0; l < W; ++l) Rloc[k][l] = Rb[k][l];
+    const double(*Rc)[W] = (const double(*)[W])Rloc;
 #else
     const double(*Rc)[W] = NULL;
 #endif
@@ -291,15 +294,9 @@ int32_t forces(int32_t n, const int32_t* restrict dofs, const double* restrict g
 #endif
         scale[l] = s[l] * wdetJ[l];
       }
-      double Jb[W];
       for (int k = 0; k < D * D; ++k)
         for (int l = 0; l < W; ++l) Fb[k][l] = s[l] * F[q][k][l];
-      for (int l = 0; l < W; ++l) {
-        double Fl[D * D];
-        for (int k = 0; k < D * D; ++k) Fl[k] = Fb[k][l];
-        Jb[l] = determinant(Fl);
-      }
-      stresses((const double(*)[W])Fb, Jb, Rc, mu, lmbda, P);
+      stresses((const double(*)[W])Fb, Jbar, Rc, mu, lmbda, P); /* det F_bar = J_bar */
 #else
       for (int l = 0; l < W; ++l) scale[l] = wdetJ[l];
       stresses((const double(*)[W])F[q], J[q], Rc, mu, lmbda, P);

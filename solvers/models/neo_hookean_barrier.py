@@ -33,5 +33,5 @@ MODEL = Model(
     "neo-hookean-barrier",
     first_piola,
     description="compressible neo-Hookean with the volumetric barrier (kappa/4)(J^2 - 1 - 2 ln J)",
-    c_stress=c_stress("0.5 * kappa * (J - 1.0 / J)"),  # d/dJ (kappa/4)(J^2 - 1 - 2 ln J)
+    c_stress=c_stress("0.5 * kappa * (J - Jinv)"),  # d/dJ (kappa/4)(J^2 - 1 - 2 ln J)
 )
