@@ -223,12 +223,18 @@ class ElasticForces:
         self.u.x.array[:] = self.compiled.u
         self._update_coefficients()
 
+    def compiled_internal_force(self, u: PETSc.Vec) -> np.ndarray:
+        """f_int(u) (N) on the owned dofs by the compiled loop (self.compiled): a view of its
+        array, valid until the next evaluation; min_det() is then that loop's own."""
+        f = self.compiled.evaluate(u.array_r)
+        self._min_det = self.compiled.min_det
+        self._stale = True  # self.u is the loop's u, copied only if a UFL form needs it
+        return f
+
     def internal_force(self, u: PETSc.Vec, out: PETSc.Vec) -> PETSc.Vec:
         """out = f_int(u) (N) on the owned dofs."""
         if self.compiled is not None:
-            out.array[:] = self.compiled.evaluate(u.array_r)
-            self._min_det = self.compiled.min_det
-            self._stale = True  # self.u is the loop's u, copied only if a UFL form needs it
+            out.array[:] = self.compiled_internal_force(u)
             return out
         self.set_u(u)
         b = self._b

@@ -158,10 +158,8 @@ class ExplicitLumpedModel(ExplicitModel):
         v.axpy((1 - self.gamma) * h, a)  # vtilde
         u.array[c] = uc  # ubar
         v.array[c] = vc  # vbar
-        compiled = self.forces.compiled
-        f_int = compiled.evaluate(u.array_r)
-        self.forces._min_det, self.forces._stale = compiled.min_det, True
-        compiled.explicit_update(
+        f_int = self.forces.compiled_internal_force(u)  # and the smallest det F
+        self.forces.compiled.explicit_update(
             s.f.array_r,
             f_int,
             self._inv_s.array_r,

@@ -330,23 +330,43 @@ def model_step_rows(records: list[dict]) -> Table:
     return header, rows
 
 
-def model_step_targets(records: list[dict]) -> list[list]:
+def model_cpu_rows(records: list[dict]) -> Table:
+    """As model_step_rows on 1 rank, with the CPU time of each step (the records of
+    `bench --only explicit-models`: cpu_step_s) in place of its wall time."""
+    el = ("explicit-lumped", "-")
+    rows = []
+    for rec in records:
+        lin = get(rec, "ours1", el, "cpu_step_s")
+        if lin is None:
+            continue
+        row = [rec["benchmark"], rec["size"], rec["dofs"], lin]
+        for c in MODEL_CASES:
+            step = get(rec, "ours1", c, "cpu_step_s")
+            row += [step, ratio(step, lin)]
+        rows.append(row)
+    header = ["bench", "size", "dofs", "linear cpu s"]
+    for c in MODEL_CASES:
+        header += [f"{model_name(c)} cpu s", f"{model_name(c)}/linear cpu"]
+    return header, rows
+
+
+def model_step_targets(records: list[dict], field: str = "step_s") -> list[list]:
     """Target rows: for each case of MODEL_CASES, the largest ratio of its explicit-lumped step
     to the linear one (1 rank, same worker, same h) over the sizes with >= MODEL_STEP_DOFS
-    dofs, rod and block, against MODEL_STEP_LIMIT."""
+    dofs, rod and block, against MODEL_STEP_LIMIT; of the steps' `field` (wall time, or
+    cpu_step_s)."""
     el = ("explicit-lumped", "-")
     big = [r for r in records if r["dofs"] >= MODEL_STEP_DOFS]
     rows = []
     for case in MODEL_CASES:
-        ran = [r for r in big if get(r, "ours1", case, "step_s") and get(r, "ours1", el, "step_s")]
-        values = [
-            ratio(get(r, "ours1", case, "step_s"), get(r, "ours1", el, "step_s")) for r in ran
-        ]
+        ran = [r for r in big if get(r, "ours1", case, field) and get(r, "ours1", el, field)]
+        values = [ratio(get(r, "ours1", case, field), get(r, "ours1", el, field)) for r in ran]
         values = [v for v in values if v is not None and math.isfinite(v)]
         where = f"dofs >= {MODEL_STEP_DOFS:.0e}: " + (
             ", ".join(f"{r['benchmark']} {r['size']}" for r in ran) or "none ran"
         )
-        name = f"{case[0]} step / explicit-lumped step (1 rank)"
+        cpu = " (CPU time)" if field == "cpu_step_s" else ""
+        name = f"{case[0]} step / explicit-lumped step (1 rank){cpu}"
         if not values:
             rows.append([name, where, "not measured", fmt(MODEL_STEP_LIMIT), "not measured"])
             continue
