@@ -218,3 +218,30 @@ def test_compiled_forces_serial_equal_parallel():
         a, b = np.array(a), np.array(parallel_run[key])
         assert a.shape == b.shape, key
         assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max(), key
+
+
+@pytest.mark.serial
+def test_bench_only_explicit_models_writes_its_own_files(tmp_path):
+    """`tissuebench bench --only explicit-models --quick` measures the linear explicit-lumped
+    step and every model or remedy beside it in one worker per size, and writes
+    performance-explicit.md and .json only (no performance.*)."""
+    import json
+
+    from helpers import tissuebench
+
+    from tissuebench.workflows.bench.measure import EXPLICIT_CASES, key
+
+    r = tissuebench("bench", "--only", "explicit-models", "--quick", "--out", tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert sorted(p.name for p in tmp_path.glob("performance*")) == [
+        "performance-explicit.json",
+        "performance-explicit.md",
+    ]
+    data = json.loads((tmp_path / "performance-explicit.json").read_text())
+    assert data["mode"] == "quick" and data["only"] == "explicit-models"
+    first = data["records"][0]["ours1"]["cases"]  # the smallest rod: every case runs
+    for case in EXPLICIT_CASES:
+        record = first[key(case)]
+        assert record["step_s"] > 0 and record["cpu_step_s"] > 0, case
+    report = (tmp_path / "performance-explicit.md").read_text()
+    assert report.count("step / explicit-lumped step (1 rank)") == 2 * (len(EXPLICIT_CASES) - 1)
