@@ -112,23 +112,29 @@ def _cpu_key():
         return platform.processor()
 
 
-def load(comm: MPI.Comm | None = None) -> ModuleType:
-    """The compiled kernels (a cffi module: .ffi, .lib), compiled on first use. Under MPI, rank
-    0 of `comm` compiles and the others wait."""
-    global _lib
-    if _lib is not None:
-        return _lib
+def compile_module(
+    prefix: str,
+    source: str,
+    declarations: str,
+    comm: MPI.Comm | None = None,
+    flags: list[str] | None = None,
+) -> ModuleType:
+    """A cffi module (.ffi, .lib) of C `source` with the prototypes `declarations`, compiled
+    with FLAGS (and `flags`) on first use and kept in cache_dir() under `prefix` and a hash of
+    the source, the flags and the CPU (so that an edited source or another CPU compiles anew).
+    Under MPI, rank 0 of `comm` compiles and the others wait."""
     import cffi
 
-    digest = hashlib.sha256((SOURCE + " ".join(FLAGS) + _cpu_key()).encode()).hexdigest()[:16]
-    name = f"_tissuebench_kernels_{digest}"
+    flags = FLAGS + (flags or [])
+    key = source + declarations + " ".join(flags) + _cpu_key()
+    name = f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:16]}"
     folder = cache_dir()
     found = sorted(folder.glob(name + ".*so")) if folder.exists() else []
     if not found and (comm is None or comm.rank == 0):
         folder.mkdir(parents=True, exist_ok=True)
         ffi = cffi.FFI()
-        ffi.cdef(_declarations())
-        ffi.set_source(name, SOURCE, extra_compile_args=FLAGS)
+        ffi.cdef(declarations)
+        ffi.set_source(name, source, extra_compile_args=flags)
         with tempfile.TemporaryDirectory(dir=folder) as tmp:
             built = Path(ffi.compile(tmpdir=tmp))
             os.replace(built, folder / built.name)  # atomic: other processes see all or nothing
@@ -138,8 +144,16 @@ def load(comm: MPI.Comm | None = None) -> ModuleType:
     spec = importlib.util.spec_from_file_location(name, found[0])
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    _lib = module
     return module
+
+
+def load(comm: MPI.Comm | None = None) -> ModuleType:
+    """The compiled kernels (a cffi module: .ffi, .lib), compiled on first use. Under MPI, rank
+    0 of `comm` compiles and the others wait."""
+    global _lib
+    if _lib is None:
+        _lib = compile_module("_tissuebench_kernels", SOURCE, _declarations(), comm)
+    return _lib
 
 
 class BlockCSR:

@@ -106,9 +106,14 @@ class ElasticForces:
 
     The Lamé constants are the system's (plane strain in 2D: SPEC 8 refuses plane stress for
     a nonlinear model). For a rotated model (corotational), R is updated from u at the cell
-    centres before every evaluation."""
+    centres before every evaluation.
 
-    def __init__(self, system: System, model: Model):
+    With `compiled` (the explicit schemes), f_int and the smallest det F come from one
+    compiled element loop (solvers/compiled_forces.py) where the model has a C stress and
+    the cells are P1/Q1; `self.compiled` is then that loop (None otherwise: the UFL form). The
+    tangent is always the UFL form's."""
+
+    def __init__(self, system: System, model: Model, compiled: bool = False):
         self.system, self.model = system, model
         mesh, V, gdim = system.mesh, system.V, system.gdim
         self.u = fem.Function(V, name="displacement")
@@ -127,7 +132,17 @@ class ElasticForces:
             self._R_dofs = T.dofmap.list[self._cells, 0]
         dx = ufl.dx(metadata={"quadrature_degree": QUADRATURE_DEGREE})
         self.Jbar = None
-        if getattr(system, "scheme", "standard").partition(":")[0] == "mean-dilatation":
+        fbar = getattr(system, "scheme", "standard").partition(":")[0] == "mean-dilatation"
+        self.compiled = None
+        from tissuebench.solvers import compiled_forces
+
+        if compiled and compiled_forces.available(model, mesh.topology.cell_name()):
+            self.compiled = compiled_forces.CompiledForces(
+                V, model, float(system.mu.value), float(system.lmbda.value), fbar
+            )
+        self._stale = False  # R and J_bar (UFL coefficients) lag behind self.u
+        self._min_det = None  # the compiled loop's smallest det F (this rank) at self.u
+        if fbar:
             P = self._f_bar(F, model, dx)
         else:
             P = model.first_piola(F, system.mu, system.lmbda, self.R)
@@ -180,6 +195,12 @@ class ElasticForces:
         n = u.getLocalSize()
         self.u.x.array[:n] = u.array_r
         self.u.x.scatter_forward()
+        self._min_det = None
+        self._update_coefficients()
+
+    def _update_coefficients(self) -> None:
+        """R and J_bar from self.u (where the model and scheme have them)."""
+        self._stale = False
         if self.R is not None:
             self._update_rotation()
         if self.Jbar is not None:
@@ -197,8 +218,24 @@ class ElasticForces:
         values = self.R.x.array.reshape(-1, bs)
         values[self._R_dofs] = R.reshape(-1, bs)
 
+    def _take_compiled_u(self) -> None:
+        """self.u, R and J_bar at the u of the last compiled internal_force (ghosts included)."""
+        self.u.x.array[:] = self.compiled.u
+        self._update_coefficients()
+
+    def compiled_internal_force(self, u: PETSc.Vec) -> np.ndarray:
+        """f_int(u) (N) on the owned dofs by the compiled loop (self.compiled): a view of its
+        array, valid until the next evaluation; min_det() is then that loop's own."""
+        f = self.compiled.evaluate(u.array_r)
+        self._min_det = self.compiled.min_det
+        self._stale = True  # self.u is the loop's u, copied only if a UFL form needs it
+        return f
+
     def internal_force(self, u: PETSc.Vec, out: PETSc.Vec) -> PETSc.Vec:
         """out = f_int(u) (N) on the owned dofs."""
+        if self.compiled is not None:
+            out.array[:] = self.compiled_internal_force(u)
+            return out
         self.set_u(u)
         b = self._b
         with b.localForm() as local:
@@ -217,6 +254,8 @@ class ElasticForces:
         matrix, which it returns."""
         self.c_T.value, self.c_K.value = c_T, c_K
         self.c_M.value = 0.0 if lumped is not None else c_M
+        if self._stale:
+            self._take_compiled_u()
         if self._J is None:
             self._J = dolfinx.fem.petsc.create_matrix(self.j_form)
         J = self._J
@@ -233,9 +272,14 @@ class ElasticForces:
         return J
 
     def min_det(self, u: PETSc.Vec | None = None) -> float:
-        """The smallest J = det F at a quadrature point over all ranks (after set_u(u))."""
+        """The smallest J = det F at a quadrature point over all ranks (after set_u(u)); at the
+        u of the last internal_force, that loop's own (compiled: no extra pass)."""
         if u is not None:
             self.set_u(u)
+        if self._min_det is not None:
+            return self.system.comm.allreduce(self._min_det, op=MPI.MIN)
+        if self._stale:
+            self._take_compiled_u()
         det = self._det.eval(self.system.mesh, self._owned)
         local = float(det.min()) if det.size else np.inf
         if not np.isfinite(det).all():

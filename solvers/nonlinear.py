@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
+from tissuebench.solvers import compiled_forces
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
 from tissuebench.solvers.linear import SolveError, petsc_defaults, petsc_message
@@ -106,14 +107,70 @@ class ModelForces:
 class ExplicitModel(ModelForces, Newmark):
     """An explicit scheme with a model: f_int(ubar) once per step, ubar being u_{i+1}
     (beta_N = 0), so that the forces' last u is the new step's, which is checked for
-    inverted elements."""
+    inverted elements. f_int and the smallest det F come from the compiled element loop
+    (solvers/compiled_forces.py) where the model has one, unless `compiled` is False (the UFL
+    form, as the implicit schemes assemble it)."""
 
-    def __init__(self, system, h, scheme: Algorithm, model: Model, prefix, solver="direct"):
-        self.forces = ElasticForces(system, model)
+    def __init__(
+        self,
+        system,
+        h,
+        scheme: Algorithm,
+        model: Model,
+        prefix,
+        solver="direct",
+        compiled: bool = True,
+    ):
+        self.forces = ElasticForces(system, model, compiled=compiled)
         super().__init__(system, h, scheme, prefix, solver)
 
     def step(self, state: State) -> State:
         state = super().step(state)
+        self.check_inversion(state.t)
+        return state
+
+
+class ExplicitLumpedModel(ExplicitModel):
+    """`explicit-lumped` with a model whose f_int is compiled: the Newmark step of
+    ExplicitModel as the linear scheme's (solvers/explicit_lumped.py) with f_int(ubar) in place
+    of K ubar: pointwise predictors, one compiled element loop (f_int and the smallest det F),
+    then one compiled pass a = (f - f_int - alpha M_L vbar) / S, v += gamma h a (0 on the
+    constrained dofs, which then take their prescribed a and v). The same arithmetic as
+    ExplicitModel's step up to round-off (tests/test_compiled_forces.py)."""
+
+    def __init__(self, system, h, scheme: Algorithm, model: Model, prefix, solver="direct"):
+        super().__init__(system, h, scheme, model, prefix, solver, compiled=True)
+        if self.forces.compiled is None or not scheme.lumped or self.beta:
+            raise ValueError("ExplicitLumpedModel needs M_L, no beta K_0 and a compiled f_int")
+        self._alpha_ml = system.ML.copy()
+        self._alpha_ml.scale(self.alpha)
+        self._inv_s = system.ML.copy()  # 1 / ((1 + gamma h alpha) M_L), 0 on constrained dofs
+        self._inv_s.scale(1 + self.gamma * h * self.alpha)
+        self._inv_s.reciprocal()
+        self._inv_s.array[system.constrained] = 0.0
+
+    def step(self, state: State) -> State:
+        s, h, c = self.system, self.h, self.system.constrained
+        i = state.i + 1
+        u, v, a = state.u, state.v, state.a
+        uc, vc, ac = s.prescribed(i * h)
+        u.maxpy([h, h * h / 2], [v, a])  # utilde
+        v.axpy((1 - self.gamma) * h, a)  # vtilde
+        u.array[c] = uc  # ubar
+        v.array[c] = vc  # vbar
+        f_int = self.forces.compiled_internal_force(u)  # and the smallest det F
+        self.forces.compiled.explicit_update(
+            s.f.array_r,
+            f_int,
+            self._inv_s.array_r,
+            self._alpha_ml.array_r,
+            v.array,
+            a.array,
+            self.gamma * h,
+        )
+        a.array[c] = ac
+        v.array[c] = vc
+        state.i, state.t = i, i * h
         self.check_inversion(state.t)
         return state
 
@@ -295,5 +352,9 @@ def integrator(
     if not scheme.newmark:
         return QuasiStaticModel(system, h, model, prefix, solver)
     if scheme.explicit:
+        cell = system.mesh.topology.cell_name()
+        fused = scheme.lumped and not scheme.stiffness_damping
+        if fused and compiled_forces.available(model, cell):
+            return ExplicitLumpedModel(system, h, scheme, model, prefix, solver)
         return ExplicitModel(system, h, scheme, model, prefix, solver)
     return NewtonModel(system, h, scheme, model, prefix, solver)

@@ -1,8 +1,9 @@
 """The elastic models of SPEC section 8, the second axis beside the algorithms.
 
 A model is one file here with a `MODEL` entry (solvers/models/model.py: its first Piola
-stress P(F) as a UFL expression), registered below. Every algorithm runs with every model;
-`linear` keeps the assembled K of sections 1-7.
+stress P(F) as a UFL expression, and the same P(F) as a C snippet for the explicit schemes'
+compiled element loop, solvers/compiled_forces.py), registered below. Every algorithm runs
+with every model; `linear` keeps the assembled K of sections 1-7.
 """
 
 from tissuebench.solvers.models import corotational, linear, neo_hookean, neo_hookean_barrier, svk

@@ -29,4 +29,25 @@ def first_piola(F: Expr, mu: Expr | float, lmbda: Expr | float, R: Expr | None =
     return ufl.diff(strain_energy(F, mu, lmbda), F)
 
 
-MODEL = Model("neo-hookean", first_piola, description="compressible neo-Hookean (NEO HOOKE)")
+def c_stress(volumetric: str) -> str:
+    """P = mu J^(-2/3) (F - (I1/3) F^-T) + p cof F in C (Model.c_stress), the volumetric part's
+    p = dpsi_vol/dJ (Pa) given as a C expression of J, Jinv = 1/J and kappa. J^(-1/3) by
+    inv_cbrt (no libm call and no division, so that the compiled loop vectorises), NaN for
+    J <= 0 as the UFL form's pow."""
+    return f"""
+double C[D * D], I1 = 3 - D;
+cofactor(F, C);
+for (int k = 0; k < D * D; ++k) I1 += F[k] * F[k];
+const double r = inv_cbrt(J), kappa = lmbda + 2.0 * mu / 3.0;
+const double jm23 = r * r, Jinv = jm23 * r;
+const double a = mu * jm23, b = -a * I1 * Jinv * (1.0 / 3.0) + ({volumetric});
+for (int k = 0; k < D * D; ++k) P[k] = a * F[k] + b * C[k];
+"""
+
+
+MODEL = Model(
+    "neo-hookean",
+    first_piola,
+    description="compressible neo-Hookean (NEO HOOKE)",
+    c_stress=c_stress("kappa * (J - 1.0)"),  # d/dJ (kappa/2)(J - 1)^2
+)

@@ -13,7 +13,7 @@ import ufl
 from ufl.core.expr import Expr
 
 from tissuebench.solvers.models.model import Model
-from tissuebench.solvers.models.neo_hookean import isochoric_energy
+from tissuebench.solvers.models.neo_hookean import c_stress, isochoric_energy
 
 
 def strain_energy(F: Expr, mu: Expr | float, lmbda: Expr | float) -> Expr:
@@ -33,4 +33,5 @@ MODEL = Model(
     "neo-hookean-barrier",
     first_piola,
     description="compressible neo-Hookean with the volumetric barrier (kappa/4)(J^2 - 1 - 2 ln J)",
+    c_stress=c_stress("0.5 * kappa * (J - Jinv)"),  # d/dJ (kappa/4)(J^2 - 1 - 2 ln J)
 )

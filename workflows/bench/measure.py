@@ -73,12 +73,20 @@ OURS_CASES = [
     ("explicit", "direct"),
     ("quasi-static", "direct"),
 ]
-# SPEC 8: the explicit-lumped step with a nonlinear model, run in the sweep beside the linear
-# one (same worker, same h: the linear scheme's); the first has a real-time target
+# SPEC 8 and 11: the explicit-lumped step with a nonlinear model or a remedy, run in the sweep
+# beside the linear one (same worker, same h: the linear scheme's on the plain Q1 mesh); the
+# first has a real-time target. A label's "@SCHEME" names a SPEC 11 scheme (case_scheme):
+# mean-dilatation with a nonlinear model is F-bar; alone, the linear B-bar stiffness.
 MODEL_CASES = [
     ("explicit-lumped+neo-hookean", "-"),
     ("explicit-lumped+corotational", "-"),
+    ("explicit-lumped+svk", "-"),
+    ("explicit-lumped+neo-hookean-barrier", "-"),
+    ("explicit-lumped+neo-hookean@mean-dilatation", "-"),
+    ("explicit-lumped@mean-dilatation", "-"),
 ]
+# `tissuebench bench --only explicit-models`: these cases alone, 1 rank (measure_explicit)
+EXPLICIT_CASES = [("explicit-lumped", "-"), *MODEL_CASES]
 MAIN_CASES = {
     ("explicit-lumped", "-"),
     ("implicit", "direct"),
@@ -118,9 +126,15 @@ def key(case: tuple) -> str:
 def split_case_label(label: str) -> tuple[str, str]:
     """(algorithm, model) of a case's first entry, 'explicit-lumped+neo-hookean' or
     'implicit' (the linear model): the run label of SPEC 8 (solvers/models.split_label,
-    without importing the solvers)."""
-    algorithm, _, model = label.partition("+")
+    without importing the solvers), any '@SCHEME' left out (case_scheme)."""
+    algorithm, _, model = label.partition("@")[0].partition("+")
     return algorithm, model or "linear"
+
+
+def case_scheme(label: str) -> str:
+    """The SPEC 11 scheme of a case's label ('mean-dilatation' of
+    'explicit-lumped+neo-hookean@mean-dilatation'), 'standard' without '@'."""
+    return label.partition("@")[2] or "standard"
 
 
 def get(rec: dict, side: str, case: tuple, field: str) -> object:
@@ -268,10 +282,17 @@ def ours_worker(spec: dict) -> dict:
             beta=system.material.beta,
         )
 
+    systems = {"standard": system}  # a case with '@SCHEME' runs on that scheme's system
     displacements = {}
     for label, solver, steps in spec["cases"]:
         algorithm, model = split_case_label(label)
         newton = model != "linear" and algorithm not in EXPLICIT
+        scheme = case_scheme(label)
+        if scheme not in systems:
+            comm.Barrier()
+            start = time.perf_counter()
+            systems[scheme] = System(bench, scheme=scheme)
+            out.setdefault("assembly_s", {})[f"system {scheme}"] = time.perf_counter() - start
         record = {"h": h[label], "steps": steps}
         times, iterations = [], []
         gc.collect()
@@ -281,7 +302,7 @@ def ours_worker(spec: dict) -> dict:
             start = time.perf_counter()
             integrator = get_integrator(
                 algorithm,
-                system,
+                systems[scheme],
                 h[label],
                 solver="direct" if solver == "-" else solver,
                 model=model,
@@ -305,7 +326,7 @@ def ours_worker(spec: dict) -> dict:
             record["steps_s"] = times
             finite = bool(np.isfinite(state.u.array_r).all())
             record["finite"] = bool(comm.allreduce(finite, op=MPI.LAND))
-            gathered = gather_by_coordinates(system.V, state.u.array_r, comm)
+            gathered = gather_by_coordinates(systems[scheme].V, state.u.array_r, comm)
             if comm.rank == 0:
                 displacements[key((label, solver))] = gathered[1]
                 displacements["x"] = gathered[0][:, : system.gdim]
@@ -316,6 +337,9 @@ def ours_worker(spec: dict) -> dict:
             if "setup_s" in record:  # the step that failed
                 record["steps_done"] = len(times)
                 record["diverged_t"] = (len(times) + 1) * h[label]
+                if len(times) >= WARMUP[STEPS] + 5:  # the cost of the steps before it
+                    record["step_s"] = median_step(times)
+                    record["steps_s"] = times
         if iterations:
             record["iterations"] = float(np.mean(iterations))
         if newton:  # Newton iterations of each step that converged
@@ -324,6 +348,84 @@ def ours_worker(spec: dict) -> dict:
         out["cases"][key((label, solver))] = record
     if comm.rank == 0 and spec.get("u_out"):
         np.savez(spec["u_out"], **displacements)
+    return out
+
+
+# --- the worker of `bench --only explicit-models` (1 rank) -------------------------------------
+
+ROUNDS = 6  # rounds of the explicit-models worker: each case takes BLOCK steps per round
+BLOCK = 5  # steps of a case in a row; the first BLOCK_WARM of each are not timed (its caches)
+BLOCK_WARM = 2
+
+
+def explicit_worker(spec: dict) -> dict:
+    """The explicit-lumped cases of `spec` (linear and with models or remedies, at the linear
+    scheme's stable step on the plain mesh) run side by side: every integrator is built and
+    started first, then ROUNDS rounds in which each case takes BLOCK steps in a row, the last
+    BLOCK - BLOCK_WARM of them timed. A change of the machine's load during the run then
+    weighs on every case alike (the machine is shared), while each case still steps with its
+    own data in the caches, as a run of it alone would. step_s: the median of its timed steps;
+    cpu_step_s: the median of their CPU times (time.process_time: without the time the process
+    waited for a core).
+    A case that diverges stops there (its timed steps so far are kept)."""
+    from mpi4py import MPI
+
+    from tissuebench.meshes import get_benchmark
+    from tissuebench.solvers import get_integrator
+    from tissuebench.solvers.system import System
+
+    comm = MPI.COMM_WORLD
+    out = {"ranks": comm.size, "cases": {}, "assembly_s": {}}
+    bench = get_benchmark(spec["benchmark"], mesh_size=spec["size"], comm=comm)
+    start = time.perf_counter()
+    systems = {"standard": System(bench)}
+    out["assembly_s"]["system standard"] = time.perf_counter() - start
+    system = systems["standard"]
+    out["dofs"] = system.num_dofs()
+    stable, out["omega_from"], out["eigen_s"] = stable_steps(system, ["explicit-lumped"])
+    h = min(bench.dt, stable["explicit-lumped"])
+    out["h"] = {label: h for label, _, _ in spec["cases"]}
+    running = {}
+    for label, solver, _ in spec["cases"]:
+        algorithm, model = split_case_label(label)
+        scheme = case_scheme(label)
+        if scheme not in systems:
+            start = time.perf_counter()
+            systems[scheme] = System(bench, scheme=scheme)
+            out["assembly_s"][f"system {scheme}"] = time.perf_counter() - start
+        record = {"h": h, "steps": ROUNDS * BLOCK, "steps_done": 0, "steps_s": [], "cpu_s": []}
+        out["cases"][key((label, solver))] = record
+        try:
+            start = time.perf_counter()
+            integrator = get_integrator(algorithm, systems[scheme], h, model=model)
+            state = integrator.start()
+            record["setup_s"] = time.perf_counter() - start
+            running[key((label, solver))] = (integrator, state)
+        except (RuntimeError, ValueError) as err:
+            record["error"] = str(err)[:200]
+    for _ in range(ROUNDS):
+        for k, (integrator, state) in list(running.items()):
+            record = out["cases"][k]
+            for i in range(BLOCK):
+                start, cpu = time.perf_counter(), time.process_time()
+                try:
+                    state = integrator.step(state)
+                except RuntimeError as err:
+                    record["error"] = str(err)[:200]
+                    record["diverged_t"] = (record["steps_done"] + 1) * h
+                    del running[k]
+                    break
+                record["steps_done"] += 1
+                if i >= BLOCK_WARM:
+                    record["steps_s"].append(time.perf_counter() - start)
+                    record["cpu_s"].append(time.process_time() - cpu)
+            else:
+                running[k] = (integrator, state)
+    for k, record in out["cases"].items():
+        if record["steps_s"]:
+            record["step_s"] = float(np.median(record["steps_s"]))
+            record["cpu_step_s"] = float(np.median(record["cpu_s"]))
+            record["timed_steps"] = len(record["steps_s"])
     return out
 
 
@@ -383,8 +485,9 @@ def worker_main(argv: list[str]) -> None:
     """`python -m tissuebench.workflows.bench.measure --worker ours|peer SPEC.json RESULT.json`."""
     kind, spec_path, result_path = argv
     spec = json.loads(Path(spec_path).read_text())
-    result = ours_worker(spec) if kind == "ours" else peer_worker(spec)
-    if kind == "peer":
+    workers = {"ours": ours_worker, "peer": peer_worker, "explicit": explicit_worker}
+    result = workers[kind](spec)
+    if kind != "ours":  # serial workers
         Path(result_path).write_text(json.dumps(result))
     else:
         from mpi4py import MPI
@@ -524,6 +627,58 @@ def compare_displacements(
     }
 
 
+def sweep_sizes(mode: str) -> list[tuple[str, int, int]]:
+    """(benchmark, size, dofs) of the sweep: the rod at ROD_SIZES, then the block at the sizes
+    whose dofs come closest to the rod's."""
+    sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
+    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
+    return sizes
+
+
+def measure_explicit(mode: str, out: Path, log: Callable[[str], None]) -> list[dict]:
+    """`tissuebench bench --only explicit-models`: the sweep's sizes with EXPLICIT_CASES only
+    (the linear explicit-lumped step and the same step with each model or remedy, side by side
+    in one 1-rank worker per size: explicit_worker, no budget), the records as measure's with
+    "ours1" only. Writes a partial DIR/performance-explicit.json after each size."""
+    tmp = make_temporary(out / f"{PREFIX}bench-explicit-tmp")
+    timeout = 2 * sum(BUDGET[mode].values()) + 300
+    records = []
+    for benchmark, size, dofs in sweep_sizes(mode):
+        tag = f"{benchmark}-{size}"
+        start = time.perf_counter()
+        spec = {
+            "benchmark": benchmark,
+            "size": size,
+            "cases": [(*c, STEPS) for c in EXPLICIT_CASES],
+            "triad": False,
+        }
+        rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
+        rec["ours1"] = run_worker("explicit", 1, spec, tmp, tag + "-ours1", timeout)
+        rec["wall_s"] = time.perf_counter() - start
+        records.append(rec)
+        partial = json.dumps({"mode": mode, "partial": True, "records": records})
+        write_owned(out / "performance-explicit.json", lambda tmp: tmp.write_text(partial))
+        linear = get(rec, "ours1", EXPLICIT_CASES[0], "step_s")
+        ratios = [
+            f"{c[0].removeprefix('explicit-lumped')} "
+            + (
+                f"{get(rec, 'ours1', c, 'step_s') / linear:.2f}"
+                if linear and get(rec, "ours1", c, "step_s")
+                else "-"
+            )
+            for c in MODEL_CASES
+        ]
+        error = rec["ours1"].get("error")
+        log(
+            f"{benchmark:5s} size {size:4d}  {dofs:7d} dofs  {rec['wall_s']:6.1f} s  linear "
+            + (f"{linear * 1e3:.3g} ms; /linear: " if linear else "- ; ")
+            + ", ".join(ratios)
+            + (f"  ({error})" if error else "")
+        )
+    remove_temporary(tmp)
+    return records
+
+
 def measure(
     mode: str, out: Path, log: Callable[[str], None]
 ) -> tuple[list[dict], list[dict], dict, list[dict]]:
@@ -538,9 +693,7 @@ def measure(
     all_peer_cases = peer_cases(pardiso_available())
     timeout = 2 * sum(BUDGET[mode].values()) + 300  # a worker that hangs, not one that is slow
     records = []
-    sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
-    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
-    for benchmark, size, dofs in sizes:
+    for benchmark, size, dofs in sweep_sizes(mode):
         tag = f"{benchmark}-{size}"
         rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
         start = time.perf_counter()

@@ -10,11 +10,14 @@ import platform
 from pathlib import Path
 
 from tissuebench.workflows.bench.measure import (
+    BLOCK,
+    BLOCK_WARM,
     BUDGET,
     CAPACITY_CASES,
     DIRECT_TOL,
     MAIN_CASES,
     MODEL_CASES,
+    ROUNDS,
     SAFETY,
     SHORT,
     STEPS,
@@ -33,7 +36,9 @@ from tissuebench.workflows.bench.tables import (
     extra_peer_rows,
     fmt,
     markdown_table,
+    model_cpu_rows,
     model_step_rows,
+    model_step_targets,
     newton_rows,
     step_rows,
     targets,
@@ -41,6 +46,22 @@ from tissuebench.workflows.bench.tables import (
 from tissuebench.workflows.output import write_owned
 
 # --- figure and report ----------------------------------------------------------------------------
+
+MODEL_STEP_TEXT = (
+    "Each nonlinear model's (and remedy's) explicit-lumped step ran in the same worker as the "
+    "linear one, at the same h (the linear scheme's on the plain Q1 mesh: "
+    f"{SAFETY} x 2/omega_max) and with the same steps; ratio = its median step time / the "
+    "linear step's. The linear step is one fused pass over the assembled K "
+    "(solvers/blockcsr.py). A nonlinear model's step evaluates f_int(u) and the smallest "
+    "det F in one compiled element loop (solvers/compiled_forces.py: the UFL form's 2x2(x2) "
+    "Gauss points, the model's P(F) in C, 8 cells per SIMD batch; corotational also finds R "
+    "at every cell centre there), then one compiled pass for a and v. "
+    "`MODEL@mean-dilatation` is SPEC 11's mean-dilatation scheme: F-bar with a nonlinear "
+    "model (the cell's mean J in the same loop), B-bar with the linear one (`linear@...`: "
+    "another K for the linear step's loop). "
+    f"Target (issue 32): at most {MODEL_STEP_LIMIT:g} x the linear step at >= "
+    f"{MODEL_STEP_DOFS:.0e} dofs, rod and block."
+)
 
 # (side, line style, marker, legend label): the rank count is in the label, the line and the
 # marker; the colour is the case.
@@ -231,18 +252,9 @@ def write_report(
         "",
         "## Elastic models (SPEC 8)",
         "",
-        "### The explicit-lumped step with a nonlinear model",
+        "### The explicit-lumped step with a nonlinear model or a remedy",
         "",
-        "Each nonlinear model's explicit-lumped step ran in the sweep's workers beside the "
-        "linear one, at the same h (the linear scheme's: "
-        f"{SAFETY} x 2/omega_max) and with the same steps; ratio = the model's median step "
-        "time / the linear step's. The linear step is one fused pass over the assembled K "
-        "(solvers/blockcsr.py); a model's step assembles f_int(u) from its UFL form (2x2(x2) "
-        "Gauss points), checks det F > 0 at every quadrature point and, for corotational, "
-        "first finds R at every cell centre (solvers/elastic.py). "
-        f"Target: at most {MODEL_STEP_LIMIT:g} x the linear step at >= "
-        f"{MODEL_STEP_DOFS:.0e} dofs on the rod. 'u diff 2r vs 1r': the largest relative "
-        "displacement difference of the model runs between 2 ranks and 1.",
+        MODEL_STEP_TEXT,
         "",
         markdown_table(*model_step_rows(records)),
         "",
@@ -312,3 +324,52 @@ def write_report(
         parts += ["## Failures", ""] + errors + [""]
     parts += ["![time per step](performance.png)", ""]
     write_owned(out / "performance.md", lambda tmp: tmp.write_text("\n".join(parts)))
+
+
+def write_explicit_report(records: list[dict], mode: str, wall: float, out: Path) -> None:
+    """Write out/performance-explicit.md: `tissuebench bench --only explicit-models`, the
+    explicit-lumped step with each model or remedy against the linear one, 1 rank."""
+    sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in ("rod", "block")}
+    header = ["target", "sizes", "measured (worst)", "target", "status"]
+    parts = [
+        "# Explicit steps with a model or a remedy",
+        "",
+        f"`tissuebench bench --only explicit-models{' --quick' if mode == 'quick' else ''}`: "
+        f"{mode} mode, {wall:.0f} s wall. Machine: {machine_description()}. One worker process "
+        f"per size, 1 rank, {', '.join(THREAD_VARS)} = 1. The machine is shared: timings are "
+        "noisy, so the cases of a size run side by side in their worker "
+        "(workflows/bench/measure.py explicit_worker): every integrator is built and started, "
+        f"then in each of {ROUNDS} rounds every case takes {BLOCK} steps in a row, the last "
+        f"{BLOCK - BLOCK_WARM} timed (the first {BLOCK_WARM} bring its own data back into the "
+        "caches); a change of load during the run weighs on every case alike.",
+        "",
+        f"Sizes: rod n = {sizes['rod']}; block N = {sizes['block']} (the dofs closest to the "
+        f"rod's). Per step: the median of a case's {ROUNDS * (BLOCK - BLOCK_WARM)} timed steps. "
+        "A case that diverges (an inverted element: the block's point needle at the linear "
+        "scheme's step) keeps the median of its timed steps before (see Failures).",
+        "",
+        "## Targets",
+        "",
+        markdown_table(
+            header, model_step_targets(records) + model_step_targets(records, "cpu_step_s")
+        ),
+        "",
+        "## Explicit step with a model or a remedy / the linear explicit-lumped step",
+        "",
+        MODEL_STEP_TEXT,
+        "",
+        markdown_table(*model_step_rows(records)),
+        "",
+        "### The same in CPU time",
+        "",
+        "The CPU time of each timed step (time.process_time), median: the step's cost without "
+        "the time the process waited for a core. On a shared machine the wall times above "
+        "include that wait; both sides of each ratio ran in the same rounds.",
+        "",
+        markdown_table(*model_cpu_rows(records)),
+        "",
+    ]
+    errors = failures(records)
+    if errors:
+        parts += ["## Failures", ""] + errors + [""]
+    write_owned(out / "performance-explicit.md", lambda tmp: tmp.write_text("\n".join(parts)))

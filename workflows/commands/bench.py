@@ -12,6 +12,10 @@ SPEC 8: the explicit-lumped step with neo-hookean and with corotational beside t
 (ratios), its real-time capacity, and the Newton iterations per implicit step of svk,
 neo-hookean and corotational at the paper's loads.
 
+`--only explicit-models` measures only the explicit-lumped step with each elastic model and
+remedy beside the linear one (1 rank, the full sizes unless --quick) into
+DIR/performance-explicit.md and .json, leaving DIR/performance.* alone.
+
 A quick run never replaces a full one: without --out it writes into a folder of the system's
 temporary directory, and it refuses an --out whose performance.json holds a full run.
 
@@ -29,9 +33,9 @@ import time
 from pathlib import Path
 
 from tissuebench.meshes.errors import UserError
-from tissuebench.workflows.bench.measure import measure
-from tissuebench.workflows.bench.report import plot, write_report
-from tissuebench.workflows.bench.tables import summary_tables, text_table
+from tissuebench.workflows.bench.measure import measure, measure_explicit
+from tissuebench.workflows.bench.report import plot, write_explicit_report, write_report
+from tissuebench.workflows.bench.tables import model_step_rows, summary_tables, text_table
 from tissuebench.workflows.output import check_writable, write_owned
 
 FILES = ("performance.json", "performance.png", "performance.md")
@@ -47,6 +51,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
     p.add_argument(
+        "--only",
+        choices=["explicit-models"],
+        default=None,
+        help="explicit-models: only the explicit-lumped step with each elastic model and "
+        "remedy against the linear one (1 rank), into DIR/performance-explicit.md and .json, "
+        "leaving DIR/performance.* alone",
+    )
+    p.add_argument(
         "--out",
         default=None,
         type=Path,
@@ -54,6 +66,33 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         f"{quick_out()}, so that a quick run never replaces the full results)",
     )
     p.set_defaults(func=main)
+
+
+def explicit_models(args: argparse.Namespace) -> int:
+    """`tissuebench bench --only explicit-models`: measure_explicit, its json and report."""
+    mode = "quick" if args.quick else "full"
+    out = Path(args.out) if args.out is not None else quick_out() if args.quick else Path("results")
+    names = ("performance-explicit.json", "performance-explicit.md")
+    path = out / names[0]
+    if args.quick and path.exists():
+        try:
+            full = json.loads(path.read_text()).get("mode") == "full"
+        except (OSError, ValueError, AttributeError):
+            full = False
+        if full:
+            raise UserError(f"{path} holds a full run, which a quick run does not replace")
+    check_writable(out, owned=names)
+    out.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    print(f"tissuebench bench --only explicit-models ({mode}): 1 rank per worker", flush=True)
+    records = measure_explicit(mode, out, lambda line: print(line, flush=True))
+    wall = time.perf_counter() - start
+    result = {"mode": mode, "only": "explicit-models", "wall_s": wall, "records": records}
+    write_owned(path, lambda tmp: tmp.write_text(json.dumps(result)))
+    write_explicit_report(records, mode, wall, out)
+    print(f"\nexplicit step / linear explicit-lumped step\n{text_table(*model_step_rows(records))}")
+    print(f"\nwall {wall:.0f} s; wrote {out / names[1]}")
+    return 0
 
 
 def quick_out() -> Path:
@@ -73,6 +112,8 @@ def holds_full_run(out: Path) -> bool:
 def main(args: argparse.Namespace) -> int:
     if int(os.environ.get("PMI_SIZE", os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))) > 1:
         raise UserError("run `tissuebench bench` without mpiexec: it starts its own 2-rank runs")
+    if getattr(args, "only", None) == "explicit-models":
+        return explicit_models(args)
     try:
         import pyamg  # noqa: F401
         import scipy  # noqa: F401
