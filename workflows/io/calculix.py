@@ -20,7 +20,9 @@ cannot take; a file that ends inside a block or without its closing record is tr
 The CalculiX deck
 -----------------
 *NODE and *ELEMENT (C3D8, C3D8I, C3D8R in 3D; CPE4, CPE4R in plane strain, CPS4, CPS4R in
-plane stress, thickness 1 m), one *NSET per set, *MATERIAL with *ELASTIC (linear; with
+plane stress, thickness 1 m; C3D20R on the export's hexahedra with a node added at the middle
+of every edge, numbered after the export's nodes, each set holding the midside nodes of its
+edges: quadratic_hexahedra), one *NSET per set, *MATERIAL with *ELASTIC (linear; with
 NLGEOM it is St Venant-Kirchhoff: `svk`) or *HYPERELASTIC, NEO HOOKE with C10 = mu/2,
 D1 = 2/kappa (`neo-hookean`, NLGEOM), *DENSITY, *DAMPING ALPHA, BETA (Rayleigh, whole model);
 `corotational` has no CalculiX counterpart and is refused, and so is `neo-hookean-barrier`
@@ -41,6 +43,17 @@ stiffness, not beta K_0 (the rod: 0.8 % at t = 2 s; without damping 1e-6); a pre
 motion in *DYNAMIC is followed otherwise than the SPEC (the block in CPE4: E_n up to 0.3 in
 the first steps, E_i time-mean 7e-4; a one-layer C3D8 slab of it with u_z = 0 departs alike,
 E_i time-mean 1.7e-4, with or without the initial velocity; the static block: 1e-7).
+
+C3D20R (tests/test_external_calculix_c3d20r.py): CalculiX integrates its stiffness, its
+consistent mass and the gravity at the same 2 x 2 x 2 Gauss points (e_c3d.f; 27 points for
+the initial acceleration only). Its output is read at the corners (the export's nodes), and
+graded there with trilinear interpolation between them, as the other hexahedra: the
+quadratic field between the corners is not graded. The static rod's tip (MP3; the truth's
+Q2, n = 8: -0.13060 m): C3D20R -0.12915 m at n = 2 and -0.13022 m at n = 4 (C3D8 -0.11473,
+-0.12553 m); in MP2 (nu = 0.495; truth -1.6717e-3 m) -1.4826e-3, -1.6012e-3 and at n = 6
+-1.6297e-3 m (C3D8 -6.880e-4, -9.532e-4, -1.1290e-3 m; C3D8I -1.3522e-3, -1.5444e-3,
+-1.5986e-3 m): the reduced 20-node element locks a little at nu = 0.495 on coarse meshes
+(C3D20, full integration, more: -1.5571e-3 and -1.6042e-3 m at n = 4 and 6).
 """
 
 from __future__ import annotations
@@ -61,7 +74,7 @@ FRD_ELEMENTS = {
     1: (8, "hexahedron"),  # he8
     2: (6, None),  # pe6
     3: (4, None),  # te4
-    4: (20, None),  # he20
+    4: (20, "hexahedron"),  # he20: read at its 8 corners (FRD_CORNERS)
     5: (15, None),  # pe15
     6: (10, None),  # te10
     7: (3, None),  # tr3
@@ -72,13 +85,17 @@ FRD_ELEMENTS = {
     12: (3, None),  # be3
 }
 FRD_NAMES = {2: "pe6", 3: "te4", 4: "he20", 5: "pe15", 6: "te10", 7: "tr3", 8: "tr6", 10: "qu8"}
+# second-order cells read at their corners: the first 8 of the 20 nodes (CalculiX's C3D20 order)
+FRD_CORNERS = {4: 8}
 FRD_NAMES.update({11: "be2", 12: "be3"})
 # the names of nodal results as *NODE FILE requests them -> as the .frd stores them
 FRD_ALIASES = {"U": "DISP", "V": "VELO", "RF": "FORC", "NT": "NDTEMP"}
 WIDTH = 12  # an E12.5 field
-# CalculiX deck elements -> nodes per element, our cell type
+# CalculiX deck elements -> nodes per element, our cell type (20-node ones read at their 8
+# corners, the first 8 of their nodes)
 INP_ELEMENTS = {
     **{e: (8, "hexahedron") for e in ("C3D8", "C3D8R", "C3D8I", "C3D8H", "C3D8RH")},
+    **{e: (20, "hexahedron") for e in ("C3D20", "C3D20R", "C3D20H", "C3D20RH")},
     **{
         e: (4, "quadrilateral")
         for e in ("CPE4", "CPE4R", "CPE4I", "CPS4", "CPS4R", "CPS4I", "CAX4", "CAX4R")
@@ -91,11 +108,21 @@ ELEMENTS = {
     "C3D8": (3, None),
     "C3D8I": (3, None),
     "C3D8R": (3, None),
+    "C3D20R": (3, None),
     "CPE4": (2, "strain"),
     "CPE4R": (2, "strain"),
     "CPS4": (2, "stress"),
     "CPS4R": (2, "stress"),
 }
+# the second-order elements of ELEMENTS, written on the export's hexahedra with a node added at
+# the middle of every edge (quadratic_hexahedra)
+SECOND_ORDER = ("C3D20R",)
+# CalculiX's C3D20 (and C3D20R) node order: corners 1-8 as C3D8, then the midside nodes 9-20 of
+# the edges 1-2, 2-3, 3-4, 4-1, 5-6, 6-7, 7-8, 8-5, 1-5, 2-6, 3-7, 4-8 (ccx's shape20h.f: node
+# 9 at xi = 0, eta = zeta = -1, ...); here 0-based corners of the VTK (= C3D8) order
+HEX20_EDGES = (
+    (0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7),
+)  # fmt: skip
 
 
 def to_float(text: str) -> float:
@@ -177,9 +204,10 @@ def _block_format(src: _Lines, line: str) -> int:
 def read_frd(path: str | Path, names: Sequence[str] = ("DISP",)) -> FieldData:
     """(points, cells, cell_type, times, values, field) of an ASCII .frd: its nodes (n, 3),
     first-order cells (one type: hexahedra or quadrilaterals, VTK node order, which is
-    CalculiX's), the times of the result blocks of the first of `names` that the file holds
-    (U names DISP, as in *NODE FILE), the (n, components) values of each, and that name.
-    Nodes that no cell uses are left out."""
+    CalculiX's; a 20-node hexahedron is read as the hexahedron of its 8 corners), the times of
+    the result blocks of the first of `names` that the file holds (U names DISP, as in *NODE
+    FILE), the (n, components) values of each, and that name. Nodes that no cell uses (a
+    20-node hexahedron's midside nodes) are left out."""
     path = Path(path)
     src = _Lines(path)
     nodes: dict[int, list[float]] = {}
@@ -216,7 +244,7 @@ def read_frd(path: str | Path, names: Sequence[str] = ("DISP",)) -> FieldData:
         )
     kinds = {FRD_ELEMENTS[t][1] for t, _ in elements}
     if len(kinds) != 1:
-        raise InputError(f"{path}: cells of several types; expected one of he8 or qu4")
+        raise InputError(f"{path}: cells of several types; expected one of he8, he20 or qu4")
     cell_type = kinds.pop()
     used = sorted({n for _, conn in elements for n in conn})
     missing = [n for n in used if n not in nodes]
@@ -267,8 +295,9 @@ def _read_elements(src: _Lines, header: str, elements: list) -> None:
         if kind not in FRD_ELEMENTS or FRD_ELEMENTS[kind][1] is None:
             name = FRD_NAMES.get(kind, f"type {kind}")
             raise InputError(
-                f"{src.path}: element {element} is a {name}; only first-order hexahedra (he8: "
-                "C3D8, C3D8R, C3D8I) and quadrilaterals (qu4: CPE4, CPS4, ...) are graded"
+                f"{src.path}: element {element} is a {name}; only hexahedra (he8: C3D8, C3D8R, "
+                "C3D8I; he20: C3D20R, at its corners) and quadrilaterals (qu4: CPE4, CPS4, ...) "
+                "are graded"
             )
         count = FRD_ELEMENTS[kind][0]
         connectivity: list[int] = []
@@ -279,7 +308,7 @@ def _read_elements(src: _Lines, header: str, elements: list) -> None:
             text = row[3:].rstrip()
             cut = [text[j : j + width] for j in range(0, len(text), width)]
             connectivity += [_integer(src, c, f"element {element}") for c in cut if c.strip()]
-        elements.append((kind, connectivity[:count]))
+        elements.append((kind, connectivity[: FRD_CORNERS.get(kind, count)]))
 
 
 def _read_results(src: _Lines, header: str) -> tuple[str, float, dict]:
@@ -413,15 +442,16 @@ def read_inp_mesh(
     path: str | Path, depth: int = 0
 ) -> tuple[np.ndarray, np.ndarray, str, list[int]]:
     """(points (n, 3), cells (VTK order), cell_type, node ids) of a CalculiX deck: its *NODE
-    and *ELEMENT cards (following *INCLUDE), first-order hexahedra or quadrilaterals of one
-    type; the nodes that no element uses are left out."""
+    and *ELEMENT cards (following *INCLUDE), hexahedra or quadrilaterals of one shape (a
+    20-node hexahedron taken at its 8 corners); the nodes that no element uses (its midside
+    nodes) are left out."""
     path = Path(path)
     nodes: dict[int, list[float]] = {}
     elements: list[list[int]] = []
     kinds: set[str] = set()
     _scan_inp(path, nodes, elements, kinds, depth)
     if not elements:
-        raise InputError(f"{path}: no *ELEMENT card of first-order hexahedra or quadrilaterals")
+        raise InputError(f"{path}: no *ELEMENT card of hexahedra or quadrilaterals")
     types = {INP_ELEMENTS[k][1] for k in kinds}
     if len(types) != 1:
         raise InputError(f"{path}: elements of several shapes ({', '.join(sorted(kinds))})")
@@ -459,8 +489,7 @@ def _scan_inp(path: Path, nodes: dict, elements: list, kinds: set, depth: int) -
                 if kind not in INP_ELEMENTS:
                     raise InputError(
                         f"{path}: line {number}: elements of type {kind or '(none)'}; only "
-                        f"first-order hexahedra and quadrilaterals ({', '.join(INP_ELEMENTS)}) "
-                        "are graded"
+                        f"hexahedra and quadrilaterals ({', '.join(INP_ELEMENTS)}) are graded"
                     )
                 kinds.add(kind)
                 count, pending = INP_ELEMENTS[kind][0], []
@@ -471,8 +500,8 @@ def _scan_inp(path: Path, nodes: dict, elements: list, kinds: set, depth: int) -
                 nodes[int(values[0])] = [float(v) for v in values[1:4] if v]
             elif card == "ELEMENT":
                 pending += [int(v) for v in values if v]
-                if len(pending) >= count + 1:
-                    elements.append(pending[1 : count + 1])
+                if len(pending) >= count + 1:  # a 20-node hexahedron: its 8 corners
+                    elements.append(pending[1 : 1 + (8 if count == 20 else count)])
                     pending = []
         except ValueError:
             raise InputError(f"{path}: line {number}: cannot read {line[:60]!r}") from None
@@ -561,12 +590,42 @@ def dynamic_keyword(alpha: float = 0.0) -> str:
     return f"*DYNAMIC, DIRECT, ALPHA={number(alpha)}"
 
 
+def quadratic_hexahedra(data: Exported) -> Exported:
+    """The export on 20-node hexahedra (C3D20R): its nodes, then one node at the middle of
+    every edge of its hexahedra (the cells' straight edges: the midpoint of their corners),
+    numbered after the corners in the order of the sorted edges; each cell's 20 nodes in
+    CalculiX's C3D20 order (HEX20_EDGES); every node set holds, besides its nodes, the midside
+    node of every edge whose two corners it holds (a clamped face keeps its midside nodes
+    clamped; a set's motion moves them with it)."""
+    from dataclasses import replace
+
+    if data.cell_type != "hexahedron" or data.cells.shape[1] != 8:
+        raise ExportError(
+            f"20-node hexahedra are built on hexahedra, and the export has {data.cell_type}s"
+        )
+    cells = np.asarray(data.cells, dtype=np.int64)
+    ends = cells[:, np.array(HEX20_EDGES)]  # (C, 12, 2): the corners of each cell's edges
+    ends = np.sort(ends, axis=2)
+    edges, which = np.unique(ends.reshape(-1, 2), axis=0, return_inverse=True)
+    first = len(data.nodes)
+    midside = first + which.reshape(len(cells), len(HEX20_EDGES))
+    nodes = np.vstack([data.nodes, 0.5 * (data.nodes[edges[:, 0]] + data.nodes[edges[:, 1]])])
+    node_sets = {}
+    for name, members in data.node_sets.items():
+        inside = np.isin(edges, members).all(axis=1)
+        node_sets[name] = np.concatenate([members, first + np.flatnonzero(inside)])
+    return replace(data, nodes=nodes, cells=np.hstack([cells, midside]), node_sets=node_sets)
+
+
 def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> str:
     """The CalculiX deck of the export (see the module docstring); `alpha` is the HHT
     parameter of the dynamic procedure (dynamic_keyword)."""
     element = element or default_element(data.dim, data.plane)
     check_element(element, data.dim, data.plane)
     check_inp_model(data.model)
+    corners = len(data.nodes)
+    if element in SECOND_ORDER:
+        data = quadratic_hexahedra(data)
     m = data.material
     nlgeom = data.model != "linear"
     times, end = data.times, data.end_time
@@ -576,6 +635,14 @@ def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> 
         f"** material {m.name}, model {data.model}, {data.procedure}: h = {data.h!r} s, "
         f"T = {end!r} s, {data.steps} steps; SI units (m, s, kg, N, Pa)",
         "** node i + 1 is node i of the JSON export; the zero initial state is at t = 0",
+        *(
+            [
+                f"** nodes {corners + 1} to {len(data.nodes)}: the midside nodes of {element}, "
+                "at the middle of each edge; a set holds those of the edges whose corners it holds"
+            ]
+            if len(data.nodes) > corners
+            else []
+        ),
         "*HEADING",
         f"tissuebench {data.benchmark} {m.name} {data.model} {data.procedure}",
         "*NODE, NSET=Nall",
@@ -584,7 +651,9 @@ def inp_text(data: Exported, element: str | None = None, alpha: float = 0.0) -> 
         out.append(", ".join([str(i + 1), *(number(c) for c in x)]))
     out.append(f"*ELEMENT, TYPE={element}, ELSET=Eall")
     for c, nodes in enumerate(data.cells):
-        out.append(", ".join([str(c + 1), *(str(int(n) + 1) for n in nodes)]))
+        # at most 16 entries a line (CalculiX's limit): a 20-node cell goes on to a second line
+        entries = [str(c + 1), *(str(int(n) + 1) for n in nodes)]
+        out.append(",\n".join(", ".join(entries[k : k + 16]) for k in range(0, len(entries), 16)))
     names = {name: ccx_name(name) for name in data.node_sets}
     for name, nodes in data.node_sets.items():
         out.append(f"*NSET, NSET={names[name]}")

@@ -3,10 +3,12 @@
 Variants (dynamic procedure, on the export's own nodes and cells):
 - `implicit-ELEMENT`: *DYNAMIC, DIRECT, ALPHA=0: the trapezoidal rule, our `implicit`;
 - `hht-ELEMENT`: ALPHA=-0.05, CalculiX's default HHT-alpha, which damps high frequencies;
-with ELEMENT C3D8 (full integration), C3D8I (incompatible modes) and C3D8R (reduced
-integration, hourglass control) in 3D; CPE4 and CPE4R in plane strain (CPS4, CPS4R in plane
-stress). The models `linear`, `svk` and `neo-hookean` (NLGEOM); the static procedure has one
-`static-ELEMENT` per element.
+with ELEMENT C3D8 (full integration), C3D8I (incompatible modes), C3D8R (reduced
+integration, hourglass control) and C3D20R (20-node hexahedra, reduced integration: the
+export's hexahedra with a node added at the middle of every edge, io/calculix.py's
+quadratic_hexahedra; graded at the corners, which are the export's nodes) in 3D; CPE4 and
+CPE4R in plane strain (CPS4, CPS4R in plane stress). The models `linear`, `svk` and
+`neo-hookean` (NLGEOM); the static procedure has one `static-ELEMENT` per element.
 
 Not posed (`skipped`): CalculiX's explicit dynamics. CalculiX 2.20 refuses stiffness
 proportional damping there ("the coefficient beta of the stiffness proportional term must be
@@ -31,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuebench.solvers import interrupt
-from tissuebench.workflows.io.calculix import ELEMENTS
+from tissuebench.workflows.io.calculix import ELEMENTS, SECOND_ORDER, quadratic_hexahedra
 from tissuebench.workflows.simulators import ExternalRun, given
 
 NAME = "calculix"
@@ -67,6 +69,22 @@ def elements(data) -> tuple[str, ...]:
     return tuple(e for e, (dim, p) in ELEMENTS.items() if dim == data.dim and p == plane)
 
 
+# what a second-order element changes, said in its variants' descriptions
+SECOND_ORDER_NOTE = {
+    "C3D20R": "20-node hexahedra (the export's, with midside nodes: {nodes} nodes), 2 x 2 x 2 "
+    "Gauss points for stiffness, consistent mass and gravity (27 for the initial acceleration), "
+    "graded at the corner nodes (trilinear between them)"
+}
+
+
+def element_words(data, element: str) -> str:
+    """The element as a variant's description names it (with what a 20-node one adds)."""
+    if element not in SECOND_ORDER:
+        return element
+    nodes = len(quadratic_hexahedra(data).nodes)
+    return f"{element} ({SECOND_ORDER_NOTE[element].format(nodes=nodes)})"
+
+
 def variants(data) -> dict[str, str]:
     """The variants that pose this export: scheme x element (see the module docstring)."""
     if data.model not in MODELS:
@@ -74,7 +92,8 @@ def variants(data) -> dict[str, str]:
     flags = ", NLGEOM" if data.model != "linear" else ""
     if data.procedure == "static":
         return {
-            f"static-{e}": f"*STATIC{flags}, one step per t_i, {e}; {elastic(data)}"
+            f"static-{e}": f"*STATIC{flags}, one step per t_i, {element_words(data, e)}; "
+            + elastic(data)
             for e in elements(data)
         }
     known = ""  # departures measured in tests/test_export.py, said where they apply
@@ -83,8 +102,8 @@ def variants(data) -> dict[str, str]:
     if any(np.abs(m[0]).max() > 0 for m in data.motions.values()):
         known += "; CalculiX's prescribed motion in *DYNAMIC departs from the SPEC's"
     return {
-        f"{scheme}-{e}": f"*DYNAMIC, DIRECT, ALPHA={alpha:g}{flags}, {e}, fixed h{known}; "
-        + elastic(data)
+        f"{scheme}-{e}": f"*DYNAMIC, DIRECT, ALPHA={alpha:g}{flags}, {element_words(data, e)}, "
+        f"fixed h{known}; " + elastic(data)
         for scheme, alpha in SCHEMES.items()
         for e in elements(data)
     }
@@ -125,7 +144,8 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
     workdir = Path(workdir)
     write_inp(data, workdir / f"{JOB}.inp", element, SCHEMES.get(scheme, 0.0))
     env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
-    dofs = data.nodes.size
+    # the unknowns ccx solves for: a 20-node element's midside nodes included
+    dofs = (quadratic_hexahedra(data) if element in SECOND_ORDER else data).nodes.size
     start = time.perf_counter()
     # stopped at once by a signal, which then ends the job (solvers/interrupt.py)
     done = interrupt.run_child(["ccx", "-i", JOB], TIMEOUT, cwd=workdir, env=env)
