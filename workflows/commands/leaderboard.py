@@ -29,6 +29,7 @@ from tissuebench.solvers import ALGORITHMS, interrupt
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.commands.arguments import add_common, check_common
+from tissuebench.workflows.leaderboard import page
 from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
@@ -704,7 +705,7 @@ def main(args: argparse.Namespace) -> int:
     cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
     users, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
     interrupt.will_write(  # named on a signal: the old ones stay as they were
-        [out / name for name in OWNED] + [out / FOLDER / "*.png"]
+        [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]
     )
     for board in fresh:
         start = load_average()
@@ -752,6 +753,9 @@ def main(args: argparse.Namespace) -> int:
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
         text = markdown(boards, rows, shown, session)
         write_owned(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
+        frontier = page.read_frontier(out / "frontier" / "frontier.csv")
+        index = page.render(boards, rows, shown, frontier, session, unit_of)
+        write_owned(out / FOLDER / "index.html", lambda tmp: tmp.write_text(index))
 
     collective(comm, write, out)
     interrupt.will_write([])  # all written
