@@ -29,7 +29,7 @@ from tissuebench.solvers import ALGORITHMS, interrupt
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.commands.arguments import add_common, check_common
-from tissuebench.workflows.leaderboard import page
+from tissuebench.workflows.leaderboard import document, page
 from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
@@ -58,7 +58,7 @@ from tissuebench.workflows.ranking import (
     write_csv,
 )
 from tissuebench.workflows.reports.budget import budget_rows, plot_budget
-from tissuebench.workflows.reports.leaderboard import machine, markdown, plot_case, unit_of
+from tissuebench.workflows.reports.leaderboard import machine, plot_case, unit_of
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
@@ -751,9 +751,9 @@ def main(args: argparse.Namespace) -> int:
         write_owned(out / RECORD, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
         write_owned(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
-        text = markdown(boards, rows, shown, session)
-        write_owned(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
         frontier = page.read_frontier(out / "frontier" / "frontier.csv")
+        text = document.markdown(boards, rows, shown, frontier, session)
+        write_owned(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
         index = page.render(boards, rows, shown, frontier, session, unit_of)
         write_owned(out / FOLDER / "index.html", lambda tmp: tmp.write_text(index))
 

@@ -264,7 +264,7 @@ class Axes:
 
     def x(self, value: float) -> float:
         t = (math.log10(value) - self.x0) / (self.x1 - self.x0)
-        return self.LEFT + t * (self.W - self.RIGHT - self.LEFT)
+        return min(max(self.LEFT + t * (self.W - self.RIGHT - self.LEFT), self.LEFT), self.W)
 
     def y(self, value: float) -> float:
         t = (math.log10(value) - self.y0) / (self.y1 - self.y0)
@@ -345,7 +345,7 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
     rt = ax.x(REAL_TIME)
     out.append(
         f'<line x1="{rt:.1f}" x2="{rt:.1f}" y1="{ax.TOP}" y2="{ax.BOTTOM}" class="realtime"/>'
-        f'<text x="{rt - 4:.1f}" y="{ax.BOTTOM - 6}" class="rtlabel" text-anchor="end">'
+        f'<text x="{rt - 4:.1f}" y="{ax.TOP + 14}" class="rtlabel" text-anchor="end">'
         "real time: 1 s per s</text>"
     )
     # the Pareto front (from the record's flags)
@@ -378,7 +378,7 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
             f'data-tip="{esc(json.dumps(frontier_tip(f, unit)))}"/>'
         )
     users: dict[str, str] = {}
-    labels: list[tuple[float, float]] = []
+    labels: list[tuple[float, float, float]] = []  # placed labels: x, y, width
     order = sorted(rows, key=lambda r: r.source == "user")  # users drawn last, on top
     for r in order:
         src = source_of(r)
@@ -410,19 +410,27 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
             f'data-tip="{esc(json.dumps(tip_lines(board, r, unit)))}"/>'
         )
         if src == USERS or r in front:
-            near = sum(abs(px - a) < 60 and abs(py - b) < 12 for a, b in labels)
-            labels.append((px, py))
-            text = r.label if src == USERS else r.label.split(":", 1)[-1]
+            text = (r.label if src == USERS else r.label.split(":", 1)[-1])[:40]
             cls = "ulabel" if src == USERS else "flabel"
             fill = f' fill="{colour}"' if src == USERS else ""
-            right = px > ax.W - ax.RIGHT - 170  # near the right edge: the label to the left
+            width = (7.5 if src == USERS else 6.2) * len(text)
+            right = px + 8 + width > ax.W  # near the right edge: the label to the left
             anchor = ' text-anchor="end"' if right else ""
+            x0 = px - 8 - width if right else px + 8
+            ty = py - 6
+            for dy in (-6, 16, -18, 28, -30, 40):  # the first place that overlaps no label
+                ty = py + dy
+                if not any(
+                    x0 < b[0] + b[2] and b[0] < x0 + width and abs(ty - b[1]) < 12 for b in labels
+                ):
+                    break
+            labels.append((x0, ty, width))
             out.append(
                 f'<text class="{cls} f" x="{px - 8 if right else px + 8:.1f}" '
-                f'y="{py - 6 - 11 * near:.1f}"{fill}{anchor} '
+                f'y="{ty:.1f}"{fill}{anchor} '
                 f'data-case="{esc(board.name)}" data-source="{esc(src)}" '
                 f'data-mesh="{esc(mesh_of(r))}" data-model="{esc(model_of(board, r))}">'
-                f"{esc(text[:40])}</text>"
+                f"{esc(text)}</text>"
             )
     out.append("</svg>")
     return "\n".join(out), users
@@ -612,7 +620,8 @@ h3{font-size:16px;margin:14px 0 6px}
 .grid{stroke:#e4e4e4}.stripline{stroke:#bbb;stroke-dasharray:3 3}
 .tick{font-size:11.5px;fill:#444}.axis{font-size:13px;fill:#222}.strip{font-size:11px;fill:#777}
 .band{fill:#f3d9a4;opacity:.55}.bandlabel{font-size:11.5px;fill:#8a5a00}
-.realtime{stroke:#c00;stroke-width:1.5;stroke-dasharray:6 4}.rtlabel{font-size:12px;fill:#c00}
+.realtime{stroke:#c00;stroke-width:1.5;stroke-dasharray:6 4}
+.rtlabel{font-size:12px;fill:#c00;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .front{fill:none;stroke:#333;stroke-width:1.3;stroke-dasharray:5 3}
 .pt{cursor:pointer}.pt:hover{stroke-width:3}.fr{fill:none;stroke:#9a9a9a;cursor:pointer}
 .ulabel{font-size:13px;font-weight:600;paint-order:stroke;stroke:#fff;stroke-width:3px}
