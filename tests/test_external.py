@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from helpers import tissuebench
 
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
+from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.ranking import Board, pareto
 
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not on PATH")

@@ -17,7 +17,7 @@ from helpers import tissuebench
 
 from tissuebench.solvers.truth import store
 from tissuebench.workflows import ranking
-from tissuebench.workflows.commands import leaderboard
+from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.ranking import BOARDS, board_case, error_keys, export_options
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -57,14 +57,15 @@ def tiny_record(results: Path) -> None:
     our algorithms on its hexahedra only (no simplices, no outside simulator), as
     `tissuebench leaderboard --rerun` does, so that the recipe's last line renders from a
     record as it would in a clone. A few seconds instead of the full board's many minutes."""
-    from tissuebench.workflows.commands import leaderboard
+    from tissuebench.workflows.leaderboard import build as leaderboard
+    from tissuebench.workflows.leaderboard import runs
     from tissuebench.workflows.ranking import Board
 
     board = Board("rod-MP3", "rod", "MP3", "linear", simulators=(), description="rod-MP3, ours")
     args = argparse.Namespace(out=results, solver="direct", petsc="", force=True, rerun=[])
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(leaderboard, "BOARDS", [board])
-        patch.setattr(leaderboard, "simplex_rows", lambda *args, **kwargs: [])
+        patch.setattr(runs, "simplex_rows", lambda *args, **kwargs: [])
         assert leaderboard.main(args) == 0
 
 

@@ -20,8 +20,9 @@ import pytest
 
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows import ranking
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     STUDIES,
@@ -374,7 +375,7 @@ def test_leaderboard_leaves_out_bad_user_folders_before_it_runs(
     (tmp_path / "mesh-sensitivity.md").write_text("")
     (tmp_path / "mesh-sensitivity.csv").write_text("case,algorithm\nrod-MP3,implicit\n")
     events = []
-    monkeypatch.setattr(leaderboard, "warn", lambda line: events.append(("warn", line)))
+    monkeypatch.setattr(user_folders, "warn", lambda line: events.append(("warn", line)))
     run_board = leaderboard.run_board
 
     def recorded(board, *args, **kw):

@@ -19,8 +19,9 @@ from test_crossmesh import MESHES, ROD, write_xdmf
 from test_truth_grading import TIMES, affine, candidate, make_truth
 
 from tissuebench.metrics.truth import grade_truth
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.io.series import read_series
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import grading, runs
 from tissuebench.workflows.ranking import (
     Board,
     Row,
@@ -190,9 +191,9 @@ def test_an_outside_run_is_graded_from_the_file_its_compare_graded(tmp_path):
         summary = {"kind": "compare", "candidate": {"file": str(recorded), "field": "U"}}
         (variant / "summary.json").write_text(json.dumps(summary))
     COMM.barrier()
-    series, field = leaderboard.external_series(tmp_path / "calculix", "implicit-C3D8I")
+    series, field = runs.external_series(tmp_path / "calculix", "implicit-C3D8I")
     assert series == str(variant / "work" / "job.frd") and field == "U"
-    assert leaderboard.external_series(tmp_path / "calculix", "C3D20") == (None, None)
+    assert runs.external_series(tmp_path / "calculix", "C3D20") == (None, None)
 
 
 def test_the_error_budget_takes_our_implicit_on_the_rows_mesh():
@@ -205,7 +206,7 @@ def test_the_error_budget_takes_our_implicit_on_the_rows_mesh():
                 errors={"interior_error_mean": 1.6e-4})  # fmt: skip
     user = row("mine", source="user", mesh="?", truth=t(1e-3), errors={})
     lone = row("x (prism grid)", mesh="prism grid: 9 nodes", group="g", truth=t(1e-3))
-    leaderboard.error_budget([ref, c3d8i, user, lone])
+    grading.error_budget([ref, c3d8i, user, lone])
     assert ref.budget["discretisation"] == 4e-4 and ref.budget["algorithm"] == 0.0
     assert c3d8i.budget["total"] == 3e-4 and c3d8i.budget["discretisation"] == 4e-4
     assert c3d8i.budget["algorithm"] == 1.6e-4
