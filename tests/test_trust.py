@@ -30,6 +30,7 @@ from tissuebench.workflows.mesh_sensitivity import (
     leaderboard_boards,
     run_study,
 )
+from tissuebench.workflows.output import seal
 from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, pareto
 from tissuebench.workflows.reports import leaderboard as document
 from tissuebench.workflows.reports.leaderboard import markdown
@@ -87,6 +88,7 @@ def user_folder(graded: Path, where: Path, change=None, label=None) -> Path:
         change(run, summary)
     summary["runs"] = {label or old: run}
     (where / "summary.json").write_text(json.dumps(summary))
+    seal(where)  # as compare would have written it: its manifest holds the summary's hash
     return where
 
 

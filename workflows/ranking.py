@@ -23,7 +23,8 @@ OUT/leaderboard.json: its record (workflows/commands/leaderboard.py), from which
 rendered again.
 
 Nothing read is trusted: a user's folder is checked against its case (dimension and nodes of
-the reference it was graded against, h, steps, end time) and each of its rows for its label,
+the reference it was graded against, h, steps, end time) and against its own manifest (a file
+changed since compare wrote it: edited), and each of its rows for its label,
 status, wall time and metrics; its reference's fingerprint (compare's summary.json) must be
 the case's; what fails is left out with one line saying why. Every text
 that was read is escaped for Markdown and HTML in leaderboard.md (md) and for matplotlib in
@@ -49,7 +50,7 @@ from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here a
     Board,
 )
 from tissuebench.workflows.limits import step_count
-from tissuebench.workflows.output import read_summary
+from tissuebench.workflows.output import MANIFEST, changes, read_summary
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.summary import CaseSummary
 
@@ -524,6 +525,8 @@ def user_rows(
         runs = summary.get("runs")
         if problem is None and (not isinstance(runs, dict) or not runs):
             problem = f"its summary.json has no runs: {RERUN_COMPARE}"
+        if problem is None:
+            problem = edited(sub)
         if problem:
             skipped.append(f"{where}: left out: {problem}")
             continue
@@ -564,6 +567,26 @@ def user_rows(
                 )
             )
     return rows, skipped
+
+
+def edited(folder: Path) -> str | None:
+    """Why a compare folder's numbers are not compare's (None: they are): a file of it changed
+    since compare wrote it (its manifest, output.MANIFEST, holds another hash: compare itself
+    refuses such a folder), or no manifest to check it against. A file added beside them
+    changes no number and is let be."""
+    found = changes(folder)
+    again = "move the folder away and grade the run again with tissuebench compare"
+    if found is None:
+        return f"it has no manifest of compare's ({MANIFEST}) to check its numbers against: {again}"
+    modified = found[1]
+    if modified:
+        more = f" and {len(modified) - 1} more" if len(modified) > 1 else ""
+        return (
+            f"its {one_line(modified[0])[:80]}{more} was changed since tissuebench wrote it "
+            f"(its manifest {MANIFEST} holds another hash), so its numbers are not compare's: "
+            + again
+        )
+    return None
 
 
 def candidate_of(summary: dict, folder: Path | None = None) -> dict:

@@ -33,16 +33,17 @@ from tissuebench.workflows.output import (
     collective,
     file_hash,
     read_manifest,
-    write_owned,
+    write_set,
 )
 from tissuebench.workflows.ranking import (
     BOARDS,
     mark_pareto,
     write_csv,
 )
-from tissuebench.workflows.reports.budget import budget_rows, plot_budget
 from tissuebench.workflows.reports.leaderboard import machine, plot_case, unit_of
 from tissuebench.workflows.simulators import get_simulator
+
+STAGED_HOOK = None  # called once every output is staged (tests: a signal at that moment)
 
 
 def check_target(
@@ -207,33 +208,23 @@ def main(args: argparse.Namespace) -> int:
         grade_users(boards, rows, found, graded, out)
 
     def write():
-        (out / FOLDER).mkdir(parents=True, exist_ok=True)
         record = record_of(boards, rows, notes)
+        files = {}  # every output, staged and then moved into place as one set
         for board, case in zip(boards, record["cases"], strict=True):
             same = drawn.get(board.name) == json.dumps(case)  # drawn of the same rows
             png = out / FOLDER / f"{board.name}.png"
             if not (same and unchanged(png)):  # else still as drawn: seconds saved per case
-                write_owned(png, lambda tmp, board=board: plot_case(tmp, board, rows[board.name]))
-            budget = out / FOLDER / f"{board.name}-budget.png"
-            if budget_rows(rows[board.name]) and not (same and unchanged(budget)):
-                write_owned(
-                    budget,
-                    lambda tmp, board=board: plot_budget(
-                        tmp,
-                        f"{board.name}: error budget against the truth {board.truth} (SPEC 10)",
-                        rows[board.name],
-                        unit_of(board),
-                    ),
-                )
+                files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
         every = [r for board in boards for r in rows[board.name]]
-        write_owned(out / RECORD, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
-        write_owned(out / "leaderboard.csv", lambda tmp: write_csv(tmp, every))
+        files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
+        files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
         frontier = page.read_frontier(out / "frontier" / "frontier.csv")
         text = document.markdown(boards, rows, shown, frontier, session)
-        write_owned(out / "leaderboard.md", lambda tmp: tmp.write_text(text))
+        files[out / "leaderboard.md"] = lambda tmp: tmp.write_text(text)
         index = page.render(boards, rows, shown, frontier, session, unit_of)
-        write_owned(out / FOLDER / "index.html", lambda tmp: tmp.write_text(index))
+        files[out / FOLDER / "index.html"] = lambda tmp: tmp.write_text(index)
+        write_set(files, staged_hook=STAGED_HOOK)
 
     collective(comm, write, out)
     interrupt.will_write([])  # all written

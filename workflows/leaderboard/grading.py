@@ -11,6 +11,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.users import user_key
 from tissuebench.workflows.ranking import (
     E_I,
@@ -238,7 +239,7 @@ def grade_users(
                 "against it"
             )
             if truth is None and any(not r.truth for r in mine):
-                users.warn(
+                user_folders.warn(
                     f"{board.name}: {sum(not r.truth for r in mine)} user row(s) not graded "
                     f"against the truth {board.truth}, which is not computed here: " + todo
                 )

@@ -37,9 +37,10 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     """Two panels, time-mean and maximum E_i against wall time per simulated second (log-log),
     one marker per source, the Pareto front as a dashed staircase, the reference's cost as a
     dotted line (in the legend); labels on every point, or on the front's when more than
-    LABELLED are shown; a group of rows (our runs on simplices) has its own marker, and labels
-    on the front only. When rows were graded against the truth (SPEC 10), a second row of two
-    panels: the same against the truth, with the truth's own error band as a dotted line."""
+    LABELLED are shown (a user's always, by its label); a group of rows (our runs on
+    simplices) has its own marker, and labels on the front only. When rows were graded against
+    the truth (SPEC 10), a second row of two panels: the same against the truth, with the
+    truth's own error band as a dotted line."""
     from matplotlib.figure import Figure
 
     against_truth = any(truth_error(r, k) for r in rows for k in ("mean", "max"))
@@ -113,7 +114,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
             zorder=3,
         )
         for r in group:
-            if (crowded or r.group) and not on_front(r):
+            if (crowded or r.group) and not on_front(r) and r.source != "user":
                 continue  # a crowd, or a group: only its front is labelled (the table has all)
             xy = (r.cost, error_of(r))
             near = sum(  # labels already placed next to this point go above it
