@@ -15,7 +15,7 @@ from helpers import tissuebench
 
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
-from tissuebench.workflows.ranking import Board, pareto
+from tissuebench.workflows.leaderboard.rows import Board, pareto
 
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not on PATH")
 SMALL = ["--mesh-size", "2", "--material", "MP3", "--end-time", "0.5"]  # 15 steps of 1/30 s

@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from tissuebench.workflows.leaderboard import page
-from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto
-from tissuebench.workflows.reports.leaderboard import unit_of
+from tissuebench.workflows.leaderboard.figures import unit_of
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMITTED = ROOT / "results" / "leaderboard" / "index.html"

@@ -17,7 +17,7 @@ from helpers import tissuebench
 
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
-from tissuebench.workflows.ranking import Board
+from tissuebench.workflows.leaderboard.rows import Board
 
 pytestmark = pytest.mark.serial  # each test drives the whole command on rank 0's files
 

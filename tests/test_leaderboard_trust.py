@@ -17,10 +17,11 @@ import pytest
 from test_newcomer_leaderboard import compare_summary
 
 from tissuebench.solvers import interrupt
-from tissuebench.workflows import output, ranking
+from tissuebench.workflows import output
 from tissuebench.workflows.leaderboard import build, record
+from tissuebench.workflows.leaderboard import rows as ranking
+from tissuebench.workflows.leaderboard.rows import BOARDS, Board, Row, error_keys
 from tissuebench.workflows.output import seal, write_owned
-from tissuebench.workflows.ranking import BOARDS, Board, Row, error_keys
 
 pytestmark = pytest.mark.serial  # rank 0's files and signals
 

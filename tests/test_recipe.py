@@ -60,7 +60,7 @@ def tiny_record(results: Path) -> None:
     record as it would in a clone. A few seconds instead of the full board's many minutes."""
     from tissuebench.workflows.leaderboard import build as leaderboard
     from tissuebench.workflows.leaderboard import runs
-    from tissuebench.workflows.ranking import Board
+    from tissuebench.workflows.leaderboard.rows import Board
 
     board = Board("rod-MP3", "rod", "MP3", "linear", simulators=(), description="rod-MP3, ours")
     args = argparse.Namespace(out=results, solver="direct", petsc="", force=True, rerun=[])

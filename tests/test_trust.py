@@ -19,10 +19,13 @@ from mpi4py import MPI
 import pytest
 
 from tissuebench.solvers import ALGORITHMS
-from tissuebench.workflows import ranking
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import figures as document
+from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard import users as user_folders
+from tissuebench.workflows.leaderboard.figures import markdown
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto, pareto
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     STUDIES,
@@ -31,9 +34,6 @@ from tissuebench.workflows.mesh_sensitivity import (
     run_study,
 )
 from tissuebench.workflows.output import seal
-from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, pareto
-from tissuebench.workflows.reports import leaderboard as document
-from tissuebench.workflows.reports.leaderboard import markdown
 
 COMM = MPI.COMM_WORLD
 TINY = Study("rod-MP3", "rod", "MP3", 4, end_time=0.2)  # grids 1, 2, 4; 6 steps of 1/30 s

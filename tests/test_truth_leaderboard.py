@@ -22,14 +22,14 @@ from tissuebench.metrics.truth import grade_truth
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import grading, runs
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard.figures import markdown
+from tissuebench.workflows.leaderboard.rows import (
     Board,
     Row,
     error_keys,
     mark_truth_pareto,
     write_csv,
 )
-from tissuebench.workflows.reports.leaderboard import markdown
 
 COMM = MPI.COMM_WORLD
 SHIFT = np.array([0.003, -0.004, 0.0])  # m per s: the candidate is off the truth by SHIFT t

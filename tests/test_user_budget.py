@@ -26,8 +26,8 @@ from tissuebench.workflows.grading import compare
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import runs
+from tissuebench.workflows.leaderboard.rows import Board
 from tissuebench.workflows.posing import geometry
-from tissuebench.workflows.ranking import Board
 from tissuebench.workflows.study import model_case, run_case
 from tissuebench.workflows.user_mesh import implicit_on
 
@@ -216,7 +216,7 @@ def test_where_our_implicit_cannot_run_the_budget_says_why_in_one_line(tmp_path)
     """A user's block on 3 x 3 quadrilaterals has no node at the point needle (1, 0.5): no part
     beyond the total, and one line that names the region."""
     from tissuebench.workflows.io.xdmf import write_series
-    from tissuebench.workflows.ranking import Row, error_keys
+    from tissuebench.workflows.leaderboard.rows import Row, error_keys
     from tissuebench.workflows.user_mesh import budget_on_mesh
 
     x = np.linspace(0.0, 1.0, 4)

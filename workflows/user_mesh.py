@@ -32,7 +32,7 @@ from tissuebench.metrics.series import CELLS, Series
 
 if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples
-    from tissuebench.workflows.ranking import Board, Row
+    from tissuebench.workflows.leaderboard.rows import Board, Row
 
 REFERENCE = "implicit"
 
@@ -139,7 +139,7 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
     from tissuebench.metrics.truth import grade_truth
     from tissuebench.solvers.truth.cases import CASES
     from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.ranking import E_I, board_case
+    from tissuebench.workflows.leaderboard.rows import E_I, board_case
 
     case = board_case(board)
     real = CASES[board.truth][2] if board.truth in CASES else board.model

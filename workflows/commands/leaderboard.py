@@ -16,7 +16,7 @@ from pathlib import Path
 
 from tissuebench.workflows.commands.arguments import add_common
 from tissuebench.workflows.leaderboard import build
-from tissuebench.workflows.ranking import BOARDS
+from tissuebench.workflows.leaderboard.rows import BOARDS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -7,7 +7,7 @@
   (an edited summary is left out with one line);
 - `grading`: our runs and every simulator's on a case (`--rerun`), and every row graded
   against the case's truth, with its error budget (SPEC 10);
-- `rows` (re-exported by workflows/ranking.py): the Row, reading outside rows, the checks of
+- `rows` (workflows/ranking.py re-exports it): the Row, reading outside rows, the checks of
   a compare summary, the Pareto front;
 - `page`: results/leaderboard/index.html, one self-contained page (inline SVG and a little
   JavaScript, no download);

@@ -14,6 +14,7 @@ from mpi4py import MPI
 from tissuebench.solvers import interrupt
 from tissuebench.workflows.commands.arguments import check_common
 from tissuebench.workflows.leaderboard import document, page, users
+from tissuebench.workflows.leaderboard.figures import machine, plot_case, unit_of
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
@@ -23,6 +24,11 @@ from tissuebench.workflows.leaderboard.record import (
     LeaderboardError,
     read_record,
     record_of,
+)
+from tissuebench.workflows.leaderboard.rows import (
+    BOARDS,
+    mark_pareto,
+    write_csv,
 )
 from tissuebench.workflows.leaderboard.runs import run_board
 from tissuebench.workflows.leaderboard.users import read_users, user_key
@@ -35,12 +41,6 @@ from tissuebench.workflows.output import (
     read_manifest,
     write_set,
 )
-from tissuebench.workflows.ranking import (
-    BOARDS,
-    mark_pareto,
-    write_csv,
-)
-from tissuebench.workflows.reports.leaderboard import machine, plot_case, unit_of
 from tissuebench.workflows.simulators import get_simulator
 
 STAGED_HOOK = None  # called once every output is staged (tests: a signal at that moment)

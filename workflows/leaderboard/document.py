@@ -10,10 +10,10 @@ full rows stay in leaderboard.csv and leaderboard.json. Every text read is escap
 
 from __future__ import annotations
 
+from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
 from tissuebench.workflows.leaderboard.record import MARKER
-from tissuebench.workflows.ranking import Board, Row, finite, fmt, md
-from tissuebench.workflows.reports.leaderboard import load_note, sessions_line, unit_of
+from tissuebench.workflows.leaderboard.rows import Board, Row, finite, fmt, md
 
 PAGE = "leaderboard/index.html"
 

@@ -12,8 +12,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.workflows.leaderboard import users as user_folders
-from tissuebench.workflows.leaderboard.users import user_key
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
     Board,
@@ -23,6 +22,7 @@ from tissuebench.workflows.ranking import (
     mark_truth_pareto,
     truth_error,
 )
+from tissuebench.workflows.leaderboard.users import user_key
 
 if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples

@@ -23,7 +23,8 @@ import json
 import math
 from pathlib import Path
 
-from tissuebench.workflows.ranking import E_I, E_N, Board, Row, finite
+from tissuebench.workflows.leaderboard.figures import sessions_line
+from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
 
 # --- what a row is, in the page's words ----------------------------------------------------------
 
@@ -833,13 +834,13 @@ def render(
         f"<style>{STYLE}</style></head><body>",
         '<div id="tip" hidden></div>',
         "<header><h1>tissuebench leaderboard: accuracy against cost</h1>",
-        f'<p class="note">Written by <code>tissuebench leaderboard</code> ({esc(session)}) from '
+        '<p class="note">Written by <code>tissuebench leaderboard</code> from '
         "the record <code>leaderboard.json</code> (every row also in <code>leaderboard.csv</code>"
         "; the summary is <code>leaderboard.md</code>). Per case: E_i, the interior error "
         "(SPEC 6: m^3 on the rod, m^2 on the block), time-mean over the steps, against the "
         "truth where the case has one graded (SPEC 10), else against the case's reference; "
-        "cost: wall time per simulated second. Ours and the simulators were timed in one "
-        "session per case on one core; a user's run carries the wall time given to compare. "
+        f"cost: wall time per simulated second, {esc(sessions_line(boards, session))} on one "
+        "core; a user's run carries the wall time given to compare. "
         "This page works offline.</p>",
         f"<p>Cases: {index}</p>",
     ]

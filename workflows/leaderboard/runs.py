@@ -10,16 +10,16 @@ from tissuebench.solvers import ALGORITHMS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.leaderboard.record import FOLDER
-from tissuebench.workflows.output import (
-    read_summary,
-)
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard.rows import (
     Board,
     Row,
     candidate_of,
     external_rows,
     mark_pareto,
     our_rows,
+)
+from tissuebench.workflows.output import (
+    read_summary,
 )
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external

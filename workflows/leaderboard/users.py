@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tissuebench.workflows.leaderboard.record import FOLDER
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard.rows import (
     Board,
     Row,
     misplaced,
@@ -23,9 +23,9 @@ if TYPE_CHECKING:
 
 def read_users(out: Path, boards: list[Board]) -> tuple[dict, dict]:
     """Every user's compare folder of every case (OUT/leaderboard/CASE/user/NAME), read and
-    checked (ranking.user_rows): ({case: [Row]}, {case: [one line per folder or run left
+    checked (rows.user_rows): ({case: [Row]}, {case: [one line per folder or run left
     out]}); each line left out is also printed on stderr, and so is every folder under
-    OUT/leaderboard that is not read although it may be meant to be (ranking.misplaced: not
+    OUT/leaderboard that is not read although it may be meant to be (rows.misplaced: not
     a case, or a compare folder outside user/). Rank 0."""
     rows, skipped = {}, {}
     for board in boards:

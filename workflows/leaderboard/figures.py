@@ -1,8 +1,8 @@
 """The leaderboard as a document (`tissuebench leaderboard`): one figure per case (accuracy
 against cost, the Pareto front, against the truth below) and leaderboard.md (each case's
 table, its runs against the truth with their error budget, and the runs across mesh sizes),
-from the ranked rows of workflows/ranking.py. Rank 0 only. Every text that was read is
-escaped (ranking.md, ranking.plain).
+from the ranked rows of workflows/leaderboard/rows.py. Rank 0 only. Every text that was read is
+escaped (rows.md, rows.plain).
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ from pathlib import Path
 
 from tissuebench.meshes import get_entry
 from tissuebench.solvers import interrupt
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard.budget import budget_rows
+from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
     Board,
@@ -27,7 +28,6 @@ from tissuebench.workflows.ranking import (
     ranked_error,
     truth_error,
 )
-from tissuebench.workflows.reports.budget import budget_rows
 
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
 
