@@ -163,11 +163,13 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
             )
         graded = grade_truth(truth, runs[real], MPI.COMM_SELF, surface=False)
         parts = {"discretisation": mean(graded.curves[E_I])}
-        parts["algorithm"] = mean(grade_series(runs[board.model], user, MPI.COMM_SELF).curves[E_I])
+        # E_i only: E_s (surface=False) is most of a grading's cost and no part of the budget
+        against = grade_series(runs[board.model], user, MPI.COMM_SELF, surface=False)
+        parts["algorithm"] = mean(against.curves[E_I])
         if board.model == real:
             parts["model"] = 0.0
         else:
-            between = grade_series(runs[real], runs[board.model], MPI.COMM_SELF)
+            between = grade_series(runs[real], runs[board.model], MPI.COMM_SELF, surface=False)
             parts["model"] = mean(between.curves[E_I])
     except Exception as exc:  # anything a file or a run can do: this row's parts are not known
         return {

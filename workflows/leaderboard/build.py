@@ -205,7 +205,9 @@ def main(args: argparse.Namespace) -> int:
             for r in kept_rows[b.name]
             if r.source == "user"
         }
-        grade_users(boards, rows, found, graded, out)
+        progress = users.Progress(out, sum(len(v) for v in found.values()))
+        graded.update(progress.resumed())
+        grade_users(boards, rows, found, graded, out, on_graded=progress)
 
     def write():
         record = record_of(boards, rows, notes)
@@ -227,6 +229,8 @@ def main(args: argparse.Namespace) -> int:
         write_set(files, staged_hook=STAGED_HOOK)
 
     collective(comm, write, out)
+    if comm.rank == 0:
+        progress.done()
     interrupt.will_write([])  # all written
     if comm.rank == 0:
         what = "rerun " + ", ".join(rerun) if rerun else "from the record"

@@ -4,6 +4,7 @@ error budget; the users' rows joined to their cases and graded. Rank 0, serial."
 from __future__ import annotations
 
 import re
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -70,7 +71,8 @@ def grade_row_truth(truth, row: Row) -> None:
         return
     try:
         cand = read_series(row.series, row.series_field)
-        g = grade_truth(truth, cand, MPI.COMM_SELF, label=row.label)
+        # E_n and E_i only (the leaderboard's columns): E_s's boolean is most of the cost
+        g = grade_truth(truth, cand, MPI.COMM_SELF, label=row.label, surface=False)
     except Exception as exc:  # anything a file can do: this row is not graded, the rest are
         row.truth_note = f"not graded: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
         return
@@ -206,13 +208,15 @@ def grade_users(
     users: dict,
     graded: dict | None = None,
     out: Path = Path("results"),
+    on_graded=None,
 ) -> None:
     """The users' rows joined to their cases, graded against each case's truth where it has one
     (its cached truth loaded once per case; a user's row graded by compare against the truth
     keeps its columns; one the record holds already graded, `graded` {user_key: Row}, keeps the
     record's), the Pareto fronts marked again and the users' error budgets. A truth that is not
     computed here is named, with the command that computes it, in the rows' notes and in one
-    line on stderr per case. Rank 0."""
+    line on stderr per case. Each row is graded whole (against the truth, then its budget)
+    before the next, and `on_graded(board, row, seconds)` is called as it ends. Rank 0."""
     from tissuebench.solvers.truth.store import expected_words, load_cached
 
     truths = {}
@@ -248,13 +252,18 @@ def grade_users(
                     row.truth_note = (
                         f"the truth {board.truth} is not computed on this machine: {todo}"
                     )
-                elif not row.truth:
-                    grade_row_truth(truth, row)
+        truth = truths.get(board.truth) if board.truth is not None else None
+        for row in pending:  # each graded whole (truth, then budget) and said as it ends
+            start = time.perf_counter()
+            if truth is not None and not row.truth:
+                grade_row_truth(truth, row)
+            if row.truth:
+                error_budget(rows[board.name], only=[row], board=board, truth=truth)
+            if on_graded is not None:
+                on_graded(board, row, time.perf_counter() - start)
         mark_pareto(rows[board.name])
         if any(truth_error(r, k) is not None for r in rows[board.name] for k in ("mean", "max")):
             mark_truth_pareto(rows[board.name])
-            truth = truths.get(board.truth)
-            error_budget(rows[board.name], only=pending, board=board, truth=truth)
 
 
 def complete(budget: dict) -> bool:

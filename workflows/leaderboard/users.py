@@ -6,19 +6,14 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from tissuebench.workflows.leaderboard.record import FOLDER
-from tissuebench.workflows.leaderboard.rows import (
-    Board,
-    Row,
-    misplaced,
-    user_rows,
-)
+from tissuebench.workflows.leaderboard.record import FOLDER, Invalid, row_of
+from tissuebench.workflows.leaderboard.rows import Board, Row, misplaced, user_rows
+from tissuebench.workflows.output import file_hash, read_manifest, write_owned
 
-if TYPE_CHECKING:
-    pass
+GRADED = "graded-users.json"  # in OUT/leaderboard: the users' rows graded so far (resumed from)
 
 
 def read_users(out: Path, boards: list[Board]) -> tuple[dict, dict]:
@@ -50,3 +45,39 @@ def user_key(row: Row) -> str:
     return json.dumps(
         [row.case, row.label, row.series, row.series_field, row.errors, row.wall_time_s]
     )
+
+
+class Progress:
+    """The users' rows graded in this run, each said in one line as it ends (seconds, k of n)
+    and recorded in OUT/leaderboard/graded-users.json (listed in that folder's manifest), so
+    that a run stopped part way resumes from the rows it finished (`resumed`)."""
+
+    def __init__(self, out: Path, total: int, log=print):
+        self.path, self.total, self.log = out / FOLDER / GRADED, total, log
+        self.rows: list[Row] = []
+
+    def resumed(self) -> dict[str, Row]:
+        """{user_key: Row} of the rows graded by an earlier run (the file as we wrote it, each
+        row valid), {} otherwise."""
+        listed = read_manifest(self.path.parent, "files") or {}
+        if not self.path.is_file() or listed.get(GRADED) != file_hash(self.path):
+            return {}
+        try:
+            found = [row_of(d) for d in json.loads(self.path.read_text())]
+        except (OSError, ValueError, TypeError, RecursionError, Invalid):
+            return {}
+        return {user_key(r): r for r in found if r.source == "user"}
+
+    def __call__(self, board: Board, row: Row, seconds: float) -> None:
+        self.rows.append(row)
+        text = json.dumps([asdict(r) for r in self.rows])
+        write_owned(self.path, lambda tmp: tmp.write_text(text))
+        self.log(
+            f"graded user row {len(self.rows)} (of {self.total} user rows): {row.label} "
+            f"({board.name}) in {seconds:.1f} s"
+        )
+
+    def done(self) -> None:
+        """Every row is in the record now: the file is no longer needed."""
+        if self.rows:
+            self.path.unlink(missing_ok=True)
