@@ -30,6 +30,7 @@ from tissuebench.workflows.leaderboard.rows import (
 )
 
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
+DECADES = 6  # the E_i axis spans at most this many decades below the largest error
 
 
 @interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
@@ -100,6 +101,14 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
     markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "Drake": "h",
                "MuJoCo": "X", "Kratos": "p", "user": "*"}  # fmt: skip
     shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost > 0]
+    # the axis spans at most DECADES below the largest error: a point below (round-off, a run
+    # that is the reference by another code) sits on the axis's floor, said in the legend
+    errors = [error_of(r) for r in shown]
+    floor = max(errors) * 10.0**-DECADES if errors else 0.0
+    if errors and min(errors) < floor:
+        raw = error_of
+        error_of = lambda r: max(raw(r), floor)  # noqa: E731
+        ax.axhline(floor, color="0.75", lw=0.8, label=f"at {floor:.0e}: E_i below it (round-off)")
     placed = []
     crowded = front_only or sum(r.group is None for r in shown) > LABELLED
     for source in dict.fromkeys(r.group or r.source for r in shown):
