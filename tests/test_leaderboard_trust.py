@@ -183,3 +183,24 @@ def test_a_deeply_nested_record_is_one_line(tmp_path, monkeypatch):
         run(out)
     assert "\n" not in str(caught.value)
     assert snapshot(out) == before
+
+
+def test_each_graded_user_row_is_recorded_as_it_ends_and_resumed_from(tmp_path, capsys):
+    """users.Progress: one line per graded row, the rows so far in graded-users.json (ours,
+    in the folder's manifest), read back by a later run; an edited file is not."""
+    from tissuebench.workflows.leaderboard import users
+
+    out = tmp_path / "results"
+    progress = users.Progress(out, total=2)
+    first = row("mine", 1.0, 1e-4)
+    first.source = "user"
+    progress(SMALL, first, 1.25)
+    said = capsys.readouterr().out
+    assert "graded user row 1 (of 2 user rows): mine (rod-small) in 1.2 s" in said
+    again = users.Progress(out, total=2).resumed()
+    assert list(again.values())[0].label == "mine" and users.user_key(first) in again
+    path = out / "leaderboard" / users.GRADED
+    path.write_text(path.read_text().replace("0.0001", "1e-09"))  # edited: not taken
+    assert users.Progress(out, total=2).resumed() == {}
+    progress.done()
+    assert not path.exists()
