@@ -307,7 +307,8 @@ def _curves(
             (ref.displacements[i], cand.displacements[i][match]) if comm.rank == 0 else None, root=0
         )
         pair = u_ref[points].ravel(), u_cand[points].ravel()
-        for name, value in metrics.evaluate(*pair, skip=skip).items():
+        values = metrics.evaluate(*pair, skip=skip) if skip else metrics.evaluate(*pair)
+        for name, value in values.items():
             curves[name][i] = value
     return curves
 
