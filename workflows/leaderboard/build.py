@@ -235,7 +235,8 @@ def main(args: argparse.Namespace) -> int:
     if comm.rank == 0:
         what = "rerun " + ", ".join(rerun) if rerun else "from the record"
         print(
-            f"wrote {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, {out / RECORD} and "
-            f"{out / FOLDER}/*.png ({what}; {sum(len(v) for v in found.values())} user rows)"
+            f"wrote {out / FOLDER / 'index.html'} (the page), {out / 'leaderboard.md'}, "
+            f"{out / 'leaderboard.csv'}, {out / RECORD} and {out / FOLDER}/*.png ({what}; "
+            f"{sum(len(v) for v in found.values())} user rows)"
         )
     return 0
