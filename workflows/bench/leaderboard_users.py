@@ -9,7 +9,8 @@ and run as a user would), puts USERS copies of that compare folder under
 WORK/results/leaderboard/rod-MP3/user/ (each its own label, sealed as compare seals it), and
 times `tissuebench leaderboard --out WORK/results`, which grades each against the truth `rod`
 (cached: `tissuebench truth rod` first) with its error budget and says each row as it ends.
-It prints the total, the seconds per row (from those lines) and the machine's load average.
+It prints the total, the seconds per row (from those lines, also in WORK/leaderboard.log as
+they come) and the machine's load average.
 """
 
 from __future__ import annotations
@@ -68,8 +69,15 @@ def main() -> int:
         (folder / "summary.json").write_text(json.dumps(summary))
         seal(folder)
     start = time.perf_counter()
-    out = sh(tb, "leaderboard", "--out", "results", cwd=work)
+    log = work / "leaderboard.log"  # its lines as they come (a row per line as it is graded)
+    with open(log, "w") as f:
+        done = subprocess.run(
+            [str(tb), "leaderboard", "--out", "results"], cwd=work, stdout=f, stderr=f
+        )
     total = time.perf_counter() - start
+    out = log.read_text()
+    if done.returncode != 0:
+        sys.exit(f"tissuebench leaderboard failed:\n{out[-2000:]}")
     seconds = [float(s) for s in re.findall(r"graded user row .* in ([0-9.]+) s", out)]
     per = sum(seconds) / len(seconds) if seconds else float("nan")
     print(
