@@ -411,7 +411,7 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
             f'data-tip="{esc(json.dumps(tip_lines(board, r, unit)))}"/>'
         )
         if src == USERS or r in front:
-            text = (r.label if src == USERS else r.label.split(":", 1)[-1])[:40]
+            text = (r.label if src == USERS else r.label.split(":", 1)[-1])[:48]
             cls = "ulabel" if src == USERS else "flabel"
             fill = f' fill="{colour}"' if src == USERS else ""
             width = (7.5 if src == USERS else 6.2) * len(text)
@@ -426,6 +426,15 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
                 ):
                     break
             labels.append((x0, ty, width))
+            facets = (
+                f'data-case="{esc(board.name)}" data-source="{esc(src)}" '
+                f'data-mesh="{esc(mesh_of(r))}" data-model="{esc(model_of(board, r))}"'
+            )
+            if abs(ty - (py - 6)) > 1:  # moved off its point: a thin line leads to it
+                out.append(
+                    f'<line class="leader f" x1="{px:.1f}" y1="{py:.1f}" '
+                    f'x2="{px - 6 if right else px + 6:.1f}" y2="{ty - 4:.1f}" {facets}/>'
+                )
             out.append(
                 f'<text class="{cls} f" x="{px - 8 if right else px + 8:.1f}" '
                 f'y="{ty:.1f}"{fill}{anchor} '
@@ -627,6 +636,7 @@ h3{font-size:16px;margin:14px 0 6px}
 .pt{cursor:pointer}.pt:hover{stroke-width:3}.fr{fill:none;stroke:#9a9a9a;cursor:pointer}
 .ulabel{font-size:13px;font-weight:600;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .flabel{font-size:11px;fill:#333;paint-order:stroke;stroke:#fff;stroke-width:3px}
+.leader{stroke:#888;stroke-width:.8}
 .even{fill:#fff}.odd{fill:#f5f7fa}.brow:hover rect{fill:#ffeebb}
 .hidden{display:none}
 .filters{display:flex;flex-wrap:wrap;gap:4px 18px;font-size:13.5px;margin:6px 0}
