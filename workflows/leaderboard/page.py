@@ -775,7 +775,7 @@ def case_section(
         f"{g(board.truth_band)} {unit}, shaded)"
         if truth
         else "against the case's reference (our implicit on its mesh: SPEC 6)"
-        + (f"; truth: {esc(board.truth_note)}" if board.truth_note else "")
+        + (f"; truth: {esc(board.truth_note.rstrip('.'))}" if board.truth_note else "")
     )
     budget = budget_plot(board, rows, unit)
     parts = [
