@@ -16,6 +16,7 @@ from tissuebench.workflows.leaderboard.record import MARKER
 from tissuebench.workflows.leaderboard.rows import Board, Row, finite, fmt, md
 
 PAGE = "leaderboard/index.html"
+USERS_SHOWN = 10  # users' runs listed per case (the best first); every one is on the page
 
 
 def best_per_source(rows: list[Row], truth: bool) -> list[tuple[str, Row]]:
@@ -83,7 +84,12 @@ def case_lines(
         f"| source | best run | mesh, dofs | E_i mean ({unit}) | E_i max | s per simulated s |",
         "|---|---|---|---|---|---|",
     ]
-    for source, r in best_per_source(rows, truth):
+    best = best_per_source(rows, truth)
+    users = [source for source, _ in best if source.startswith("user ")]
+    hidden = set(users[USERS_SHOWN:])  # the best USERS_SHOWN users' runs; the rest on the page
+    for source, r in best:
+        if source in hidden:
+            continue
         e, emax = error_of(r, truth), error_of(r, truth, "max")
         status = "" if r.status == "ok" else f" ({md(r.status)})"
         mesh = "the case's" if r.mesh == "reference" else md(r.mesh)
@@ -91,6 +97,8 @@ def case_lines(
             f"| {md(source)} | {md(r.label)}{' (reference)' if r.reference else ''}{status} | "
             f"{mesh}, {r.dofs} | {fmt(e)} | {fmt(emax)} | {fmt(r.cost)} |"
         )
+    if hidden:
+        out.append(f"| {len(hidden)} more users' runs | on the page | | | | |")
     line = frontier_line(board, frontier, unit) if truth else ""
     if line:
         out += ["", line]
