@@ -418,13 +418,16 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
             right = px + 8 + width > ax.W  # near the right edge: the label to the left
             anchor = ' text-anchor="end"' if right else ""
             x0 = px - 8 - width if right else px + 8
-            ty = py - 6
+            ty = None
             for dy in (-6, 16, -18, 28, -30, 40):  # the first place that overlaps no label
-                ty = py + dy
                 if not any(
-                    x0 < b[0] + b[2] and b[0] < x0 + width and abs(ty - b[1]) < 12 for b in labels
+                    x0 < b[0] + b[2] and b[0] < x0 + width and abs(py + dy - b[1]) < 12
+                    for b in labels
                 ):
+                    ty = py + dy
                     break
+            if ty is None:
+                continue  # no room left beside a crowded point: its tooltip and the list say it
             labels.append((x0, ty, width))
             facets = (
                 f'data-case="{esc(board.name)}" data-source="{esc(src)}" '
@@ -753,13 +756,16 @@ def filters(board: Board, rows: list[Row], frontier: list[dict], users: dict) ->
     )
     out.append("</div>")
     if users:
-        out.append(
-            '<p class="users">Users&#39; runs on this case: '
-            + ", ".join(
-                f'<b style="color:{c}">&#9733; {esc(label)}</b>' for label, c in users.items()
-            )
-            + "</p>"
+        listed = ", ".join(
+            f'<b style="color:{c}">&#9733; {esc(label)}</b>' for label, c in users.items()
         )
+        if len(users) <= 20:
+            out.append(f'<p class="users">Users&#39; runs on this case: {listed}</p>')
+        else:  # many: folded (the browser's find still finds a label in it)
+            out.append(
+                f'<details class="users"><summary>{len(users)} users&#39; runs on this case '
+                f"(each in its own colour)</summary>{listed}</details>"
+            )
     return "".join(out)
 
 
