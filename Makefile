@@ -8,7 +8,7 @@ VENV   ?= .venv
 EXTRAS ?= dolfinx,test
 BIN     = $(VENV)/bin
 
-.PHONY: setup paper test bench clean external-tools leaderboard
+.PHONY: setup paper test bench clean external-tools leaderboard browser browser-tests
 
 setup: $(VENV)/.installed
 
@@ -50,6 +50,26 @@ external-tools: setup
 		(sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
 			|| echo "apt-get could not install calculix-ccx: the CalculiX runs and tests are skipped"; \
 	else echo "ccx (CalculiX) is missing and cannot be installed here: install calculix-ccx (Debian/Ubuntu) or put ccx on PATH; the CalculiX runs and tests are skipped"; fi
+
+# The leaderboard page in a real browser (tests/test_leaderboard_page.py): Debian's chromium and
+# chromium-driver through apt-get where they are missing and we may (root, or sudo without a
+# password), with a message otherwise; selenium comes with the test extra and drives the system
+# chromedriver by its path (nothing downloads a browser). The tests skip, saying why, where the
+# browser is still missing. SCREENSHOTS: where they save a screenshot per case.
+SCREENSHOTS ?= $(CURDIR)/.screenshots
+browser:
+	@if command -v chromium >/dev/null && command -v chromedriver >/dev/null; then \
+		echo "chromium: $$(command -v chromium), chromedriver: $$(command -v chromedriver)"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null) \
+			|| echo "apt-get could not install chromium and chromium-driver: the browser tests are skipped"; \
+	elif command -v sudo >/dev/null && sudo -n true 2>/dev/null && command -v apt-get >/dev/null; then \
+		(sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null) \
+			|| echo "apt-get could not install chromium and chromium-driver: the browser tests are skipped"; \
+	else echo "chromium or chromedriver is missing and cannot be installed here: install chromium and chromium-driver (Debian/Ubuntu); the browser tests are skipped"; fi
+
+browser-tests: setup browser
+	TISSUEBENCH_SCREENSHOTS=$(SCREENSHOTS) $(BIN)/pytest -q -rs tests/test_leaderboard_page.py
 
 leaderboard: external-tools
 	$(BIN)/tissuebench leaderboard --out results --rerun

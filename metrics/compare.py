@@ -286,6 +286,7 @@ def _curves(
     graded: int,
     match: np.ndarray | None,
     cross: CrossMetrics | None = None,
+    skip: tuple[str, ...] = (),
 ) -> dict[str, np.ndarray]:
     """The metric curves (dimensionless, one value per step, keyed as METRICS), evaluated on the
     first `graded` steps only and NaN on the others. Collective; the series are rank 0's. The
@@ -305,7 +306,9 @@ def _curves(
         u_ref, u_cand = comm.bcast(
             (ref.displacements[i], cand.displacements[i][match]) if comm.rank == 0 else None, root=0
         )
-        for name, value in metrics.evaluate(u_ref[points].ravel(), u_cand[points].ravel()).items():
+        pair = u_ref[points].ravel(), u_cand[points].ravel()
+        values = metrics.evaluate(*pair, skip=skip) if skip else metrics.evaluate(*pair)
+        for name, value in values.items():
             curves[name][i] = value
     return curves
 
@@ -399,11 +402,13 @@ def grade_series(
     comm: MPI.Comm = MPI.COMM_WORLD,
     *,
     label: str | None = None,
+    surface: bool = True,
 ) -> Grading:
     """`grade` for two series in memory, rank 0's (None on the other ranks may be passed):
     checked, completed with the zero initial state, and graded on the reference's mesh node
     for node when the candidate's mesh is the reference's, else on its own mesh (SPEC 9).
     Collective over comm; the same Grading on every rank; InputError on every rank as `grade`.
+    Without `surface`, E_s is left NaN on the same mesh (its boolean is most of the cost).
     """
     match = plan = None
     error = None
@@ -452,7 +457,8 @@ def grade_series(
         )
         where = f"{paths[0]}: not a mesh of the body of {paths[1]}"
         grader = CrossMetrics(V, mesh, BODY_TOLERANCE * extent, where)
-    curves = _curves(comm, V, points, ref, cand, steps, graded, match, grader)
+    skip = () if surface else ("surface_error",)
+    curves = _curves(comm, V, points, ref, cand, steps, graded, match, grader, skip)
 
     label = names[0]
     title, summaries = describe(

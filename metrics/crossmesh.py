@@ -167,6 +167,10 @@ class PointValues:
         components = np.ascontiguousarray(np.asarray(u).T)  # gathers of rows are the fastest
         return np.stack([np.einsum("pk,pk->p", self.weights, c[self.nodes]) for c in components], 1)
 
+    def steps(self, u: np.ndarray) -> np.ndarray:
+        """u′_h at the points for several steps at once: u (steps, N′, d) -> (steps, n, d)."""
+        return np.einsum("pk,spkd->spd", self.weights, u[:, self.nodes, :])
+
 
 class CrossInterior:
     """E_i of a candidate on its own mesh by quadrature on V's cells (the rule of

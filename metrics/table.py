@@ -101,10 +101,16 @@ class Metrics:
             value = surface_error(self.domain, X + x_ref, X + x_cand)
         return self.comm.bcast(value, root=0)
 
-    def evaluate(self, u_ref: np.ndarray, u_cand: np.ndarray) -> dict[str, float]:
-        """The metrics of candidate u_cand against reference u_ref, a dict keyed as METRICS."""
+    def evaluate(
+        self, u_ref: np.ndarray, u_cand: np.ndarray, skip: tuple[str, ...] = ()
+    ) -> dict[str, float]:
+        """The metrics of candidate u_cand against reference u_ref, a dict keyed as METRICS
+        (NaN, not computed, for the names in `skip`)."""
         u_ref, u_cand = self._check(u_ref), self._check(u_cand)
-        return {name: float(metric.value(self, u_ref, u_cand)) for name, metric in METRICS.items()}
+        return {
+            name: np.nan if name in skip else float(metric.value(self, u_ref, u_cand))
+            for name, metric in METRICS.items()
+        }
 
     def history(self, ref: list[np.ndarray], cand: list[np.ndarray]) -> dict[str, np.ndarray]:
         """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN

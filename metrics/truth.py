@@ -179,6 +179,28 @@ class TruthMetrics:
             )
         return {name: float(values.get(name, np.nan)) for name in METRICS}
 
+    def evaluate_steps(self, displacements, steps: int, chunk: int = 16) -> dict[str, np.ndarray]:
+        """`evaluate` of steps 0..steps-1 of a candidate's nodal displacements (a sequence of
+        (N′, d) arrays, m) without E_s (NaN), `chunk` steps per array operation: the same
+        numbers, several times faster than step by step (the interpolation at the truth's
+        points is most of a step's cost)."""
+        out = {name: np.full(steps, np.nan) for name in METRICS}
+        for start in range(0, steps, chunk):
+            stop = min(steps, start + chunk)
+            u = np.stack([np.asarray(displacements[i], np.float64) for i in range(start, stop)])
+            u_v = np.asarray(self.truth.u_vertices[start:stop], dtype=np.float64)
+            u_q = np.asarray(self.truth.u_points[start:stop], dtype=np.float64)
+            gap = np.linalg.norm(self.at_vertices.steps(u) - u_v, axis=2)  # (steps, vertices)
+            reference = np.linalg.norm(u_v.reshape(len(u_v), -1), axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                relative = np.sqrt(np.einsum("sv,sv->s", gap, gap)) / reference
+            out["relative_error"][start:stop] = np.where(reference > 0, relative, np.nan)
+            away = np.linalg.norm(self.at_points.steps(u) - u_q, axis=2)  # (steps, points)
+            out["interior_error"][start:stop] = self.scale * (away @ self.weights)
+            if "interior_error_nodal" in out:
+                out["interior_error_nodal"][start:stop] = self.scale * (gap @ self.nodal)
+        return out
+
 
 # --- checks ---------------------------------------------------------------------------------
 
@@ -265,9 +287,13 @@ def _grade(
     status = statuses(steps, len(cand.times), ref_diverged, cand_diverged)
     graded = status.count("ok")
     curves = {n: np.full(steps, np.nan) for n in METRICS}
-    for i in range(graded):
-        for n, value in grader.evaluate(i, cand.displacements[i]).items():
-            curves[n][i] = value
+    if surface:
+        for i in range(graded):
+            for n, value in grader.evaluate(i, cand.displacements[i]).items():
+                curves[n][i] = value
+    else:  # no boolean per step: the steps in chunks (the same numbers, faster)
+        for n, values in grader.evaluate_steps(cand.displacements, graded).items():
+            curves[n][:graded] = values
     seconds = {"locate": located, "steps": time.perf_counter() - start - located}
 
     label = label or cand.path.stem

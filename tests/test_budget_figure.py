@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from tissuebench.workflows.reports.budget import budget_rows, plot_budget
+from tissuebench.workflows.leaderboard.budget import budget_rows, plot_budget
 
 
 def row(label, **budget):
@@ -39,7 +39,7 @@ def test_the_figure_draws_one_bar_per_measured_part(tmp_path):
         rgb = np.array([int(hex_colour[i : i + 2], 16) / 255 for i in (1, 3, 5)])
         return int(np.sum(np.all(np.abs(image - rgb) < 0.02, axis=-1)))
 
-    from tissuebench.workflows.reports.budget import COLOURS
+    from tissuebench.workflows.leaderboard.budget import COLOURS
 
     assert present(COLOURS["discretisation"]) > 50 and present(COLOURS["algorithm"]) > 50
     # model: only its legend entry would show it; with no row measuring it, no bar and no legend

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from helpers import tissuebench
 
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
-from tissuebench.workflows.ranking import Board, pareto
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard.rows import Board, pareto
 
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not on PATH")
 SMALL = ["--mesh-size", "2", "--material", "MP3", "--end-time", "0.5"]  # 15 steps of 1/30 s
@@ -174,8 +174,13 @@ def test_leaderboard_across_mesh_sizes_runs_the_chosen_variants(tmp_path, monkey
     assert [c for c in ccx if c[0] == "rod-n2"] == [("rod-n2", "calculix:implicit-C3D8I")]
     text = (tmp_path / "leaderboard.md").read_text()
     assert "- only C3D8I here" in text
-    section = text.split("## Against mesh size: rod-n1, rod-n2")[1]
-    table = [line for line in section.splitlines() if line.startswith("| ")]
+    # one table lines the runs up across the sizes (figures.size_table, from the record)
+    from tissuebench.workflows.leaderboard.figures import size_series, size_table
+    from tissuebench.workflows.leaderboard.record import read_record
+
+    recorded, rows, _ = read_record(tmp_path)
+    (series,) = size_series(recorded)
+    table = [line for line in size_table(series, rows) if line.startswith("| ")]
     assert "n = 1 (" in table[0] and "n = 2 (" in table[0]
     labels = [line.split(" | ")[0][2:] for line in table[1:]]
     assert "calculix:implicit-C3D8I" in labels and "calculix:hht-C3D8" not in labels

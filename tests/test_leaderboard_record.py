@@ -15,9 +15,9 @@ import shutil
 import pytest
 from helpers import tissuebench
 
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
-from tissuebench.workflows.ranking import Board
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard.rows import Board
 
 pytestmark = pytest.mark.serial  # each test drives the whole command on rank 0's files
 

@@ -1,8 +1,8 @@
 """The leaderboard across mesh sizes (issue 27, item 2): the cases of one series at several
 mesh sizes, each run's E_i max against the truth and cost at each size, in one table."""
 
-from tissuebench.workflows.ranking import Board, Row
-from tissuebench.workflows.reports.leaderboard import size_series, size_table
+from tissuebench.workflows.leaderboard.figures import size_series, size_table
+from tissuebench.workflows.leaderboard.rows import Board, Row
 
 
 def row(case: str, label: str, dofs: int, truth_max: float, wall: float, status="ok", **kw) -> Row:
@@ -46,7 +46,7 @@ def test_what_the_finest_mesh_changes_is_said_from_the_rows():
     """Each run's cost and error ratios from the coarsest to the finest size (exact from the
     rows), an error that fell less than 2x said to have stopped falling, and a run that
     finished coarse but not fine named; runs at one end only left out."""
-    from tissuebench.workflows.reports.leaderboard import growth_lines
+    from tissuebench.workflows.leaderboard.figures import growth_lines
 
     boards = [
         Board("coarse", "rod", "MP3", "linear", truth="rod", sizes="rod"),
@@ -83,7 +83,7 @@ def test_what_the_finest_mesh_changes_is_said_from_the_rows():
 def test_the_rod_mp2_boards_are_the_linear_rods_at_three_sizes():
     """issue 32, item 1: rod-MP2 is a leaderboard case at the three rod sizes, graded against
     the truth rod-MP2, with the same simulators and variants as the MP3 rod at each size."""
-    from tissuebench.workflows.ranking import BOARDS
+    from tissuebench.workflows.leaderboard.rows import BOARDS
 
     cases = {b.name: b for b in BOARDS}
     mp2 = [cases[name] for name in ("rod-MP2", "rod-MP2-n6", "rod-MP2-n12")]

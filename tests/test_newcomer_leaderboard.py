@@ -16,9 +16,10 @@ import pytest
 from helpers import tissuebench
 
 from tissuebench.solvers.truth import store
-from tissuebench.workflows import ranking
-from tissuebench.workflows.commands import leaderboard
-from tissuebench.workflows.ranking import BOARDS, board_case, error_keys, export_options
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import rows as ranking
+from tissuebench.workflows.leaderboard.rows import BOARDS, board_case, error_keys, export_options
+from tissuebench.workflows.output import seal
 
 ROOT = Path(__file__).resolve().parents[1]
 COMM = MPI.COMM_WORLD
@@ -60,6 +61,7 @@ def compare_summary(board: ranking.Board, label: str = "mine") -> dict:
 def compare_folder(folder: Path, board: ranking.Board) -> Path:
     folder.mkdir(parents=True)
     (folder / "summary.json").write_text(json.dumps(compare_summary(board)))
+    seal(folder)  # as compare writes it: with its manifest
     return folder
 
 

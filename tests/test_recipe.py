@@ -5,7 +5,8 @@ fresh folder, with two substitutions only: `python my_solver.py` becomes this Py
 tests/recipe_solver.py (a small simulator of our own that reads only the exported JSON, with
 numpy and scipy, on its own tetrahedra), and `results` is a copy of the project's committed
 results/ (what a clone holds), so that the README cannot go stale without this test failing.
-It ends with the user's row on the leaderboard.
+It ends with the user's row on the leaderboard: in leaderboard.md and leaderboard.csv, and on
+the page (leaderboard/index.html) by its label, within a minute of the last line's start.
 """
 
 import argparse
@@ -57,14 +58,15 @@ def tiny_record(results: Path) -> None:
     our algorithms on its hexahedra only (no simplices, no outside simulator), as
     `tissuebench leaderboard --rerun` does, so that the recipe's last line renders from a
     record as it would in a clone. A few seconds instead of the full board's many minutes."""
-    from tissuebench.workflows.commands import leaderboard
-    from tissuebench.workflows.ranking import Board
+    from tissuebench.workflows.leaderboard import build as leaderboard
+    from tissuebench.workflows.leaderboard import runs
+    from tissuebench.workflows.leaderboard.rows import Board
 
     board = Board("rod-MP3", "rod", "MP3", "linear", simulators=(), description="rod-MP3, ours")
     args = argparse.Namespace(out=results, solver="direct", petsc="", force=True, rerun=[])
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(leaderboard, "BOARDS", [board])
-        patch.setattr(leaderboard, "simplex_rows", lambda *args, **kwargs: [])
+        patch.setattr(runs, "simplex_rows", lambda *args, **kwargs: [])
         assert leaderboard.main(args) == 0
 
 
@@ -111,6 +113,11 @@ def test_the_readme_recipe_puts_a_users_run_on_the_leaderboard(tmp_path):
     # the row on the leaderboard, with the numbers compare graded
     board = (tmp_path / "results" / "leaderboard.md").read_text()
     assert label in board
+    # and on the page, by its label: its point (in its own colour, labelled) and the list of
+    # users' runs at the top, which links to its case
+    page = (tmp_path / "results" / "leaderboard" / "index.html").read_text()
+    assert f'data-label="{label}"' in page and f'<a href="#rod-MP3">{label}</a>' in page
+    assert times[-1] < 60, f"tissuebench leaderboard took {times[-1]:.0f} s"
     with open(tmp_path / "results" / "leaderboard.csv", newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["case"] == "rod-MP3" and label in r["label"]]
     assert len(rows) == 1, f"{len(rows)} rows of {label} on rod-MP3 in leaderboard.csv"

@@ -19,9 +19,13 @@ from mpi4py import MPI
 import pytest
 
 from tissuebench.solvers import ALGORITHMS
-from tissuebench.workflows import ranking
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import figures as document
+from tissuebench.workflows.leaderboard import rows as ranking
+from tissuebench.workflows.leaderboard import users as user_folders
+from tissuebench.workflows.leaderboard.figures import markdown
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto, pareto
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     STUDIES,
@@ -29,9 +33,7 @@ from tissuebench.workflows.mesh_sensitivity import (
     leaderboard_boards,
     run_study,
 )
-from tissuebench.workflows.ranking import Board, Row, error_keys, mark_pareto, pareto
-from tissuebench.workflows.reports import leaderboard as document
-from tissuebench.workflows.reports.leaderboard import markdown
+from tissuebench.workflows.output import seal
 
 COMM = MPI.COMM_WORLD
 TINY = Study("rod-MP3", "rod", "MP3", 4, end_time=0.2)  # grids 1, 2, 4; 6 steps of 1/30 s
@@ -86,6 +88,7 @@ def user_folder(graded: Path, where: Path, change=None, label=None) -> Path:
         change(run, summary)
     summary["runs"] = {label or old: run}
     (where / "summary.json").write_text(json.dumps(summary))
+    seal(where)  # as compare would have written it: its manifest holds the summary's hash
     return where
 
 
@@ -374,7 +377,7 @@ def test_leaderboard_leaves_out_bad_user_folders_before_it_runs(
     (tmp_path / "mesh-sensitivity.md").write_text("")
     (tmp_path / "mesh-sensitivity.csv").write_text("case,algorithm\nrod-MP3,implicit\n")
     events = []
-    monkeypatch.setattr(leaderboard, "warn", lambda line: events.append(("warn", line)))
+    monkeypatch.setattr(user_folders, "warn", lambda line: events.append(("warn", line)))
     run_board = leaderboard.run_board
 
     def recorded(board, *args, **kw):

@@ -291,3 +291,24 @@ def test_compare_refuses_a_point_needle_case(tmp_path, store, capsys):
         err = capsys.readouterr().err.strip()
         assert "truth:block-MP1: this case has no converged reference" in err
         assert len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_without_the_surface_the_steps_in_chunks_give_the_same_numbers(dim):
+    """grade_truth(surface=False) evaluates the steps in chunks (TruthMetrics.evaluate_steps):
+    E_n, E_i and nodal E_i as step by step, to round-off; E_s is NaN; a diverged candidate's
+    steps from its divergence are NaN as before."""
+    u = affine(dim)
+    truth = make_truth(MESHES[dim]["reference"], u)
+    other = "triangles" if dim == 2 else "tetrahedra"
+    cand = candidate(MESHES[dim][other], lambda X, t: 1.1 * u(X, t) + 0.001 * t)
+    full = same_on_every_rank(grade_truth(truth, cand))
+    fast = same_on_every_rank(grade_truth(truth, cand, surface=False))
+    for name in ("relative_error", "interior_error", "interior_error_nodal"):
+        np.testing.assert_allclose(fast[name], full[name], rtol=1e-13, atol=0)
+    assert np.isnan(fast["surface_error"]).all()
+    cand.displacements[2] = cand.displacements[2].copy()
+    cand.displacements[2][0, 0] = np.nan
+    broken = same_on_every_rank(grade_truth(truth, cand, surface=False))
+    np.testing.assert_allclose(broken["interior_error"][:2], full["interior_error"][:2], rtol=1e-13)
+    assert np.isnan(broken["interior_error"][2:]).all()

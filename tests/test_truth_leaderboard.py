@@ -19,16 +19,17 @@ from test_crossmesh import MESHES, ROD, write_xdmf
 from test_truth_grading import TIMES, affine, candidate, make_truth
 
 from tissuebench.metrics.truth import grade_truth
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.io.series import read_series
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import grading, runs
+from tissuebench.workflows.leaderboard.figures import markdown
+from tissuebench.workflows.leaderboard.rows import (
     Board,
     Row,
     error_keys,
     mark_truth_pareto,
     write_csv,
 )
-from tissuebench.workflows.reports.leaderboard import markdown
 
 COMM = MPI.COMM_WORLD
 SHIFT = np.array([0.003, -0.004, 0.0])  # m per s: the candidate is off the truth by SHIFT t
@@ -94,7 +95,7 @@ def test_truth_columns_are_the_grade_of_the_rows_own_series(tmp_path, cached):
     leaderboard.grade_truths([board], {board.name: rows}, log=lambda line: None)
     assert calls == ["rod"]
     assert board.truth_band == pytest.approx(4.7e-6)
-    g = grade_truth(truth, read_series(shifted), MPI.COMM_SELF)
+    g = grade_truth(truth, read_series(shifted), MPI.COMM_SELF, surface=False)  # as it grades
     for metric in ("relative_error", "interior_error"):
         curve = g.curves[metric][1:]
         assert rows[1].truth[f"{metric}_max"] == np.nanmax(curve)
@@ -190,9 +191,9 @@ def test_an_outside_run_is_graded_from_the_file_its_compare_graded(tmp_path):
         summary = {"kind": "compare", "candidate": {"file": str(recorded), "field": "U"}}
         (variant / "summary.json").write_text(json.dumps(summary))
     COMM.barrier()
-    series, field = leaderboard.external_series(tmp_path / "calculix", "implicit-C3D8I")
+    series, field = runs.external_series(tmp_path / "calculix", "implicit-C3D8I")
     assert series == str(variant / "work" / "job.frd") and field == "U"
-    assert leaderboard.external_series(tmp_path / "calculix", "C3D20") == (None, None)
+    assert runs.external_series(tmp_path / "calculix", "C3D20") == (None, None)
 
 
 def test_the_error_budget_takes_our_implicit_on_the_rows_mesh():
@@ -205,7 +206,7 @@ def test_the_error_budget_takes_our_implicit_on_the_rows_mesh():
                 errors={"interior_error_mean": 1.6e-4})  # fmt: skip
     user = row("mine", source="user", mesh="?", truth=t(1e-3), errors={})
     lone = row("x (prism grid)", mesh="prism grid: 9 nodes", group="g", truth=t(1e-3))
-    leaderboard.error_budget([ref, c3d8i, user, lone])
+    grading.error_budget([ref, c3d8i, user, lone])
     assert ref.budget["discretisation"] == 4e-4 and ref.budget["algorithm"] == 0.0
     assert c3d8i.budget["total"] == 3e-4 and c3d8i.budget["discretisation"] == 4e-4
     assert c3d8i.budget["algorithm"] == 1.6e-4

@@ -22,11 +22,12 @@ import pytest
 
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.meshes.regions import POSINGS, on_mesh, posing
-from tissuebench.workflows.commands import leaderboard
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.io.series import read_series
+from tissuebench.workflows.leaderboard import build as leaderboard
+from tissuebench.workflows.leaderboard import runs
+from tissuebench.workflows.leaderboard.rows import Board
 from tissuebench.workflows.posing import geometry
-from tissuebench.workflows.ranking import Board
 from tissuebench.workflows.study import model_case, run_case
 from tissuebench.workflows.user_mesh import implicit_on
 
@@ -54,7 +55,7 @@ def render(out, rerun=None) -> None:
     args = argparse.Namespace(out=out, solver="direct", petsc="", force=True, rerun=rerun)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(leaderboard, "BOARDS", [board()])
-        patch.setattr(leaderboard, "simplex_rows", lambda *args, **kwargs: [])
+        patch.setattr(runs, "simplex_rows", lambda *args, **kwargs: [])
         assert leaderboard.main(args) == 0
 
 
@@ -121,11 +122,19 @@ def test_a_user_row_on_p1_tetrahedra_shows_all_four_budget_parts(board_with_user
     assert b["algorithm"] <= 1e-9 * b["total"]
     assert b["discretisation"] == pytest.approx(b["total"], rel=1e-9)
     assert b["model"] == 0.0 and b["model_how"].startswith("none")
-    # leaderboard.md's budget table shows the four numbers
-    text = (out / "leaderboard.md").read_text()
-    line = next(x for x in text.splitlines() if x.startswith(f"| {LABEL} |") and "run here" in x)
-    cells = [c.strip() for c in line.strip("|").split("|")]
-    assert all(c and c[0].isdigit() for c in cells[1:5]), line
+    # the page's budget chart has the user's row, whose tooltip shows the four numbers
+    import html
+    import re
+
+    text = (out / "leaderboard" / "index.html").read_text()
+    tips = [
+        json.loads(html.unescape(t))
+        for t in re.findall(r'class="brow f"[^>]*data-tip="([^"]*)"', text)
+    ]
+    lines = next(t for t in tips if t[0] == LABEL)
+    assert "run here" in " ".join(lines)
+    for part, line in zip(PARTS, lines[1:], strict=True):
+        assert re.match(rf"{part}: \d", line), line
 
 
 @pytest.mark.serial
@@ -207,7 +216,7 @@ def test_where_our_implicit_cannot_run_the_budget_says_why_in_one_line(tmp_path)
     """A user's block on 3 x 3 quadrilaterals has no node at the point needle (1, 0.5): no part
     beyond the total, and one line that names the region."""
     from tissuebench.workflows.io.xdmf import write_series
-    from tissuebench.workflows.ranking import Row, error_keys
+    from tissuebench.workflows.leaderboard.rows import Row, error_keys
     from tissuebench.workflows.user_mesh import budget_on_mesh
 
     x = np.linspace(0.0, 1.0, 4)

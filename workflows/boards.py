@@ -1,6 +1,7 @@
 """The leaderboard's cases (`BOARDS`): each a benchmark posed once (material, model, options,
 mesh size, h, T), the models of ours it runs, the outside simulators and their variants, and
-its truth (SPEC 10). workflows/ranking.py reads and ranks them; a case is one entry here."""
+its truth (SPEC 10). workflows/leaderboard/rows.py reads and ranks them; a case is one entry
+here."""
 
 from __future__ import annotations
 

@@ -29,13 +29,13 @@ from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
 from tissuebench.solvers.simulate import Run, simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.io.xdmf import gather_mesh, gather_series, write_series
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, finite, fmt, real
 from tissuebench.workflows.output import (
     OutputError,
     collective,
     fingerprint,
     write_owned,
 )
-from tissuebench.workflows.ranking import Board, Row, error_keys, finite, fmt, real
 
 NAME = "mesh-sensitivity"
 MARKER = "# Mesh sensitivity"
@@ -610,7 +610,7 @@ def plot(path: Path, study: Study, rows: list[dict]) -> None:
 
 
 def leaderboard_boards(out: Path, log: Callable[[str], None] = lambda line: None) -> list[tuple]:
-    """The full study's runs in OUT as leaderboard cases: [(ranking.Board, [ranking.Row])], one
+    """The full study's runs in OUT as leaderboard cases: [(Board, [Row])], one
     per case (none without a full study's report). Nothing read is trusted: a report or table
     that cannot be read, and each row of the table that is not a run of the study, is left
     out with one line to `log`."""

@@ -560,6 +560,51 @@ def write_owned(path: Path, write: Callable[[Path], None]) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def write_set(files: dict[Path, Callable[[Path], None]], staged_hook=None) -> None:
+    """Several loose files written as one set (rank 0): each write(tmp) staged into a
+    temporary beside its target; then, every folder's manifest lock held and every target
+    checked as ours (check_owned), all renamed into place and listed in their folders'
+    manifests with signals deferred (solvers/interrupt.py), so that a signal or an error
+    before the renames leaves the old set whole, and one during them is raised once the whole
+    new set is in place. What interrupt.will_write named is said written when the renames are
+    done. `staged_hook()`, if given, runs once everything is staged (tests send a signal there).
+    """
+    staged: dict[Path, Path] = {}
+    locks: list[Lock] = []
+    try:
+        for path, write in files.items():
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.parent / f"{PREFIX}{path.name}.{os.getpid()}.tmp{path.suffix}"
+            staged[path] = tmp
+            write(tmp)
+            interrupt.check()  # a signal while staging: raised here, nothing replaced
+        if staged_hook is not None:
+            staged_hook()
+        folders = sorted({path.parent for path in staged})
+        for folder in folders:
+            lock = Lock(folder / f"{PREFIX}lock-{MANIFEST}", folder, wait=30.0)
+            lock.acquire()
+            locks.append(lock)
+        for path in staged:
+            check_owned(path)
+        digests = {path: file_hash(tmp) for path, tmp in staged.items()}
+        interrupt.check()  # the last point at which a signal leaves the old set whole
+        with interrupt.deferred():
+            for folder in folders:
+                listed = read_manifest(folder, "files") or {}
+                mine = {p: t for p, t in staged.items() if p.parent == folder}
+                for path, tmp in mine.items():
+                    os.replace(tmp, path)
+                _write_manifest(folder, "files", {**listed, **{p.name: digests[p] for p in mine}})
+            interrupt.will_write([])  # the whole set is in place
+    finally:
+        for lock in locks:
+            lock.release()
+        for tmp in staged.values():
+            tmp.unlink(missing_ok=True)
+
+
 def check_file_target(out: Path, suffix: str, force: bool, also: tuple | list = ()) -> None:
     """Refuse, before any work, a file output that does not end in .suffix, or that (or one of
     the files written beside it, `also`) is a folder or exists and is not ours unchanged (or

@@ -32,7 +32,7 @@ from tissuebench.metrics.series import CELLS, Series
 
 if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples
-    from tissuebench.workflows.ranking import Board, Row
+    from tissuebench.workflows.leaderboard.rows import Board, Row
 
 REFERENCE = "implicit"
 
@@ -139,7 +139,7 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
     from tissuebench.metrics.truth import grade_truth
     from tissuebench.solvers.truth.cases import CASES
     from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.ranking import E_I, board_case
+    from tissuebench.workflows.leaderboard.rows import E_I, board_case
 
     case = board_case(board)
     real = CASES[board.truth][2] if board.truth in CASES else board.model
@@ -163,11 +163,13 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
             )
         graded = grade_truth(truth, runs[real], MPI.COMM_SELF, surface=False)
         parts = {"discretisation": mean(graded.curves[E_I])}
-        parts["algorithm"] = mean(grade_series(runs[board.model], user, MPI.COMM_SELF).curves[E_I])
+        # E_i only: E_s (surface=False) is most of a grading's cost and no part of the budget
+        against = grade_series(runs[board.model], user, MPI.COMM_SELF, surface=False)
+        parts["algorithm"] = mean(against.curves[E_I])
         if board.model == real:
             parts["model"] = 0.0
         else:
-            between = grade_series(runs[real], runs[board.model], MPI.COMM_SELF)
+            between = grade_series(runs[real], runs[board.model], MPI.COMM_SELF, surface=False)
             parts["model"] = mean(between.curves[E_I])
     except Exception as exc:  # anything a file or a run can do: this row's parts are not known
         return {

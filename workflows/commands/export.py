@@ -15,10 +15,10 @@ from tissuebench.workflows.commands.arguments import (
 )
 from tissuebench.workflows.io.calculix import ELEMENTS
 from tissuebench.workflows.io.exported import SCHEMA, SCHEMA_VERSION, ExportError
+from tissuebench.workflows.leaderboard.rows import BOARDS, Board, export_options, posed_board
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate
 from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
-from tissuebench.workflows.ranking import BOARDS, Board, export_options, posed_board
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -1,8 +1,8 @@
 """The leaderboard as a document (`tissuebench leaderboard`): one figure per case (accuracy
 against cost, the Pareto front, against the truth below) and leaderboard.md (each case's
 table, its runs against the truth with their error budget, and the runs across mesh sizes),
-from the ranked rows of workflows/ranking.py. Rank 0 only. Every text that was read is
-escaped (ranking.md, ranking.plain).
+from the ranked rows of workflows/leaderboard/rows.py. Rank 0 only. Every text that was read is
+escaped (rows.md, rows.plain).
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ from pathlib import Path
 
 from tissuebench.meshes import get_entry
 from tissuebench.solvers import interrupt
-from tissuebench.workflows.ranking import (
+from tissuebench.workflows.leaderboard.budget import budget_rows
+from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
     Board,
@@ -27,9 +28,9 @@ from tissuebench.workflows.ranking import (
     ranked_error,
     truth_error,
 )
-from tissuebench.workflows.reports.budget import budget_rows
 
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
+DECADES = 6  # the E_i axis spans at most this many decades below the largest error
 
 
 @interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
@@ -37,9 +38,10 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     """Two panels, time-mean and maximum E_i against wall time per simulated second (log-log),
     one marker per source, the Pareto front as a dashed staircase, the reference's cost as a
     dotted line (in the legend); labels on every point, or on the front's when more than
-    LABELLED are shown; a group of rows (our runs on simplices) has its own marker, and labels
-    on the front only. When rows were graded against the truth (SPEC 10), a second row of two
-    panels: the same against the truth, with the truth's own error band as a dotted line."""
+    LABELLED are shown (a user's always, by its label); a group of rows (our runs on
+    simplices) has its own marker, and labels on the front only. When rows were graded against
+    the truth (SPEC 10), a second row of two panels: the same against the truth, with the
+    truth's own error band as a dotted line."""
     from matplotlib.figure import Figure
 
     against_truth = any(truth_error(r, k) for r in rows for k in ("mean", "max"))
@@ -99,6 +101,14 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
     markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "Drake": "h",
                "MuJoCo": "X", "Kratos": "p", "user": "*"}  # fmt: skip
     shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost > 0]
+    # the axis spans at most DECADES below the largest error: a point below (round-off, a run
+    # that is the reference by another code) sits on the axis's floor, said in the legend
+    errors = [error_of(r) for r in shown]
+    floor = max(errors) * 10.0**-DECADES if errors else 0.0
+    if errors and min(errors) < floor:
+        raw = error_of
+        error_of = lambda r: max(raw(r), floor)  # noqa: E731
+        ax.axhline(floor, color="0.75", lw=0.8, label=f"at {floor:.0e}: E_i below it (round-off)")
     placed = []
     crowded = front_only or sum(r.group is None for r in shown) > LABELLED
     for source in dict.fromkeys(r.group or r.source for r in shown):
@@ -113,7 +123,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
             zorder=3,
         )
         for r in group:
-            if (crowded or r.group) and not on_front(r):
+            if (crowded or r.group) and not on_front(r) and r.source != "user":
                 continue  # a crowd, or a group: only its front is labelled (the table has all)
             xy = (r.cost, error_of(r))
             near = sum(  # labels already placed next to this point go above it

@@ -31,7 +31,7 @@ LABELS = {
 
 
 class BudgetRow(Protocol):
-    """What the figure reads of a leaderboard row (workflows/ranking.py's Row)."""
+    """What the figure reads of a leaderboard row (workflows/leaderboard/rows.py's Row)."""
 
     label: str
     budget: dict

@@ -1,0 +1,204 @@
+"""The leaderboard's page, results/leaderboard/index.html (issue 35): self-contained (no
+script or stylesheet from anywhere, under 10 MB), and in a real browser (Debian's chromium and
+chromedriver, driven by selenium with the system driver's path given: nothing downloads a
+browser): loaded from file:// without console errors, one point per row of the record in each
+case, a user's point shows its label on hover, filtering by source hides the others, and a
+screenshot of every case (into $TISSUEBENCH_SCREENSHOTS when set, else a temporary folder).
+Where chromium, chromedriver or selenium is missing the browser tests skip and say which;
+`make browser-tests` installs them where it may.
+"""
+
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+from tissuebench.workflows.leaderboard import page
+from tissuebench.workflows.leaderboard.figures import unit_of
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto
+
+ROOT = Path(__file__).resolve().parents[1]
+COMMITTED = ROOT / "results" / "leaderboard" / "index.html"
+RECORD = ROOT / "results" / "leaderboard.json"
+HOSTILE = 'x"y<script>alert(1)</script>'
+
+pytestmark = pytest.mark.serial  # one browser, driven from rank 0's process
+
+
+def record_rows() -> dict[str, int]:
+    doc = json.loads(RECORD.read_text())
+    return {c["board"]["name"]: len(c["rows"]) for c in doc["cases"]}
+
+
+def self_contained(text: str) -> None:
+    """No script, stylesheet, frame or image fetched from anywhere (inline only)."""
+    assert not re.search(r"<script[^>]*\bsrc\s*=", text, re.I)
+    assert not re.search(r"<link\b", text, re.I)
+    assert not re.search(r"<(iframe|img|object|embed)\b", text, re.I)
+    assert not re.search(r"(src|href)\s*=\s*[\"']?\s*(https?:)?//", text, re.I)
+    assert "@import" not in text and "url(" not in text
+
+
+def test_committed_page_is_self_contained_and_small():
+    assert COMMITTED.is_file(), "results/leaderboard/index.html is not committed"
+    text = COMMITTED.read_text()
+    assert len(text.encode()) < 10 * 2**20
+    self_contained(text)
+    for name, count in record_rows().items():
+        assert text.count('class="pt f') >= count
+        assert f'id="{name}"' in text
+
+
+# --- a page with users' rows -------------------------------------------------------------------
+
+
+def row(label: str, source: str, cost: float, error: float, **kw) -> Row:
+    errors = dict.fromkeys(error_keys(), error)
+    truth = {k: error * 2 for k in ("relative_error_max", "relative_error_mean",
+                                    "interior_error_max", "interior_error_mean")}  # fmt: skip
+    r = Row("rod-MP3", label, source, "a run; timed: around its run", kw.pop("mesh", "reference"),
+            kw.pop("dofs", 336), "ok", None, errors, cost * 10, 10.0, "this session",
+            truth=truth, **kw)  # fmt: skip
+    r.budget = {"total": error * 2, "discretisation": error, "algorithm": error / 3, "model": None}
+    return r
+
+
+def users_page(folder: Path) -> tuple[Path, dict[str, int]]:
+    """A page of one case: ours, two simulators' and two users' rows (one user's label
+    hostile), and a diverged one; returns its file and the count of rows per source."""
+    board = Board("rod-MP3", "rod", "MP3", "linear", truth="rod", truth_band=5e-6,
+                  description="the rod")  # fmt: skip
+    rows = [
+        row("implicit", "tissuebench", 0.01, 0.0, reference=True),
+        row("explicit-lumped", "tissuebench", 0.004, 1e-4),
+        row("calculix:implicit-C3D8", "CalculiX 2.20", 0.3, 2e-4),
+        row("sfepy:newmark", "SfePy 2026.3", 0.08, 3e-4),
+        row("my-solver", "user", 0.5, 5e-5, mesh="tetrahedra: 300 cells, 90 nodes", dofs=270),
+        row(HOSTILE, "user", 2.0, 1e-5, mesh="hexahedra: 54 cells, 112 nodes"),
+    ]
+    bad = row("newton:xpbd", "Newton 1.8.0", 0.2, 1e-3)
+    bad.status = "diverged"
+    rows.append(bad)
+    mark_pareto(rows)
+    for r in rows:
+        r.truth_pareto = dict(r.pareto)
+    frontier = {"rod": [{"case": "rod", "scheme": "anp", "algorithm": "implicit",
+                         "cell": "tetrahedron", "mesh_size": 3, "dofs": 336, "substeps": 1,
+                         "status": "ok", "cost": 0.02, "e_mean": 8e-5, "e_max": 1e-4}]}  # fmt: skip
+    text = page.render([board], {"rod-MP3": rows}, {"rod-MP3": []}, frontier, "now", unit_of)
+    path = folder / "index.html"
+    path.write_text(text)
+    counts = {}
+    for r in rows:
+        counts[page.source_of(r)] = counts.get(page.source_of(r), 0) + 1
+    return path, counts
+
+
+def test_users_page_escapes_and_counts(tmp_path):
+    path, counts = users_page(tmp_path)
+    text = path.read_text()
+    self_contained(text)
+    assert "<script>alert" not in text
+    assert text.count('class="pt f') == sum(counts.values())
+    assert text.count('class="fr f"') == 1
+
+
+# --- in a real browser -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """Headless chromium through the system chromedriver (its path given: no Selenium
+    Manager, no download); skipped with the reason where one is missing."""
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        pytest.skip("selenium is not installed (pip install -e '.[test]')")
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    driver = shutil.which("chromedriver") or (
+        "/usr/bin/chromedriver" if Path("/usr/bin/chromedriver").is_file() else None
+    )
+    if chromium is None or driver is None:
+        pytest.skip(
+            "chromium or chromedriver is missing: `make browser-tests` installs Debian's "
+            "chromium and chromium-driver where it may (apt-get as root)"
+        )
+    options = webdriver.ChromeOptions()
+    options.binary_location = chromium
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--window-size=1300,1000", "--hide-scrollbars"):  # fmt: skip
+        options.add_argument(arg)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    b = webdriver.Chrome(service=Service(executable_path=driver), options=options)
+    yield b
+    b.quit()
+
+
+def severe(browser) -> list:
+    return [e for e in browser.get_log("browser") if e.get("level") == "SEVERE"]
+
+
+def screenshot_folder(tmp_path: Path) -> Path:
+    folder = Path(os.environ.get("TISSUEBENCH_SCREENSHOTS") or tmp_path / "screenshots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def test_committed_page_in_the_browser(browser, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    browser.get(COMMITTED.as_uri())
+    assert severe(browser) == []
+    shots = screenshot_folder(tmp_path)
+    for name, count in record_rows().items():
+        section = browser.find_element(By.ID, name)
+        points = section.find_elements(By.CSS_SELECTOR, "svg.plot .pt")
+        assert len(points) == count, f"{name}: {len(points)} points, {count} rows"
+        browser.execute_script("arguments[0].scrollIntoView()", section)
+        plot = section.find_element(By.CSS_SELECTOR, "svg.plot")
+        path = shots / f"{name}.png"
+        plot.screenshot(str(path))
+        assert path.stat().st_size > 10_000
+    assert severe(browser) == []
+
+
+def test_users_point_hover_and_source_filter(browser, tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    path, counts = users_page(tmp_path)
+    browser.get(path.as_uri())
+    assert severe(browser) == []
+    assert len(browser.find_elements(By.CSS_SELECTOR, ".pt")) == sum(counts.values())
+    tip = browser.find_element(By.ID, "tip")
+    for label in ("my-solver", HOSTILE):
+        quoted = label.replace('"', '\\"')  # as a CSS string
+        point = browser.find_element(By.CSS_SELECTOR, f'.pt[data-label="{quoted}"]')
+        ActionChains(browser).move_to_element(point).perform()
+        assert tip.is_displayed()
+        assert tip.text.splitlines()[0] == label
+        # the label on the plot, beside its point, in the user's own colour
+        texts = [t.text for t in browser.find_elements(By.CSS_SELECTOR, "text.ulabel")]
+        assert label in texts
+    colours = {
+        t.get_attribute("fill") for t in browser.find_elements(By.CSS_SELECTOR, "text.ulabel")
+    }
+    assert len(colours) == 2
+    # only the users: every other point hidden, the users' shown
+    browser.find_element(By.CSS_SELECTOR, 'button.only[data-value="users"]').click()
+    for point in browser.find_elements(By.CSS_SELECTOR, ".pt, .fr"):
+        shown = point.get_attribute("data-source") == "users"
+        assert point.is_displayed() == shown, point.get_attribute("data-label")
+    # untick CalculiX after showing all: its point goes, the others stay
+    browser.find_element(By.CSS_SELECTOR, 'button.only[data-value="*"]').click()
+    browser.find_element(By.CSS_SELECTOR, 'input[data-facet="source"][value="CalculiX"]').click()
+    for point in browser.find_elements(By.CSS_SELECTOR, ".pt"):
+        assert point.is_displayed() == (point.get_attribute("data-source") != "CalculiX")
+    browser.find_element(By.CSS_SELECTOR, "svg.plot").screenshot(
+        str(screenshot_folder(tmp_path) / "users-page.png")
+    )
+    assert severe(browser) == []

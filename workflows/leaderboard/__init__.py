@@ -1,0 +1,18 @@
+"""The leaderboard (`tissuebench leaderboard`), all of it in one package; the command
+(workflows/commands/leaderboard.py) only parses its arguments and calls `build.main`.
+
+- `record`: leaderboard.json, read and validated row by row (type and range) before anything
+  is replaced, and written;
+- `users`: the users' compare folders, each checked against its case and its own manifest
+  (an edited summary is left out with one line);
+- `grading`: our runs and every simulator's on a case (`--rerun`), and every row graded
+  against the case's truth, with its error budget (SPEC 10);
+- `rows` (workflows/ranking.py re-exports it): the Row, reading outside rows, the checks of
+  a compare summary, the Pareto front;
+- `page`: results/leaderboard/index.html, one self-contained page (inline SVG and a little
+  JavaScript, no download);
+- `document`: leaderboard.md, the one-screen summary per case; `figures`: the PNGs;
+- `build`: the whole command, its outputs staged and moved into place as one set.
+
+The cases themselves are BOARDS (workflows/boards.py).
+"""

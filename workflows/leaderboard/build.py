@@ -1,0 +1,242 @@
+"""`tissuebench leaderboard`: the record read (or cases rerun), the users' folders read and
+checked, everything graded, then every output written as one set (write_set)."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+from pathlib import Path
+
+from mpi4py import MPI
+
+from tissuebench.solvers import interrupt
+from tissuebench.workflows.commands.arguments import check_common
+from tissuebench.workflows.leaderboard import document, page, users
+from tissuebench.workflows.leaderboard.figures import machine, plot_case, unit_of
+from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
+from tissuebench.workflows.leaderboard.record import (
+    FOLDER,
+    MARKER,
+    OWNED,
+    RECORD,
+    LeaderboardError,
+    read_record,
+    record_of,
+)
+from tissuebench.workflows.leaderboard.rows import (
+    BOARDS,
+    mark_pareto,
+    write_csv,
+)
+from tissuebench.workflows.leaderboard.runs import run_board
+from tissuebench.workflows.leaderboard.users import read_users, user_key
+from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
+from tissuebench.workflows.output import (
+    OutputError,
+    check_writable,
+    collective,
+    file_hash,
+    read_manifest,
+    write_set,
+)
+from tissuebench.workflows.simulators import get_simulator
+
+STAGED_HOOK = None  # called once every output is staged (tests: a signal at that moment)
+
+
+def check_target(
+    out: Path,
+    available: set[str],
+    force: bool,
+    record: tuple | None = None,
+    rerun: list[str] | None = None,
+) -> None:
+    """Refuse to replace a leaderboard.md we did not write; a partial rerun where there is a
+    leaderboard but no record of the other cases; and, without force, a rerun of cases whose
+    recorded rows (or, without a record, leaderboard.csv's) include a simulator that is not
+    installed here (a rerun never drops what it cannot run again)."""
+    md = out / "leaderboard.md"
+    if md.exists() and not md.read_text(errors="replace").startswith(MARKER):
+        raise OutputError(
+            f"{md}: exists and was not written by tissuebench leaderboard; move it or choose "
+            "another --out"
+        )
+    old = out / "leaderboard.csv"
+    partial = rerun is not None and len(rerun) < len(BOARDS)
+    if record is None and partial and old.is_file() and not force:
+        raise OutputError(
+            f"{out / 'leaderboard.json'}: no record of the cases not named, which a partial "
+            "rerun would drop from the leaderboard: `--rerun` with no case reruns them all "
+            "(or pass --force to write the named cases alone)"
+        )
+    if force:
+        return
+    if record is not None:
+        labels = [
+            r.label
+            for name, rows in record[1].items()
+            if rerun is None or name in rerun
+            for r in rows
+            if r.source not in ("user", "tissuebench")
+        ]
+    elif old.is_file():
+        with open(old, newline="", errors="replace") as f:
+            try:  # a simulator's rows only: a user's label or ours never names a simulator
+                labels = [
+                    row.get("label") or ""
+                    for row in csv.DictReader(f)
+                    if row.get("source") not in ("user", "tissuebench")
+                ]
+            except csv.Error:
+                labels = []  # not a leaderboard's table: nothing in it to keep
+    else:
+        return
+    lost = sorted({lab.split(":")[0] for lab in labels if ":" in lab} - available)
+    if lost:
+        raise OutputError(
+            f"{out}: the leaderboard has rows of {', '.join(lost)}, which cannot run here: "
+            "install it (make external-tools), or rerun only the cases without it (--rerun "
+            "CASE), or pass --force to replace those rows"
+        )
+
+
+def load_average() -> float:
+    """The machine's one-minute load average (runnable processes; above the core count, the
+    timed runs shared their cores with other work); NaN where the system does not say."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (OSError, AttributeError):
+        return float("nan")
+
+
+def unchanged(path: Path) -> bool:
+    """Whether a file of ours is in place as we wrote it (listed in its folder's manifest with
+    its present hash)."""
+    listed = read_manifest(path.parent, "files") or {}
+    return path.is_file() and listed.get(path.name) == file_hash(path)
+
+
+def check_rerun(names: list[str] | None) -> list[str] | None:
+    """The cases to rerun (None: none; all of BOARDS when --rerun names none); an unknown name
+    is refused in one line that lists the cases."""
+    if names is None:
+        return None
+    known = [b.name for b in BOARDS]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise LeaderboardError(
+            f"--rerun {unknown[0]}: no such case; name some of {', '.join(known)}, or none for all"
+        )
+    return list(dict.fromkeys(names)) or known
+
+
+def main(args: argparse.Namespace) -> int:
+    """Render the leaderboard from its record with the users' rows, or rerun (--rerun) the
+    cases named; write OUT/leaderboard.md, .csv, .json and the figures (rank 0)."""
+    import time
+
+    check_common(args)
+    comm = MPI.COMM_WORLD
+    out = args.out
+    rerun = check_rerun(getattr(args, "rerun", None))
+    check_writable(out, comm, owned=OWNED)
+    record = collective(comm, lambda: read_record(out))
+    if record is None and rerun is None:
+        raise LeaderboardError(
+            f"{out / RECORD}: no leaderboard record here: `tissuebench leaderboard --out {out} "
+            "--rerun` runs and times every case and writes one (10 minutes or more)"
+        )
+    if rerun is not None:
+        available = set()
+        for board in BOARDS:
+            for name in board.simulators:
+                if comm.rank == 0 and get_simulator(name).available() is None:
+                    available.add(name)
+        collective(comm, lambda: check_target(out, available, args.force, record, rerun))
+    session = time.strftime("%Y-%m-%d %H:%M %Z")
+    kept_boards, kept_rows, kept_notes = record or ([], {}, {})
+    drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
+    drawn = {name: json.dumps(c) for name, c in drawn.items()}  # what each figure was drawn of
+    kept = {b.name: b for b in kept_boards}
+    rows, notes, boards = {}, {}, []
+    fresh = []
+    for board in BOARDS:
+        if rerun is not None and board.name in rerun:
+            board.session, board.machine = session, machine()
+            fresh.append(board)
+            boards.append(board)
+        elif board.name in kept:
+            boards.append(kept[board.name])
+            rows[board.name] = kept_rows[board.name]
+            notes[board.name] = kept_notes[board.name]
+    studied = []
+    if rerun is not None and len(rerun) == len(BOARDS):  # everything anew: the study read again
+        studied = leaderboard_boards(out, log=users.warn) if comm.rank == 0 else []
+    else:  # the other cases of the record (the mesh-sensitivity study's), as recorded
+        names = {b.name for b in BOARDS}
+        for board in kept_boards:
+            if board.name not in names:
+                boards.append(board)
+                rows[board.name], notes[board.name] = kept_rows[board.name], kept_notes[board.name]
+    # what is read is read and checked before anything runs (rank 0 reads and writes)
+    cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
+    found, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
+    interrupt.will_write(  # named on a signal: the old ones stay as they were
+        [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]
+    )
+    for board in fresh:
+        start = load_average()
+        rows[board.name], notes[board.name] = run_board(board, out, args.solver, args.petsc, comm)
+        board.load = (start, load_average())
+    for board, board_rows in studied:
+        mark_pareto(board_rows)  # the mesh-sensitivity study's runs
+        study_series(out, board, board_rows)
+        board.session, board.machine = session, machine()
+        boards.append(board)
+        rows[board.name], notes[board.name] = board_rows, []
+    if comm.rank == 0:  # against the truth: serial, on rank 0, which writes
+        grade_truths(fresh + [b for b, _ in studied], rows)
+        graded = {  # users' rows of the record graded against the truth of a case not rerun
+            user_key(r): r
+            for b in kept_boards
+            if b.name not in (rerun or [])
+            for r in kept_rows[b.name]
+            if r.source == "user"
+        }
+        progress = users.Progress(out, sum(len(v) for v in found.values()))
+        graded.update(progress.resumed())
+        grade_users(boards, rows, found, graded, out, on_graded=progress)
+
+    def write():
+        record = record_of(boards, rows, notes)
+        files = {}  # every output, staged and then moved into place as one set
+        for board, case in zip(boards, record["cases"], strict=True):
+            same = drawn.get(board.name) == json.dumps(case)  # drawn of the same rows
+            png = out / FOLDER / f"{board.name}.png"
+            if not (same and unchanged(png)):  # else still as drawn: seconds saved per case
+                files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
+        every = [r for board in boards for r in rows[board.name]]
+        files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
+        files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
+        shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
+        frontier = page.read_frontier(out / "frontier" / "frontier.csv")
+        text = document.markdown(boards, rows, shown, frontier, session)
+        files[out / "leaderboard.md"] = lambda tmp: tmp.write_text(text)
+        index = page.render(boards, rows, shown, frontier, session, unit_of)
+        files[out / FOLDER / "index.html"] = lambda tmp: tmp.write_text(index)
+        write_set(files, staged_hook=STAGED_HOOK)
+
+    collective(comm, write, out)
+    if comm.rank == 0:
+        progress.done()
+    interrupt.will_write([])  # all written
+    if comm.rank == 0:
+        what = "rerun " + ", ".join(rerun) if rerun else "from the record"
+        print(
+            f"wrote {out / FOLDER / 'index.html'} (the page), {out / 'leaderboard.md'}, "
+            f"{out / 'leaderboard.csv'}, {out / RECORD} and {out / FOLDER}/*.png ({what}; "
+            f"{sum(len(v) for v in found.values())} user rows)"
+        )
+    return 0

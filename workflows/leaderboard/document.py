@@ -1,0 +1,139 @@
+"""leaderboard.md: one screen per case, the page (leaderboard/index.html) holds the rest.
+
+Per case: what it is and its truth, when and where it was timed; the best run of each source
+(ours, each simulator, each user's label: the smallest time-mean E_i against the truth, or
+against the case's reference where it has no truth graded); the SPEC 11 frontier (the closest
+run at real time among frontier.csv's runs of the case's truth); the notes (what was not run,
+and every user's folder or run left out, with why); and the link to the case on the page. The
+full rows stay in leaderboard.csv and leaderboard.json. Every text read is escaped (md).
+"""
+
+from __future__ import annotations
+
+from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
+from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
+from tissuebench.workflows.leaderboard.record import MARKER
+from tissuebench.workflows.leaderboard.rows import Board, Row, finite, fmt, md
+
+PAGE = "leaderboard/index.html"
+USERS_SHOWN = 10  # users' runs listed per case (the best first); every one is on the page
+
+
+def best_per_source(rows: list[Row], truth: bool) -> list[tuple[str, Row]]:
+    """(source, its best row) for each source (a user's label is a source of its own), the
+    best overall first; a source none of whose runs finished shows its first row."""
+    by: dict[str, list[Row]] = {}
+    for r in rows:
+        key = f"user {r.label}" if r.source == "user" else source_of(r)
+        by.setdefault(key, []).append(r)
+
+    def rank(r: Row) -> float:
+        e = error_of(r, truth)
+        if not finished(r) or e is None or (r.reference and not truth):
+            return float("inf")
+        return e
+
+    best = [(key, min(group, key=rank)) for key, group in by.items()]
+    return sorted(best, key=lambda b: rank(b[1]))
+
+
+def frontier_line(board: Board, frontier: list[dict], unit: str) -> str:
+    """The SPEC 11 frontier of the case's truth in one line (or why there is none)."""
+    ok = [
+        f
+        for f in frontier
+        if f["status"] == "ok" and finite(f["cost"]) and finite(f["e_mean"]) and f["e_mean"] > 0
+    ]
+    if not ok:
+        return ""
+    fast = [f for f in ok if f["cost"] <= REAL_TIME]
+    if not fast:
+        return f"SPEC 11 frontier ({md(board.truth)}): no run at <= 1 s per simulated s."
+    f = min(fast, key=lambda f: f["e_mean"])
+    steps = f", {f['substeps']} sub-steps" if f["substeps"] > 1 else ""
+    return (
+        f"SPEC 11 frontier ({md(board.truth)}, results/frontier): at <= 1 s per simulated s "
+        f"the closest run is {md(f['scheme'])} {md(f['algorithm'])} on the {md(f['cell'])} "
+        f"mesh of size {f['mesh_size']} ({f['dofs']:,} dofs{steps}): E_i mean "
+        f"{fmt(f['e_mean'])} {unit}, {fmt(f['cost'])} s per simulated s (time loop only)."
+    )
+
+
+def case_lines(
+    board: Board, rows: list[Row], notes: list[str], frontier: list[dict], session: str
+) -> list[str]:
+    unit = unit_of(board)
+    truth = any(error_of(r, True) is not None for r in rows)
+    if truth:
+        against = (
+            f"Truth (SPEC 10): `{md(board.truth)}`, its own E_i max {fmt(board.truth_band)} "
+            f"{unit}; E_i below is against it."
+        )
+    else:
+        why = board.truth_note or "none"
+        against = f"Truth (SPEC 10): {md(why)} E_i below is against the case's reference."
+    out = [
+        f"## {board.name}",
+        "",
+        f"{md(board.description)} {against} Timed in the session of "
+        f"{md(board.session or session)}"
+        + (f" on {md(board.machine)}" if board.machine else "")
+        + load_note(board.load)
+        + f". [All {len(rows)} runs, the budget and the divisions]({PAGE}#{board.name}).",
+        "",
+        f"| source | best run | mesh, dofs | E_i mean ({unit}) | E_i max | s per simulated s |",
+        "|---|---|---|---|---|---|",
+    ]
+    best = best_per_source(rows, truth)
+    users = [source for source, _ in best if source.startswith("user ")]
+    hidden = set(users[USERS_SHOWN:])  # the best USERS_SHOWN users' runs; the rest on the page
+    for source, r in best:
+        if source in hidden:
+            continue
+        e, emax = error_of(r, truth), error_of(r, truth, "max")
+        status = "" if r.status == "ok" else f" ({md(r.status)})"
+        mesh = "the case's" if r.mesh == "reference" else md(r.mesh)
+        out.append(
+            f"| {md(source)} | {md(r.label)}{' (reference)' if r.reference else ''}{status} | "
+            f"{mesh}, {r.dofs} | {fmt(e)} | {fmt(emax)} | {fmt(r.cost)} |"
+        )
+    if hidden:
+        out.append(f"| {len(hidden)} more users' runs | on the page | | | | |")
+    line = frontier_line(board, frontier, unit) if truth else ""
+    if line:
+        out += ["", line]
+    if notes:
+        out += ["", *[f"- {md(n)}" for n in notes]]
+    return out + [""]
+
+
+def markdown(
+    boards: list[Board],
+    rows: dict[str, list[Row]],
+    notes: dict[str, list[str]],
+    frontier: dict[str, list[dict]],
+    session: str,
+) -> str:
+    """leaderboard.md: the summary of every case (about 15 lines each)."""
+    out = [
+        MARKER,
+        "",
+        "Written by `tissuebench leaderboard --out results`: per case, the best run of each "
+        "source by its time-mean interior error E_i (SPEC 6) against the truth (SPEC 10), or "
+        "against the case's reference where it has none, and its cost, wall time per "
+        f"simulated second ({sessions_line(boards, session)}; serial). **The page "
+        f"[{PAGE}]({PAGE})** has every run: error against cost with the Pareto front and the "
+        "real-time line, a tooltip per run, filters, each user's row by its label, the error "
+        "budget, and the Closed (the case's mesh and step) and Open divisions ranked. Every "
+        "row: leaderboard.csv and leaderboard.json.",
+        "",
+    ]
+    for board in boards:
+        out += case_lines(
+            board,
+            rows.get(board.name, []),
+            notes.get(board.name, []),
+            frontier.get(board.truth, []) if board.truth else [],
+            session,
+        )
+    return "\n".join(out)

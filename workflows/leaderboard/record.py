@@ -1,0 +1,205 @@
+"""The leaderboard's record, leaderboard.json: every case's Board, its notes and every Row,
+from which the leaderboard is rendered again; read back and validated row by row (validate)."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, fields
+from pathlib import Path
+
+from tissuebench.meshes.errors import UserError
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
+
+FOLDER = "leaderboard"
+MARKER = "# Leaderboard: accuracy against cost"
+RECORD = "leaderboard.json"
+RECORD_SCHEMA = "tissuebench.leaderboard"
+RECORD_VERSION = 1
+OWNED = ["leaderboard.md", "leaderboard.csv", RECORD]
+MAX_RECORD = 64 * 2**20  # bytes: a record larger than this is not ours (ours: under 1 MB)
+MAX_TEXT = 4000  # characters of any text field of a row or case
+
+
+class LeaderboardError(UserError):
+    """A leaderboard that cannot be made as asked (no record, an unknown case): one line."""
+
+
+class Invalid(ValueError):
+    """A field of the record that is not of its type or range: its place and what it holds."""
+
+
+def _text(value, where: str, none: bool = False) -> None:
+    if value is None and none:
+        return
+    if not isinstance(value, str) or len(value) > MAX_TEXT:
+        raise Invalid(f"{where} {one_line(repr(value))[:40]} is not text")
+
+
+def _number(value, where: str, none: bool = True, positive: bool = False) -> None:
+    """None (when allowed), or a real number (not a bool) >= 0 (> 0 when positive); NaN is
+    taken (it never ranks), a negative number or text is not."""
+    if value is None and none:
+        return
+    if not real(value) or (not math.isnan(value) and (value < 0 or (positive and value == 0))):
+        bound = "> 0" if positive else ">= 0"
+        raise Invalid(f"{where} {one_line(repr(value))[:40]} is not a number {bound}")
+
+
+def _numbers(value, where: str, keys: list[str] | None = None) -> None:
+    """A dict of numbers >= 0 or null (keys: those it must hold, None: any)."""
+    if not isinstance(value, dict):
+        raise Invalid(f"{where} {one_line(repr(value))[:40]} is not an object of numbers")
+    for key in keys or []:
+        if key not in value:
+            raise Invalid(f"{where} has no {key}")
+    for key, x in value.items():
+        if isinstance(x, str) and key.endswith("_how"):
+            continue  # the budget says how a part was measured
+        _number(x, f"{where}.{one_line(key)[:40]}")
+
+
+def _flags(value, where: str) -> None:
+    if not isinstance(value, dict) or not all(isinstance(x, bool) for x in value.values()):
+        raise Invalid(f"{where} {one_line(repr(value))[:40]} is not an object of true/false")
+
+
+def check_row(d) -> None:
+    """Raise Invalid unless a recorded row has every field of its type and range: texts,
+    dofs a whole number >= 0, wall time and end time numbers (s; the end time > 0), errors and
+    truth columns objects of numbers >= 0 or null, Pareto flags true/false, the budget's
+    parts numbers or null."""
+    if not isinstance(d, dict):
+        raise Invalid(f"{one_line(repr(d))[:40]} is not an object")
+    for key in ("case", "label", "source", "description", "mesh", "status", "timing"):
+        _text(d.get(key), key)
+    for key in ("reason", "group", "series", "series_field", "truth_note"):
+        _text(d.get(key), key, none=True)
+    dofs = d.get("dofs")
+    if not isinstance(dofs, int) or isinstance(dofs, bool) or dofs < 0:
+        raise Invalid(f"dofs {one_line(repr(dofs))[:40]} is not a whole number >= 0")
+    _number(d.get("wall_time_s"), "wall_time_s")
+    _number(d.get("end_time"), "end_time", none=False, positive=True)
+    _numbers(d.get("errors"), "errors", error_keys())
+    _numbers(d.get("truth", {}), "truth")
+    _numbers(d.get("budget", {}), "budget")
+    for key in ("pareto", "truth_pareto"):
+        _flags(d.get(key, {}), key)
+    if not isinstance(d.get("reference", False), bool):
+        raise Invalid(f"reference {one_line(repr(d.get('reference')))[:40]} is not true/false")
+
+
+def check_board(d) -> None:
+    """Raise Invalid unless a recorded case has its texts, numbers and lists of their types."""
+    if not isinstance(d, dict):
+        raise Invalid(f"{one_line(repr(d))[:40]} is not an object")
+    for key in ("name", "benchmark", "material", "model"):
+        _text(d.get(key), key)
+    for key in ("description", "truth_note", "skip_note", "session", "machine"):
+        _text(d.get(key, ""), key)
+    for key in ("truth", "sizes", "simulator_model"):
+        _text(d.get(key), key, none=True)
+    _number(d.get("truth_band"), "truth_band")
+    _number(d.get("end_time"), "end_time", positive=True)
+    size = d.get("mesh_size")
+    if size is not None and (not isinstance(size, int) or isinstance(size, bool) or size < 1):
+        raise Invalid(f"mesh_size {one_line(repr(size))[:40]} is not a whole number > 0")
+    for key in ("models", "simulators"):
+        value = d.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
+            raise Invalid(f"{key} {one_line(repr(value))[:40]} is not a list of names")
+    for key in ("options", "variants"):
+        if not isinstance(d.get(key, {}), dict):
+            raise Invalid(f"{key} is not an object")
+    load = d.get("load", [])
+    if not isinstance(load, list) or not all(real(x) for x in load):
+        raise Invalid(f"load {one_line(repr(load))[:40]} is not a list of numbers")
+
+
+def board_of(d: dict) -> Board:
+    """A Board from its record (lists back to tuples), checked (check_board)."""
+    check_board(d)
+    known = {f.name for f in fields(Board)}
+    b = Board(**{k: v for k, v in d.items() if k in known})
+    b.models, b.simulators = tuple(b.models), tuple(b.simulators)
+    b.variants = {k: tuple(v) for k, v in (b.variants or {}).items()}
+    b.load = tuple(b.load)
+    return b
+
+
+def row_of(d: dict) -> Row:
+    """A Row from its record, checked (check_row)."""
+    check_row(d)
+    known = {f.name for f in fields(Row)}
+    return Row(**{k: v for k, v in d.items() if k in known})
+
+
+def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, list[str]]) -> dict:
+    """leaderboard.json: every case's Board (what renders it: description, truth, its band and
+    note, sizes, session, machine), its notes (the run's; the users' refusals are not kept: they
+    are read again) and every Row with all its fields (errors in m^gdim or relative, wall times
+    in s, truth columns, Pareto flags, error budget)."""
+    return {
+        "schema": RECORD_SCHEMA,
+        "version": RECORD_VERSION,
+        "cases": [
+            {
+                "board": asdict(b),
+                "notes": list(notes.get(b.name, [])),
+                "rows": [asdict(r) for r in rows[b.name]],
+            }
+            for b in boards
+        ],
+    }
+
+
+def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
+    """The record OUT/leaderboard.json as (boards, {case: rows}, {case: notes}); None when there
+    is none. Every case and row is checked for type and range (check_board, check_row) before
+    anything is made of it: LeaderboardError, one line naming the first field that fails, when
+    it cannot be read (nested too deep, too large, not JSON). Rank 0."""
+    path = out / RECORD
+    if not path.is_file():
+        return None
+    redo = f"`tissuebench leaderboard --out {out} --rerun` writes a new one"
+    where = ""
+    try:
+        if path.stat().st_size > MAX_RECORD:
+            raise ValueError(f"larger than {MAX_RECORD // 2**20} MB")
+        doc = json.loads(path.read_text())
+        if not isinstance(doc, dict):
+            raise ValueError("not an object")
+        if doc.get("schema") != RECORD_SCHEMA or doc.get("version") != RECORD_VERSION:
+            raise ValueError(f"not a {RECORD_SCHEMA} record of version {RECORD_VERSION}")
+        if not isinstance(doc.get("cases"), list):
+            raise ValueError("no list of cases")
+        boards, rows, notes = [], {}, {}
+        for i, case in enumerate(doc["cases"]):
+            where = f"case {i + 1}"
+            if not isinstance(case, dict) or not isinstance(case.get("rows"), list):
+                raise ValueError("not an object with a list of rows")
+            board = board_of(case.get("board"))
+            where = f"case {one_line(board.name)[:60]}"
+            if board.name in rows:
+                raise ValueError("recorded twice")
+            boards.append(board)
+            rows[board.name] = []
+            for j, r in enumerate(case["rows"]):
+                where = f"case {one_line(board.name)[:60]}, row {j + 1}"
+                if isinstance(r, dict) and isinstance(r.get("label"), str):
+                    where += f" ({one_line(r['label'])[:60]})"
+                rows[board.name].append(row_of(r))
+            where = f"case {one_line(board.name)[:60]}"
+            found = case.get("notes", [])
+            if not isinstance(found, list) or not all(isinstance(n, str) for n in found):
+                raise ValueError("its notes are not a list of texts")
+            notes[board.name] = list(found)
+    except RecursionError:
+        raise LeaderboardError(f"{path}: cannot be read (nested too deep); {redo}") from None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        said = " ".join(str(exc).split())[:200]
+        at = f"{where}: " if where else ""
+        raise LeaderboardError(
+            f"{path}: cannot be read ({at}{type(exc).__name__}: {said}); {redo}"
+        ) from None
+    return boards, rows, notes
