@@ -136,3 +136,22 @@ def test_a_reader_that_does_not_wait_says_the_case_is_being_computed(cache):
         other.wait()
     assert len(lines) == 1 and f"being computed by process {other.pid}" in lines[0]
     assert lines[0].endswith("not read until it ends")
+
+
+def test_truth_md_states_how_long_the_cache_took_to_compute():
+    """From each case's file time and own wall time: the span from the first start to the
+    last write; no line where a case is missing or the cases were computed at other times."""
+    from tissuebench.solvers.truth.cases import CASES
+    from tissuebench.workflows.commands.truth import computed_words
+
+    # two at a time: cases of 600 s each, ending at 600, 600, 1200, 1200, ...
+    summaries = {
+        c: {"cached_at": 1e9 + 600 * (1 + k // 2), "hierarchy": {"total_wall": 600.0}}
+        for k, c in enumerate(CASES)
+    }
+    (line, blank) = computed_words(summaries)
+    assert f"{600 * len(CASES) // 2} s of wall time in all" in line
+    assert f"add up to {600 * len(CASES)} s" in line and blank == ""
+    assert computed_words({c: summaries[c] for c in list(CASES)[1:]}) == []
+    summaries[next(iter(CASES))]["cached_at"] = 1e9 - 86400  # a day before the others
+    assert computed_words(summaries) == []

@@ -7,13 +7,15 @@ error from them and caches it outside git ($TISSUEBENCH_CACHE/truth/, default
 cache, and a cache file that cannot be read (cut short, corrupt) is named in one line and
 computed again. `compare truth:CASE`, `paper` and the leaderboard read the same cache.
 
-Writes DIR/truth.md (per case: levels, dofs, wall time, observed order, the estimated own
-E_i max in space and time and whether it meets SPEC 10's target, 0.2 % of the truth's own
-E_i against rest) and DIR/truth.csv (case,level,dofs,time,u_x,u_y,u_z: the rod cases' tip at
-t = 1, 2, ..., 10 s on every level, the finest labelled `truth`). Cases not named are
-reported from the cache when they are there, else as not yet computed with their expected
-cost. With more than one case to compute, one rank and --jobs N > 1 (default: the cores, at most 2), the cases run N at a time in worker processes (workflows/truth_jobs.py). --quick: rod n = 1, 2, 4 and block N = 10, 20, 40 to T = 1 s (30 steps), a check of
-the workflow, cached under its own key; it never replaces a full truth.md (--force does).
+Writes DIR/truth.md (per case: levels, dofs, wall time, observed order, the estimated own E_i
+max in space and time and whether it meets SPEC 10's target, 0.2 % of the truth's own E_i
+against rest) and DIR/truth.csv (case,level,dofs,time,u_x,u_y,u_z: the rod cases' tip at t = 1,
+2, ..., 10 s on every level, the finest labelled `truth`). Cases not named are reported from
+the cache when they are there, else as not yet computed with their expected cost. With more
+than one case to compute, one rank and --jobs N > 1 (default: the cores, at most 2), the cases
+run N at a time in worker processes (workflows/truth_jobs.py). --quick: rod n = 1, 2, 4 and
+block N = 10, 20, 40 to T = 1 s (30 steps), a check of the workflow, cached under its own key;
+it never replaces a full truth.md (--force does).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from tissuebench.solvers.truth.store import (
     QUICK_STEPS,
     TARGET_FRACTION,
     cache_dir,
+    cache_path,
     check_case,
     expected_seconds,
     is_cached,
@@ -348,6 +351,31 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
     return lines
 
 
+def computed_words(summaries: dict) -> list[str]:
+    """When the cached cases were computed, from their files: each began its own wall time
+    (`total_wall`) before its file was written. Where every case is there, the span from the
+    first start to the last write is what `truth all` took to compute them all (with --jobs,
+    N at a time), the time to write each file aside."""
+    spans = [
+        (s["cached_at"] - s["hierarchy"]["total_wall"], s["cached_at"])
+        for s in summaries.values()
+        if s.get("cached_at") and s["hierarchy"].get("total_wall")
+    ]
+    if len(spans) < len(CASES):
+        return []
+    start, end = min(a for a, _ in spans), max(b for _, b in spans)
+    if end - start > 2 * sum(b - a for a, b in spans):  # computed at different times
+        return []
+    clock = lambda t: time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(t))  # noqa: E731
+    return [
+        f"Every case of this cache was computed between {clock(start)} and {clock(end)}: "
+        f"{end - start:.0f} s of wall time in all (their own wall times add up to "
+        f"{sum(b - a for a, b in spans):.0f} s; a shorter span means cases ran side by side, "
+        "each on one core: `truth all --jobs`).",
+        "",
+    ]
+
+
 def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session: str) -> str:
     command = f"tissuebench truth {' '.join(names)}" + (" --quick" if quick else "")
     lines = [
@@ -381,6 +409,7 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
         "space | time | total | size (E_i against rest) | target | meets |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
+    lines[-2:-2] = computed_words(summaries)
     for case in CASES:
         s = summaries.get(case)
         if s is None:
@@ -460,6 +489,8 @@ def main(args: argparse.Namespace) -> int:
             samples = load_cached(case, args.quick, comm)
         if samples is not None:
             summaries[case] = summary(samples)
+            path = cache_path(case, args.quick)
+            summaries[case]["cached_at"] = path.stat().st_mtime if path.is_file() else None
             if case in cases:
                 own = samples.own_error
                 say(
