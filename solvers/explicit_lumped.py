@@ -14,6 +14,32 @@ if TYPE_CHECKING:
     from tissuebench.solvers.system import System
 
 
+def lumped_factors(system: System, h: float, alpha: float, gamma: float) -> tuple:
+    """(alpha M_L, 1 / ((1 + gamma h alpha) M_L)) as Vecs, the second 0 on constrained dofs:
+    the diagonal parts of a lumped explicit step (h in s, alpha in 1/s)."""
+    alpha_ml = system.ML.copy()
+    alpha_ml.scale(alpha)
+    inv_s = system.ML.copy()
+    inv_s.scale(1 + gamma * h * alpha)
+    inv_s.reciprocal()
+    inv_s.array[system.constrained] = 0.0
+    return alpha_ml, inv_s
+
+
+def predict(system: System, state: State, h: float, gamma: float) -> tuple:
+    """The predictor of an explicit step, in place: u = ubar = u + h v + h^2/2 a and
+    v = vtilde = v + (1 - gamma) h a, the constrained dofs given their prescribed u, v at the
+    new time. Returns (i, (u_c, v_c, a_c)): the new step's index and prescribed values."""
+    i = state.i + 1
+    u, v, a = state.u, state.v, state.a
+    uc, vc, ac = system.prescribed(i * h)
+    u.maxpy([h, h * h / 2], [v, a])  # utilde
+    v.axpy((1 - gamma) * h, a)  # vtilde
+    u.array[system.constrained] = uc  # ubar
+    v.array[system.constrained] = vc  # vbar
+    return i, (uc, vc, ac)
+
+
 class ExplicitLumped(Newmark):
     """Newmark.step for this scheme as one pass of pointwise updates and one fused pass over K
     (solvers/blockcsr.py): u = ubar needs no correction (beta_N = 0), M_L a0 only touches
@@ -23,23 +49,13 @@ class ExplicitLumped(Newmark):
 
     def __init__(self, system, h: float, solver: str = "direct"):
         super().__init__(system, h, ALGORITHM, "explicit_lumped_", solver)
-        self._alpha_ml = system.ML.copy()
-        self._alpha_ml.scale(self.alpha)
-        self._inv_s = system.ML.copy()  # 1 / ((1 + gamma h alpha) M_L), 0 on constrained dofs
-        self._inv_s.scale(1 + self.gamma * h * self.alpha)
-        self._inv_s.reciprocal()
-        self._inv_s.array[system.constrained] = 0.0
+        self._alpha_ml, self._inv_s = lumped_factors(system, h, self.alpha, self.gamma)
         self.K_product = system.K_csr  # the matrix that the one product per step reads
 
     def step(self, state: State) -> State:
         s, h, c = self.system, self.h, self.system.constrained
-        i = state.i + 1
         u, v, a = state.u, state.v, state.a
-        uc, vc, ac = s.prescribed(i * h)
-        u.maxpy([h, h * h / 2], [v, a])  # utilde
-        v.axpy((1 - self.gamma) * h, a)  # vtilde
-        u.array[c] = uc  # ubar
-        v.array[c] = vc  # vbar
+        i, (uc, vc, ac) = predict(s, state, h, self.gamma)
         # a = delta = (f - K ubar - alpha M_L vbar) / S (0 on constrained dofs), v += gamma h a
         self.K_product.explicit_lumped(u, s.f, self._inv_s, self._alpha_ml, v, a, self.gamma * h)
         a.array[c] = ac  # ... + a0

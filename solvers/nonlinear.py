@@ -27,6 +27,7 @@ from petsc4py import PETSc
 from tissuebench.solvers import compiled_forces
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
+from tissuebench.solvers.explicit_lumped import lumped_factors, predict
 from tissuebench.solvers.linear import SolveError, petsc_defaults, petsc_message
 from tissuebench.solvers.models.model import Model
 from tissuebench.solvers.newmark import Newmark
@@ -142,22 +143,12 @@ class ExplicitLumpedModel(ExplicitModel):
         super().__init__(system, h, scheme, model, prefix, solver, compiled=True)
         if self.forces.compiled is None or not scheme.lumped or self.beta:
             raise ValueError("ExplicitLumpedModel needs M_L, no beta K_0 and a compiled f_int")
-        self._alpha_ml = system.ML.copy()
-        self._alpha_ml.scale(self.alpha)
-        self._inv_s = system.ML.copy()  # 1 / ((1 + gamma h alpha) M_L), 0 on constrained dofs
-        self._inv_s.scale(1 + self.gamma * h * self.alpha)
-        self._inv_s.reciprocal()
-        self._inv_s.array[system.constrained] = 0.0
+        self._alpha_ml, self._inv_s = lumped_factors(system, h, self.alpha, self.gamma)
 
     def step(self, state: State) -> State:
         s, h, c = self.system, self.h, self.system.constrained
-        i = state.i + 1
         u, v, a = state.u, state.v, state.a
-        uc, vc, ac = s.prescribed(i * h)
-        u.maxpy([h, h * h / 2], [v, a])  # utilde
-        v.axpy((1 - self.gamma) * h, a)  # vtilde
-        u.array[c] = uc  # ubar
-        v.array[c] = vc  # vbar
+        i, (uc, vc, ac) = predict(s, state, h, self.gamma)
         f_int = self.forces.compiled_internal_force(u)  # and the smallest det F
         self.forces.compiled.explicit_update(
             s.f.array_r,
