@@ -57,22 +57,22 @@ QUICK_STEPS = 30  # quick: 30 steps of h = 1/30 s, T = 1 s
 # SPEC 10: the truth's own E_i max at most this fraction of its E_i against rest (u' = 0, the
 # maximum over steps): about 1.2e-5 m^3 on the linear rod, 4-5e-5 m^2 on the linear blocks
 TARGET_FRACTION = 0.002
-# s per step of h on each level (one rank): the first 6 steps after 2, measured on this 2-core
-# machine while it was shared with other jobs (an upper bound; None: not measured)
+# s per step of h on each level (one rank): a level's wall time over its 300 steps, measured by
+# `tissuebench truth all` from an empty cache on this 2-core machine, two cases at a time
 MEASURED_STEP_SECONDS: dict[str, tuple] = {
-    "rod-nh-s1": (0.058, 0.38, 5.1),
-    "rod-nhb-s3": (None, None, 3.4),  # rod-nh-s3's, the (J - 1)^2 law at s = 3
+    "rod-nh-s1": (0.0037, 0.026, 0.35),
+    "rod-nhb-s3": (0.005, 0.033, 1.25),  # n = 8: Newton slows where J collapses (truth.md)
 }
-# wall time (s) of a full computation here, one rank, measured by `tissuebench truth` (the
-# hierarchy, the time order on the coarsest level, the half step and the sampling) while a
-# second truth ran on the machine's other core
+# wall time (s) of a full computation here, one rank, measured by `tissuebench truth all` from
+# an empty cache (the hierarchy, the time order on the coarsest level, the half step and the
+# sampling), two cases at a time on the machine's two cores: 1,146 s for all six
 EXPECTED_SECONDS = {
-    "rod": 75.0,
-    "rod-nh-s1": 1400.0,
-    "rod-nhb-s3": 2000.0,  # an estimate: rod-nh-s3's, the (J - 1)^2 law at s = 3
-    "rod-MP2": 300.0,  # an estimate: graded, h/4
-    "block-MP1-w0.2": 165.0,
-    "block-MP2-w0.2": 600.0,
+    "rod": 62.0,
+    "rod-nh-s1": 319.0,
+    "rod-nhb-s3": 869.0,
+    "rod-MP2": 272.0,
+    "block-MP1-w0.2": 146.0,
+    "block-MP2-w0.2": 559.0,
 }
 QUICK_SECONDS = {"rod": 5.0, "block": 15.0}  # about, a linear case; neo-Hookean ~ x5
 # the code a truth comes from: its fingerprint changes when any of these files does
