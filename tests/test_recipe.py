@@ -117,7 +117,6 @@ def test_the_readme_recipe_puts_a_users_run_on_the_leaderboard(tmp_path):
     # users' runs at the top, which links to its case
     page = (tmp_path / "results" / "leaderboard" / "index.html").read_text()
     assert f'data-label="{label}"' in page and f'<a href="#rod-MP3">{label}</a>' in page
-    assert times[-1] < 60, f"tissuebench leaderboard took {times[-1]:.0f} s"
     with open(tmp_path / "results" / "leaderboard.csv", newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["case"] == "rod-MP3" and label in r["label"]]
     assert len(rows) == 1, f"{len(rows)} rows of {label} on rod-MP3 in leaderboard.csv"
