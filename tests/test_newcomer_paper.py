@@ -38,9 +38,9 @@ def test_a_first_run_says_which_truths_it_computes_and_how_long(cache):
     assert paper_truth.missing(COMM) == ["rod", "block-MP1-w0.2", "block-MP2-w0.2"]
     line = paper_truth.first_run_line(paper_truth.missing(COMM))
     assert line == (
-        "paper: the truths rod (about 75 s), block-MP1-w0.2 (about 3 min), block-MP2-w0.2 "
-        "(about 10 min) are not cached on this machine: computed once in this run, after the "
-        f"paper's cases (about 14 min in all on one core); later runs read them from "
+        "paper: the truths rod (about 62 s), block-MP1-w0.2 (about 2 min), block-MP2-w0.2 "
+        "(about 9 min) are not cached on this machine: computed once in this run, after the "
+        f"paper's cases (about 13 min in all on one core); later runs read them from "
         f"{store.cache_dir()}"
     )
     store.truth_samples("rod", comm=COMM)
