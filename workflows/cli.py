@@ -42,6 +42,7 @@ if __name__ == "__main__" or Path(sys.argv[0]).name == "tissuebench":  # not whe
 
 import argparse  # noqa: E402 (after the handlers above)
 import errno  # noqa: E402
+import gc  # noqa: E402
 import importlib  # noqa: E402
 import traceback  # noqa: E402
 from typing import NoReturn  # noqa: E402
@@ -202,6 +203,10 @@ def command_line(argv: list[str] | None = None) -> int:
         together = interrupt.raised_together() or isinstance(failure, interrupt.Interrupted)
         if comm.size > 1 and not together:
             leave(status)  # rank 0 alone (no point where all could stop came in time)
+        # the signal's traceback holds the interrupted run's frames and their PETSc objects:
+        # let go of it here, so that they are destroyed (finally) while PETSc is up, not at
+        # exit after PetscFinalize, where one in a reference cycle crashed the process (-11)
+        failure = caught = None
         return status
     except BaseException:
         if comm.size > 1:  # one rank failing alone would leave the others waiting forever
@@ -211,6 +216,7 @@ def command_line(argv: list[str] | None = None) -> int:
         raise
     finally:
         restore()
+        gc.collect()
         first = signal.getsignal(signal.SIGINT)  # _record when run as the command line
         if succeeded and hasattr(first, "finished"):
             first.finished = (command, comm.rank == 0)
