@@ -8,6 +8,7 @@ from mpi4py import MPI
 import dolfinx.mesh
 import numpy as np
 import pytest
+import test_models
 from dolfinx.mesh import CellType
 from helpers import run_script
 
@@ -38,22 +39,10 @@ TOL = 1e-12  # relative, f_int and min det
 
 
 def distorted_mesh(cell: str) -> dolfinx.mesh.Mesh:
-    """The unit square (cube) in N^gdim cells of `cell` (simplices: each grid cell split),
-    every interior node moved by up to a quarter cell per component along a non-smooth
-    function of its position (the same on every rank), so that no cell is a parallelogram."""
+    """test_models' distorted unit square (cube) in N^gdim cells of `cell`: no cell is a
+    parallelogram."""
     gdim, cell_type = CELLS[cell]
-    n = N[gdim]
-    if gdim == 2:
-        mesh = dolfinx.mesh.create_unit_square(comm, n, n, cell_type)
-    else:
-        mesh = dolfinx.mesh.create_unit_cube(comm, n, n, n, cell_type)
-    x = mesh.geometry.x
-    X = x[:, :gdim].copy()
-    interior = np.all((X > 1e-12) & (X < 1 - 1e-12), axis=1)
-    weights = np.array([12.9898, 78.233, 37.719])[:gdim] * n
-    for k in range(gdim):
-        x[interior, k] += 0.25 / n * np.sin((k + 1) * X[interior] @ weights)
-    return mesh
+    return test_models.distorted_mesh(gdim, N[gdim], cell_type)
 
 
 def clamped(mesh: dolfinx.mesh.Mesh) -> Benchmark:

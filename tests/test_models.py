@@ -45,15 +45,18 @@ def rotation(gdim: int, angle: float) -> np.ndarray:
     return np.eye(3) + s * W + (1 - c) * W @ W  # Rodrigues
 
 
-def distorted_mesh(gdim: int, n: int):
-    """The unit square (cube) in n^gdim quadrilaterals (hexahedra), every interior node moved
-    by up to a quarter cell per component along a non-smooth function of its position, so
-    that the cells are general (non-parallelogram) quadrilaterals or hexahedra. The moves are
-    a function of the coordinates: every rank moves its ghost nodes the same way."""
+def distorted_mesh(gdim: int, n: int, cell_type: CellType | None = None):
+    """The unit square (cube) in n^gdim quadrilaterals (hexahedra), or cells of `cell_type`
+    (simplices: each grid cell split), every interior node moved by up to a quarter cell per
+    component along a non-smooth function of its position, so that the cells are general
+    (non-parallelogram) ones. The moves are a function of the coordinates: every rank moves
+    its ghost nodes the same way."""
     if gdim == 2:
-        mesh = dolfinx.mesh.create_unit_square(comm, n, n, CellType.quadrilateral)
+        cell_type = cell_type or CellType.quadrilateral
+        mesh = dolfinx.mesh.create_unit_square(comm, n, n, cell_type)
     else:
-        mesh = dolfinx.mesh.create_unit_cube(comm, n, n, n, CellType.hexahedron)
+        cell_type = cell_type or CellType.hexahedron
+        mesh = dolfinx.mesh.create_unit_cube(comm, n, n, n, cell_type)
     x = mesh.geometry.x
     X = x[:, :gdim].copy()
     interior = np.all((X > 1e-12) & (X < 1 - 1e-12), axis=1)
