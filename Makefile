@@ -1,6 +1,6 @@
 # Two entry points, both self-contained on a fresh machine:
 #   make paper   set up .venv, then run the paper's study into results/
-#   make test    set up .venv, then ruff, then the test suite in serial and, for the tests not
+#   make test    set up .venv, then ruff, then mypy (make typecheck), then the test suite in serial and, for the tests not
 #                marked serial, under mpiexec -n 2
 # PYTHON must be 3.12 (the DOLFINx wheel needs it); .python-version makes pyenv's python3 one.
 PYTHON ?= python3
@@ -8,7 +8,7 @@ VENV   ?= .venv
 EXTRAS ?= dolfinx,test
 BIN     = $(VENV)/bin
 
-.PHONY: setup paper test bench clean external-tools leaderboard browser browser-tests
+.PHONY: setup paper test typecheck bench clean external-tools leaderboard browser browser-tests
 
 setup: $(VENV)/.installed
 
@@ -25,8 +25,19 @@ paper: setup
 test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(MAKE) --no-print-directory typecheck
 	$(BIN)/pytest
 	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
+
+# mypy on the package, configured in pyproject.toml ([tool.mypy]). The code folders install as
+# tissuebench.* through pyproject's package-dir, which mypy cannot map: .typecheck/ holds a
+# tissuebench package whose subpackages are links to those folders, one per package-dir entry.
+typecheck: setup
+	rm -rf .typecheck
+	mkdir -p .typecheck/tissuebench
+	touch .typecheck/tissuebench/__init__.py
+	$(BIN)/python -c 'import os, tomllib; dirs = tomllib.load(open("pyproject.toml", "rb"))["tool"]["setuptools"]["package-dir"]; [os.symlink(os.path.abspath(d), os.path.join(".typecheck", *name.split("."))) for name, d in dirs.items()]'
+	$(BIN)/mypy
 
 bench: setup
 	$(BIN)/python -m pip install --quiet -e ".[bench]"
@@ -75,4 +86,4 @@ leaderboard: external-tools
 	$(BIN)/tissuebench leaderboard --out results --rerun
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .typecheck
