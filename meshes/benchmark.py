@@ -2,10 +2,13 @@
 the body force, and the SPEC's defaults."""
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import dolfinx.mesh
 import numpy as np
+
+if TYPE_CHECKING:
+    from tissuebench.meshes.gmshio import TaggedMesh
 
 
 @dataclass
@@ -22,7 +25,7 @@ class Constraint:
 @dataclass
 class Benchmark:
     name: str
-    tagged: object  # meshes.gmshio.TaggedMesh
+    tagged: "TaggedMesh"
     constraints: list
     gravity: tuple  # m/s^2, constant for t >= 0
     material: str  # default material name

@@ -13,6 +13,7 @@ from pathlib import Path
 from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import dolfinx.io.gmsh
+import dolfinx.mesh
 import gmsh
 import numpy as np
 
@@ -31,7 +32,7 @@ class TaggedMesh:
     maps name to gmsh physical tag. Lengths are in metres.
     """
 
-    mesh: object
+    mesh: dolfinx.mesh.Mesh
     tags: dict
     groups: dict
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import overload
 
 from mpi4py import MPI
 
@@ -130,6 +131,10 @@ def smallest_step(times: ArrayLike) -> float:
     return float(abs(times[0])) or 1.0
 
 
+@overload
+def time_tolerance(t_ref: float, h: float) -> float: ...
+@overload
+def time_tolerance(t_ref: np.ndarray, h: float) -> np.ndarray: ...
 def time_tolerance(t_ref: float | np.ndarray, h: float) -> float | np.ndarray:
     """How far a time stamp may be from the reference's t_ref (s) with step h: TIME_RTOL
     max(|t_ref|, h), at most h/4 (see TIME_RTOL)."""
@@ -257,9 +262,13 @@ def function_space(comm: MPI.Comm, series: Series | None) -> tuple[fem.FunctionS
     """The vector Q1 space on the series' mesh, read on rank 0 and distributed over comm, and
     for each owned node of the space the index of its point in the series."""
     cell_type, dim, per_cell = comm.bcast(
-        (series.cell_type, series.dim, series.cells.shape[1]) if comm.rank == 0 else None, root=0
+        (series.cell_type, series.dim, series.cells.shape[1])
+        if comm.rank == 0 and series is not None
+        else None,
+        root=0,
     )
     if comm.rank == 0:
+        assert series is not None  # rank 0's
         cells = series.cells[:, cell_perm_vtk(dolfinx.mesh.CellType[cell_type], per_cell)]
         x = series.points
     else:
@@ -295,7 +304,10 @@ def _curves(
         curves = {name: np.full(steps, np.nan) for name in METRICS}
         for i in range(graded):
             u_ref, u_cand = comm.bcast(
-                (ref.displacements[i], cand.displacements[i]) if comm.rank == 0 else None, root=0
+                (ref.displacements[i], cand.displacements[i])
+                if comm.rank == 0 and ref is not None and cand is not None
+                else None,
+                root=0,
             )
             for name, value in cross.evaluate(u_ref[points].ravel(), u_cand).items():
                 curves[name][i] = value
@@ -304,7 +316,10 @@ def _curves(
     curves = {name: np.full(steps, np.nan) for name in METRICS}
     for i in range(graded):
         u_ref, u_cand = comm.bcast(
-            (ref.displacements[i], cand.displacements[i][match]) if comm.rank == 0 else None, root=0
+            (ref.displacements[i], cand.displacements[i][match])
+            if comm.rank == 0 and ref is not None and cand is not None
+            else None,
+            root=0,
         )
         pair = u_ref[points].ravel(), u_cand[points].ravel()
         values = metrics.evaluate(*pair, skip=skip) if skip else metrics.evaluate(*pair)
@@ -316,7 +331,7 @@ def _curves(
 # --- output ---------------------------------------------------------------------------------
 
 
-def _divergence(who: str, step: int, time: float, reason: str) -> str:
+def _divergence(who: str, step: int, time: float, reason: str | None) -> str:
     """One line: `who` ("candidate" or "reference") diverged at `step` (time in s), and why."""
     return f"{who} diverged at step {step} (t = {time:.6g} s): {reason}"
 
@@ -413,6 +428,7 @@ def grade_series(
     match = plan = None
     error = None
     if comm.rank == 0:
+        assert ref is not None and cand is not None  # rank 0's
         try:
             ref, cand, notes = initial_states(ref, cand)
             match = check_meshes(ref, cand)
@@ -453,7 +469,10 @@ def grade_series(
     grader = None
     if cross:
         mesh, paths = comm.bcast(
-            (Mesh.of(cand), (cand.path, ref.path)) if comm.rank == 0 else None, root=0
+            (Mesh.of(cand), (cand.path, ref.path))
+            if comm.rank == 0 and ref is not None and cand is not None
+            else None,
+            root=0,
         )
         where = f"{paths[0]}: not a mesh of the body of {paths[1]}"
         grader = CrossMetrics(V, mesh, BODY_TOLERANCE * extent, where)

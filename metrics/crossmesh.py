@@ -18,6 +18,7 @@ quadrature points in it, so that a point's value does not depend on the partitio
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 from mpi4py import MPI
 
@@ -125,7 +126,8 @@ def check_same_body(ref: Series, cand: Series) -> tuple[str, float]:
 def quadrature_points(cell_type: str, points: int = 3) -> int:
     """The number of quadrature points per cell of InteriorMetric with `points` Gauss points per
     direction (the rule of degree 2 points − 1)."""
-    return len(basix.make_quadrature(basix.CellType[cell_type], 2 * points - 1)[1])
+    weights = cast(np.ndarray, basix.make_quadrature(basix.CellType[cell_type], 2 * points - 1)[1])
+    return len(weights)
 
 
 def note(ref: Series, cand: Series, points: int = 3) -> str:
@@ -185,8 +187,10 @@ class CrossInterior:
         d, tdim = self.dim, mesh.topology.dim
         cells = mesh.topology.index_map(tdim).size_local
         cell = basix.CellType[mesh.topology.cell_name()]
-        xi, w = basix.make_quadrature(cell, 2 * points - 1)
-        table = basix.create_element(basix.ElementFamily.P, cell, 1).tabulate(1, xi)[..., 0]
+        # basix annotates its arrays as ArrayLike
+        xi, w = cast(tuple[np.ndarray, np.ndarray], basix.make_quadrature(cell, 2 * points - 1))
+        element = basix.create_element(basix.ElementFamily.P, cell, 1)
+        table = cast(np.ndarray, element.tabulate(1, xi))[..., 0]
         self.phi = table[0]  # (q, nodes): V's and the geometry's P1/Q1 basis at ξ_q
         X = mesh.geometry.x[mesh.geometry.dofmaps[0][:cells], :d]  # (cells, nodes, d)
         x_q = np.einsum("qk,cki->cqi", self.phi, X)
@@ -197,7 +201,7 @@ class CrossInterior:
         self.at_points = PointValues(locator, self.points)
         self.shape = x_q.shape
         self.e = fem.Function(V)
-        self.candidate = None
+        self.candidate: np.ndarray | None = None
 
     def quadrature(self, u_ref: np.ndarray, at_nodes: np.ndarray) -> float:
         """E_i = |Ω_0|^(−1/d) Σ_c Σ_q w_q |det J_q| ‖u′_h(x_q) − u_h(x_q)‖ (`at_nodes` unused:
@@ -206,6 +210,7 @@ class CrossInterior:
         self.e.x.scatter_forward()
         u = self.e.x.array.reshape(-1, self.dim)[self.dofs]  # (cells, nodes, d)
         u_h = np.matmul(self.phi, u)  # (cells, q, d): Σ_k φ_k(ξ_q) u_k
+        assert self.candidate is not None  # set by CrossMetrics.evaluate
         u_cand = self.at_points(self.candidate).reshape(self.shape)
         local = float(np.sum(self.dx * np.linalg.norm(u_cand - u_h, axis=2)))
         return self.reference.scale * self.comm.allreduce(local, op=MPI.SUM)
@@ -225,6 +230,9 @@ class CrossMetrics:
     lies farther than `tol` (units of the coordinates) outside M′ (`where` starts the message).
     """
 
+    comm: MPI.Comm
+    interior: CrossInterior
+
     def __init__(
         self, V: fem.FunctionSpace, candidate: Mesh, tol: float, where: str, points: int = 3
     ):
@@ -236,7 +244,7 @@ class CrossMetrics:
         self.at_nodes = PointValues(locator, X, snap=tol)
         self.interior = CrossInterior(V, self.metrics.interior, locator, points)
         self._check_located(X, tol, where)
-        self.candidate = None
+        self.candidate: np.ndarray | None = None
         if self.comm.rank == 0:
             facets = boundary_facets(candidate.points, candidate.cells, candidate.cell_type)
             self.boundary_nodes = np.unique(facets)
@@ -267,6 +275,7 @@ class CrossMetrics:
         x_ref = boundary.gather(u_ref)
         value = None
         if self.comm.rank == 0:
+            assert self.candidate is not None and self.metrics.domain is not None  # evaluate's
             x_cand = self.X_b + self.candidate[self.boundary_nodes]
             value = surface_error(self.metrics.domain, boundary.X + x_ref, x_cand, self.shape)
         return self.comm.bcast(value, root=0)

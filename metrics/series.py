@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -79,7 +80,7 @@ def series_of(
     cells: ArrayLike,
     cell_type: str,
     times: ArrayLike,
-    values: ArrayLike,
+    values: np.ndarray | list[Any],
 ) -> Series:
     """The Series read from `path` (named in errors): its arrays as a file holds them (cell type
     by the file's name, 2D data possibly with a zero third coordinate), checked, reduced to d
@@ -147,7 +148,7 @@ def series_of(
     return Series(path, points, cells, cell_type, times, displacements, field)
 
 
-def real(path: Path, data: ArrayLike, what: str) -> np.ndarray:
+def real(path: Path | str, data: ArrayLike, what: str) -> np.ndarray:
     """`data` as float64, refusing (InputError) complex and non-numeric values: a complex field
     is not graded on its real part. Values beyond float64's range become +-inf. float64 data
     is returned as it is (no copy)."""

@@ -12,6 +12,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from mpi4py import MPI
 
 import numpy as np
 from dolfinx import fem
@@ -20,6 +23,9 @@ from tissuebench.metrics.boundary import Boundary
 from tissuebench.metrics.interior import InteriorMetric
 from tissuebench.metrics.relative import relative_error
 from tissuebench.metrics.surface import domain, surface_error
+
+if TYPE_CHECKING:
+    from tissuebench.metrics.crossmesh import CrossMetrics
 
 
 @dataclass(frozen=True)
@@ -31,7 +37,7 @@ class Metric:
 
     symbol: str
     label: str
-    value: Callable[[Metrics, np.ndarray, np.ndarray], float]
+    value: Callable[[Metrics | CrossMetrics, np.ndarray, np.ndarray], float]
     variant_of: str | None = None
 
 
@@ -78,10 +84,10 @@ class Metrics:
     """
 
     def __init__(self, V: fem.FunctionSpace, points: int = 3):
-        self.comm = V.mesh.comm
+        self.comm: MPI.Comm = V.mesh.comm
         self.dim = V.mesh.geometry.dim
         self.size = V.dofmap.index_map.size_local * self.dim
-        self.interior = InteriorMetric(V, points)
+        self.interior: InteriorMetric = InteriorMetric(V, points)
         self.volume = self.interior.volume
         self.boundary = Boundary(V)
         self.domain = domain(self.boundary.X, self.boundary.facets) if self.comm.rank == 0 else None
@@ -97,6 +103,7 @@ class Metrics:
         x_ref, x_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
         value = None
         if self.comm.rank == 0:
+            assert self.domain is not None  # built on rank 0
             X = self.boundary.X
             value = surface_error(self.domain, X + x_ref, X + x_cand)
         return self.comm.bcast(value, root=0)

@@ -345,9 +345,11 @@ def grade_truth(
     other time stamps, or points outside its mesh. `label` names the candidate (default: its
     file name without suffix); `log` (rank 0) is given one line with the time taken; without
     `surface`, E_s is left NaN (its boolean of two deformed bodies is most of the cost)."""
-    result = error = None
+    result: TruthGrading | None = None
+    error: Exception | None = None
     if comm.rank == 0:
         try:
+            assert truth is not None and cand is not None  # rank 0's
             result = _grade(truth, cand, label, log, surface)
         except InputError as exc:
             error = InputError(str(exc))
