@@ -2,13 +2,12 @@
 the body force, and the SPEC's defaults."""
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import dolfinx.mesh
 import numpy as np
 
-if TYPE_CHECKING:
-    from tissuebench.meshes.gmshio import TaggedMesh
+from tissuebench.meshes.gmshio import TaggedMesh
 
 
 @dataclass
@@ -25,7 +24,7 @@ class Constraint:
 @dataclass
 class Benchmark:
     name: str
-    tagged: "TaggedMesh"
+    tagged: TaggedMesh
     constraints: list
     gravity: tuple  # m/s^2, constant for t >= 0
     material: str  # default material name

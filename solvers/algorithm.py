@@ -9,9 +9,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from petsc4py import PETSc
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
 
 
 @dataclass
@@ -34,6 +37,7 @@ class Integrator(Protocol):
     """
 
     h: float
+    system: System
 
     def start(self) -> State: ...
 

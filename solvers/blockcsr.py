@@ -142,6 +142,7 @@ def compile_module(
         comm.Barrier()
     found = sorted(folder.glob(name + ".*so"))
     spec = importlib.util.spec_from_file_location(name, found[0])
+    assert spec is not None and spec.loader is not None  # a file's spec, with its loader
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

@@ -25,7 +25,7 @@ cached by its hash (blockcsr.compile_module). Units: u in m, f in N, mu and lmbd
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import basix
 import numpy as np
@@ -355,14 +355,17 @@ def available(model: Model, cell: str) -> bool:
 def source(model: Model, cell: str, gdim: int, fbar: bool) -> str:
     """The C source of the loop for `model` on `cell` in gdim dimensions (F-bar if fbar)."""
     cell_type = getattr(basix.CellType, cell)
-    points, _ = basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
+    # basix annotates its arrays as ArrayLike
+    points, _ = cast(
+        tuple[np.ndarray, ...], basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
+    )
     element = basix.create_element(basix.ElementFamily.P, cell_type, 1)
     tdim = points.shape[1]
     if tdim != gdim:
         raise ValueError(f"{cell} cells in {gdim} dimensions: only tdim = gdim is compiled")
-    dN = element.tabulate(1, points)[1 : 1 + tdim, :, :, 0].transpose(1, 2, 0)  # (q, a, k)
+    dN = cast(np.ndarray, element.tabulate(1, points))[1 : 1 + tdim, :, :, 0].transpose(1, 2, 0)
     centre = basix.geometry(cell_type).mean(axis=0)[None, :]
-    dNc = element.tabulate(1, centre)[1 : 1 + tdim, 0, :, 0].T  # (a, k)
+    dNc = cast(np.ndarray, element.tabulate(1, centre))[1 : 1 + tdim, 0, :, 0].T  # (a, k)
     nq, nn = dN.shape[:2]
     head = (
         f"#define W {LANES}\n#define D {gdim}\n#define NN {nn}\n#define NQ {nq}\n"
@@ -423,12 +426,14 @@ class CompiledForces:
         x = mesh.geometry.x[:, :gdim]
         nodes = x[mesh.geometry.dofmaps[0][:n_cells]]  # (cell, a, i)
         cell_type = getattr(basix.CellType, cell)
-        points, weights = basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
+        points, weights = cast(  # basix annotates its arrays as ArrayLike
+            tuple[np.ndarray, ...], basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
+        )
         element = basix.create_element(basix.ElementFamily.P, cell_type, 1)
         nq = len(weights)
         geo = np.empty((n_cells, nq, gdim * gdim + 1))
         for q in range(nq):
-            dN = element.tabulate(1, points[q : q + 1])[1 : 1 + tdim, 0, :, 0]  # (k, a)
+            dN = cast(np.ndarray, element.tabulate(1, points[q : q + 1]))[1 : 1 + tdim, 0, :, 0]
             Je = np.einsum("cai,ka->cik", nodes, dN)  # dx_i / dxi_k
             geo[:, q, : gdim * gdim] = np.linalg.inv(Je).reshape(n_cells, -1)
             geo[:, q, -1] = weights[q] * np.abs(np.linalg.det(Je))
@@ -437,7 +442,7 @@ class CompiledForces:
         self.centre = self.R = np.zeros((1, gdim * gdim, LANES))
         if model.rotated:
             centre = basix.geometry(cell_type).mean(axis=0)[None, :]
-            dN = element.tabulate(1, centre)[1 : 1 + tdim, 0, :, 0]
+            dN = cast(np.ndarray, element.tabulate(1, centre))[1 : 1 + tdim, 0, :, 0]
             inverse = np.linalg.inv(np.einsum("cai,ka->cik", nodes, dN))
             self.centre = batched(inverse.reshape(n_cells, -1))
             self.R = np.zeros_like(self.centre)

@@ -7,6 +7,8 @@ those. Units: u in m, f_int in N, the tangent in N/m.
 
 from __future__ import annotations
 
+from typing import cast
+
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -113,13 +115,16 @@ class ElasticForces:
     the cells are P1/Q1; `self.compiled` is then that loop (None otherwise: the UFL form). The
     tangent is always the UFL form's."""
 
+    _J: PETSc.Mat | None
+    _d: PETSc.Vec | None
+
     def __init__(self, system: System, model: Model, compiled: bool = False):
         self.system, self.model = system, model
         mesh, V, gdim = system.mesh, system.V, system.gdim
         self.u = fem.Function(V, name="displacement")
         du, w = ufl.TrialFunction(V), ufl.TestFunction(V)
         F = ufl.Identity(gdim) + ufl.grad(self.u)
-        self.R = None
+        self.R: fem.Function | None = None
         if model.rotated:
             T = fem.functionspace(mesh, ("DG", 0, (gdim, gdim)))
             self.R = fem.Function(T, name="rotation")
@@ -131,7 +136,7 @@ class ElasticForces:
             self._cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
             self._R_dofs = T.dofmap.list[self._cells, 0]
         dx = ufl.dx(metadata={"quadrature_degree": QUADRATURE_DEGREE})
-        self.Jbar = None
+        self.Jbar: fem.Function | None = None
         fbar = getattr(system, "scheme", "standard").partition(":")[0] == "mean-dilatation"
         self.compiled = None
         from tissuebench.solvers import compiled_forces
@@ -141,7 +146,8 @@ class ElasticForces:
                 V, model, float(system.mu.value), float(system.lmbda.value), fbar
             )
         self._stale = False  # R and J_bar (UFL coefficients) lag behind self.u
-        self._min_det = None  # the compiled loop's smallest det F (this rank) at self.u
+        # the compiled loop's smallest det F (this rank) at self.u
+        self._min_det: float | None = None
         if fbar:
             P = self._f_bar(F, model, dx)
         else:
@@ -149,15 +155,17 @@ class ElasticForces:
         f_int = ufl.inner(P, ufl.grad(w)) * dx
         self.f_form = fem.form(f_int)
         # the Jacobian of a step: c_T K_T(u) + c_K K_0 (+ c_M M, consistent mass)
-        self.c_T = fem.Constant(mesh, PETSc.ScalarType(1.0))
-        self.c_K = fem.Constant(mesh, PETSc.ScalarType(0.0))
-        self.c_M = fem.Constant(mesh, PETSc.ScalarType(0.0))
+        self.c_T = fem.Constant(mesh, PETSc.ScalarType(1.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
+        self.c_K = fem.Constant(mesh, PETSc.ScalarType(0.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
+        self.c_M = fem.Constant(mesh, PETSc.ScalarType(0.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
         K_T = ufl.derivative(f_int, self.u, du)
         K_0 = ufl.inner(sigma(du, system.mu, system.lmbda), epsilon(w)) * dx
         M = system.rho * ufl.inner(du, w) * dx
         self.j_form = fem.form(self.c_T * K_T + self.c_K * K_0 + self.c_M * M)
         # J = det F at the quadrature points, to find inverted elements
-        points, _ = basix.make_quadrature(mesh.basix_cell(), QUADRATURE_DEGREE)
+        points, _ = cast(  # basix annotates its arrays as ArrayLike
+            tuple[np.ndarray, ...], basix.make_quadrature(mesh.basix_cell(), QUADRATURE_DEGREE)
+        )
         self._det = fem.Expression(ufl.det(F), points, jit_options=EXPRESSION_JIT)
         tdim = mesh.topology.dim
         self._owned = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
@@ -214,18 +222,21 @@ class ElasticForces:
         gdim = self.system.gdim
         F = self._F_centre.eval(self.system.mesh, self._cells).reshape(-1, gdim, gdim)
         R = rotations(F)
+        assert self.R is not None  # a rotated model's
         bs = gdim * gdim
         values = self.R.x.array.reshape(-1, bs)
         values[self._R_dofs] = R.reshape(-1, bs)
 
     def _take_compiled_u(self) -> None:
         """self.u, R and J_bar at the u of the last compiled internal_force (ghosts included)."""
+        assert self.compiled is not None  # only the compiled loop leaves self.u stale
         self.u.x.array[:] = self.compiled.u
         self._update_coefficients()
 
     def compiled_internal_force(self, u: PETSc.Vec) -> np.ndarray:
         """f_int(u) (N) on the owned dofs by the compiled loop (self.compiled): a view of its
         array, valid until the next evaluation; min_det() is then that loop's own."""
+        assert self.compiled is not None  # for a model and cells with a compiled loop
         f = self.compiled.evaluate(u.array_r)
         self._min_det = self.compiled.min_det
         self._stale = True  # self.u is the loop's u, copied only if a UFL form needs it
@@ -240,8 +251,8 @@ class ElasticForces:
         b = self._b
         with b.localForm() as local:
             local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, self.f_form)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        dolfinx.fem.petsc.assemble_vector(b, self.f_form)  # type: ignore[arg-type]  # dolfinx's stubs: its (Vec, form) singledispatch variant
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
         out.array[:] = b.array_r[: out.getLocalSize()]
         return out
 
@@ -252,22 +263,22 @@ class ElasticForces:
         constrained rows and columns replaced by the identity. With `lumped` (M_L, zero on
         the constrained dofs) c_M M_L goes on the diagonal instead of c_M M. Reuses one
         matrix, which it returns."""
-        self.c_T.value, self.c_K.value = c_T, c_K
-        self.c_M.value = 0.0 if lumped is not None else c_M
+        self.c_T.value, self.c_K.value = c_T, c_K  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
+        self.c_M.value = 0.0 if lumped is not None else c_M  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
         if self._stale:
             self._take_compiled_u()
         if self._J is None:
             self._J = dolfinx.fem.petsc.create_matrix(self.j_form)
         J = self._J
         J.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(J, self.j_form, bcs=self.bcs)
+        dolfinx.fem.petsc.assemble_matrix(J, self.j_form, bcs=self.bcs)  # type: ignore[arg-type, misc]  # dolfinx's stubs: its (Mat, form) singledispatch variant
         if lumped is not None:
-            J.assemble(PETSc.Mat.AssemblyType.FLUSH)
+            J.assemble(PETSc.Mat.AssemblyType.FLUSH)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
             if self._d is None:
                 self._d = lumped.duplicate()
             lumped.copy(self._d)
             self._d.scale(c_M)
-            J.setDiagonal(self._d, addv=PETSc.InsertMode.ADD_VALUES)
+            J.setDiagonal(self._d, addv=PETSc.InsertMode.ADD_VALUES)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
         J.assemble()
         return J
 

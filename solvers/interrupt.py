@@ -278,7 +278,7 @@ def guard_jit() -> None:
         with deferred():
             return compile_forms(*args, **kwargs)
 
-    guarded.deferred = True
+    setattr(guarded, "deferred", True)  # a function attribute, which mypy does not model
     dolfinx.jit.ffcx_jit = guarded
 
 

@@ -18,7 +18,7 @@ from tissuebench.meshes.errors import UserError
 if TYPE_CHECKING:
     from tissuebench.solvers.system import System
 
-SOLVERS = {
+SOLVERS: dict[str, dict[str, object]] = {
     # factor once (MUMPS Cholesky: every step matrix here is symmetric positive definite, and
     # Cholesky halves the factorisation's work and memory against LU), then one
     # forward/backward substitution per step
@@ -68,7 +68,7 @@ SOLVERS = {
 # The one solve with the consistent mass M at step 0 (the initial acceleration): M is well
 # conditioned, so CG + Jacobi reaches round-off in a few dozen iterations, with no second
 # factorisation. Not a user choice; options under the prefix <integrator>_mass_ still win.
-MASS_SOLVER = {
+MASS_SOLVER: dict[str, object] = {
     "ksp_type": "cg",
     "pc_type": "jacobi",
     "ksp_rtol": 1e-14,
@@ -90,7 +90,7 @@ class OptionsError(UserError):
 def petsc_message(err: PETSc.Error) -> str:
     """The last line of a PETSc error's traceback, the one that says what is wrong."""
     lines = [line.split("] ", 1)[-1].strip() for line in str(err).splitlines() if line.strip()]
-    return lines[-1] if lines else f"error code {err.ierr}"
+    return lines[-1] if lines else f"error code {err.ierr}"  # type: ignore[attr-defined]  # petsc4py's stubs lack Error.ierr
 
 
 def mumps_failure(ksp: PETSc.KSP) -> str | None:
@@ -118,7 +118,7 @@ def petsc_defaults(prefix: str, defaults: dict) -> Iterator[None]:
     opts = PETSc.Options()
     added = [prefix + k for k in defaults if not opts.hasName(prefix + k)]
     for key in added:
-        opts[key] = defaults[key[len(prefix) :]]
+        opts[key] = defaults[key[len(prefix) :]]  # type: ignore[index]  # petsc4py's stubs lack Options.__setitem__
     try:
         yield
     except PETSc.Error as err:

@@ -37,6 +37,7 @@ class Newmark:
         if not h > 0:
             raise ValueError(f"time step h must be > 0 s, got {h}")
         self.system, self.h = system, h
+        assert scheme.beta_N is not None and scheme.gamma is not None  # a Newmark scheme's
         self.beta_N, self.gamma, self.lumped = scheme.beta_N, scheme.gamma, scheme.lumped
         self.alpha = system.material.alpha
         self.beta = system.material.beta if scheme.stiffness_damping else 0.0
@@ -60,10 +61,12 @@ class Newmark:
 
     def iterations(self) -> int:
         """Linear-solver iterations of the last step's solve (0: direct or diagonal)."""
+        assert self.solve is not None  # step_solver's (None in subclasses that override this)
         return self.solve.iterations()
 
     def destroy(self) -> None:
         """Free the PETSc solvers."""
+        assert self.solve is not None  # step_solver's (None in subclasses that override this)
         self.solve.destroy()
         self.mass_solve.destroy()
 
@@ -104,6 +107,7 @@ class Newmark:
         self.predict(state)
         r = self.residual(state.a, state.v, state.u)
         delta = self._delta
+        assert self.solve is not None  # step_solver's (None in subclasses that override this)
         self.solve(r, delta)
         delta.array[self.system.constrained] = 0.0
         return self.correct(state, delta)

@@ -36,6 +36,10 @@ from tissuebench.solvers.quasi_static import initial_state
 if TYPE_CHECKING:
     from tissuebench.solvers.system import System
 
+    _Mixed = Newmark  # what ModelForces is mixed into
+else:
+    _Mixed = object
+
 # SPEC 8: relative residual 1e-10. ATOL_SCALE x max diag(K_0) x extent is the absolute floor:
 # the force of a 1e-13 relative nodal displacement error, a little above round-off.
 NEWTON = {
@@ -76,7 +80,7 @@ def make_snes(
     return snes
 
 
-class ModelForces:
+class ModelForces(_Mixed):
     """The Newmark residual with f_int(u) in place of K u (a mixin for Newmark)."""
 
     forces: ElasticForces
@@ -150,6 +154,7 @@ class ExplicitLumpedModel(ExplicitModel):
         u, v, a = state.u, state.v, state.a
         i, (uc, vc, ac) = predict(s, state, h, self.gamma)
         f_int = self.forces.compiled_internal_force(u)  # and the smallest det F
+        assert self.forces.compiled is not None  # checked by __init__
         self.forces.compiled.explicit_update(
             s.f.array_r,
             f_int,
@@ -181,7 +186,7 @@ class NewtonModel(ModelForces, Newmark):
         self.snes = make_snes(system, J, prefix, self._function, self._jacobian)
         K = system.K
         self._trial, self._w2, self._a2 = K.createVecLeft(), K.createVecLeft(), K.createVecLeft()
-        self._state = None
+        self._state: State | None = None
         self.newton_iterations = 0
         self.residual_norms: list[float] = []
 
@@ -234,7 +239,7 @@ class NewtonModel(ModelForces, Newmark):
         reason = self.snes.getConvergedReason()
         self.newton_iterations = self.snes.getIterationNumber()
         self.residual_norms = list(self.snes.getConvergenceHistory()[0])
-        if reason <= 0:
+        if reason <= 0:  # type: ignore[operator]  # petsc4py's stubs: a ConvergedReason is an int
             raise SolveError(f"Newton did not converge at t = {t:.4g} s (SNES reason {reason})")
         delta.array[self.system.constrained] = 0.0
         self.correct(state, delta)
@@ -294,7 +299,7 @@ class QuasiStaticModel:
             return False
         self.newton_iterations += self.snes.getIterationNumber()
         self.residual_norms = list(self.snes.getConvergenceHistory()[0])
-        return self.snes.getConvergedReason() > 0
+        return self.snes.getConvergedReason() > 0  # type: ignore[operator]  # petsc4py's stubs: a ConvergedReason is an int
 
     def step(self, state: State) -> State:
         s, c = self.system, self.system.constrained

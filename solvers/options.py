@@ -50,7 +50,7 @@ def set_petsc_options(text: str) -> None:
     """Put options such as "-implicit_ksp_type cg -implicit_pc_type gamg" in PETSc's database."""
     opts = PETSc.Options()
     for key, value in parse_petsc_options(text):
-        opts[key] = value
+        opts[key] = value  # type: ignore[index]  # petsc4py's stubs lack Options.__setitem__
 
 
 def prefixes() -> list[str]:
@@ -104,7 +104,7 @@ def _try_prefix(prefix: str, solver: str, keys: list[str], comm) -> None:
         chosen = "gamg" if solver == "cg" and prefix == "quasi_static_" else solver
         defaults = SOLVERS[chosen]
     n = 4
-    A = PETSc.Mat().createAIJ(((n, None), (n, None)), nnz=(3, 1), comm=comm)
+    A = PETSc.Mat().createAIJ(((n, None), (n, None)), nnz=(3, 1), comm=comm)  # type: ignore[arg-type]  # petsc4py's stubs: None (PETSC_DECIDE) is a size
     start, end = A.getOwnershipRange()
     size = A.getSize()[0]
     for i in range(start, end):
@@ -113,8 +113,8 @@ def _try_prefix(prefix: str, solver: str, keys: list[str], comm) -> None:
             if 0 <= j < size:
                 A.setValue(i, j, -1.0)
     A.assemble()
-    A.setOption(PETSc.Mat.Option.SPD, True)
-    b, x = A.createVecs()
+    A.setOption(PETSc.Mat.Option.SPD, True)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
+    b, x = A.createVecs()  # type: ignore[misc]  # petsc4py's stubs: both without a side
     b.set(1.0)
     objects = [A, b, x]
     try:
@@ -161,7 +161,9 @@ def check_petsc_options(text: str, solver: str, comm: MPI.Comm | None = None) ->
     set_petsc_options(text)
     groups: dict[str, list[str]] = {}
     for key, _ in pairs:
-        groups.setdefault(prefix_of(key), []).append(key)
+        found = prefix_of(key)
+        assert found is not None  # every key is under a prefix: checked above
+        groups.setdefault(found, []).append(key)
     error = None
     for prefix, keys in groups.items():
         try:

@@ -61,11 +61,15 @@ def simulate(
     run = Run(name)
     limit = 100.0 * extent
     start = time.perf_counter()
-    state = None
+    state: State | None = None
     for i in range(n_steps + 1):
         reason, largest = None, 0.0
         try:  # no communication inside: one rank failing must not leave the others waiting
-            state = integrator.start() if i == 0 else integrator.step(state)
+            if i == 0:
+                state = integrator.start()
+            else:
+                assert state is not None  # the last step's: a failed step ends the run
+                state = integrator.step(state)
             local = state.u.array_r.reshape(-1, gdim)
             largest = (
                 float(np.linalg.norm(local, axis=1).max(initial=0.0))
@@ -89,6 +93,7 @@ def simulate(
             run.reason = reason
             break
         run.steps = i
+        assert state is not None  # the step just taken
         if keep:
             run.u.append(state.u.array_r.copy())
             run.v.append(state.v.array_r.copy())

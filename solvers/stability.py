@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import overload
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -56,6 +57,10 @@ OMEGA_H_MAX = 1e8  # Omega = h omega up to which a scheme is searched for instab
 # --- one mode ----------------------------------------------------------------------------------
 
 
+@overload
+def modal_damping(omega: float, alpha: float, beta: float) -> float: ...
+@overload
+def modal_damping(omega: np.ndarray, alpha: float, beta: float) -> np.ndarray: ...
 def modal_damping(omega: float | np.ndarray, alpha: float, beta: float) -> float | np.ndarray:
     """c = alpha + beta omega^2 (1/s) of the mode omega (rad/s): C = alpha M_s + beta K."""
     return alpha + beta * omega**2
@@ -124,6 +129,7 @@ def critical_dt(
     The minimum of the modal limits over the interval is taken on a geometric grid that holds
     both ends; for gamma = 1/2 and beta_N = 0 it is 2 / omega_max whatever the damping."""
     scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
+    assert scheme.beta_N is not None and scheme.gamma is not None  # a Newmark scheme's
     beta = material.beta if scheme.stiffness_damping else 0.0
     omegas = np.geomspace(omega_min, omega_max, samples)
     return min(
@@ -136,6 +142,7 @@ def growth_per_step(scheme: str | Algorithm, material: Material, omega: float, h
     """The spectral radius of the mode omega (rad/s) with step h (s) in `scheme`: above 1 it is
     the factor by which that mode grows at every step."""
     scheme = newmark_schemes()[scheme] if isinstance(scheme, str) else scheme
+    assert scheme.beta_N is not None and scheme.gamma is not None  # a Newmark scheme's
     beta = material.beta if scheme.stiffness_damping else 0.0
     return float(
         spectral_radius(
@@ -335,6 +342,7 @@ def run_check(
             if (
                 status == "diverged"
             ):  # the run below: as many steps as the run above took, at least to T
+                assert step is not None  # a diverged run's
                 steps = max(
                     step, math.ceil(system.benchmark.end_time / ((1 - margin) * limit.critical_dt))
                 )

@@ -8,7 +8,7 @@ eigenvalues of the free dofs, SLEPc)."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from tissuebench.solvers.algorithm import Integrator, State
 
@@ -67,7 +67,7 @@ def sub_stepped(
     algorithm: str,
     system: System,
     h: float,
-    substeps: int | str = 1,
+    substeps: int | Literal["auto"] = 1,
     solver: str = "direct",
     model: str = "linear",
 ) -> tuple[Integrator, int, float | None]:
@@ -88,7 +88,7 @@ def sub_stepped(
     return (SubSteps(inner, h, k) if k != 1 else inner), k, critical
 
 
-def parse_substeps(text: str) -> int | str:
+def parse_substeps(text: str) -> int | Literal["auto"]:
     """k (a whole number >= 1) or "auto" from the command line's --substeps (ValueError)."""
     if text.strip() == "auto":
         return "auto"

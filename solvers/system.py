@@ -73,9 +73,9 @@ class System:
         self.V = V = fem.functionspace(mesh, ("Lagrange", 1, (gdim,)))
 
         # Material data as Constants: one compiled form serves every material.
-        self.mu = fem.Constant(mesh, PETSc.ScalarType(mu))
-        self.lmbda = fem.Constant(mesh, PETSc.ScalarType(lmbda))
-        self.rho = fem.Constant(mesh, PETSc.ScalarType(self.material.rho))
+        self.mu = fem.Constant(mesh, PETSc.ScalarType(mu))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
+        self.lmbda = fem.Constant(mesh, PETSc.ScalarType(lmbda))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
+        self.rho = fem.Constant(mesh, PETSc.ScalarType(self.material.rho))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
         self.g = fem.Constant(mesh, np.asarray(benchmark.gravity, dtype=PETSc.ScalarType))
         u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
         self.k_form = fem.form(ufl.inner(sigma(u, self.mu, self.lmbda), epsilon(w)) * ufl.dx)
@@ -95,9 +95,9 @@ class System:
                 self.K = self.K.convert(matrix_type)
         self.M = dolfinx.fem.petsc.assemble_matrix(self.m_form, kind=matrix_type)
         self.M.assemble()
-        self.f = dolfinx.fem.petsc.assemble_vector(self.f_form)
-        self.f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.f = self.owned_copy(self.f)
+        f = dolfinx.fem.petsc.assemble_vector(self.f_form)
+        f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
+        self.f = self.owned_copy(f)
         # Lumped mass: row sums of M on the diagonal, M_L = M 1.
         self.ML = self.K.createVecLeft()
         ones = self.K.createVecRight()
@@ -129,7 +129,7 @@ class System:
         coords.array[:] = self.V.tabulate_dof_coordinates()[:n, : self.gdim].ravel()
         return PETSc.NullSpace().createRigidBody(coords)
 
-    def owned_copy(self, x: PETSc.Vec) -> np.ndarray:
+    def owned_copy(self, x: PETSc.Vec) -> PETSc.Vec:
         """A plain (unghosted) Vec holding the owned entries of x."""
         y = self.K.createVecLeft()
         y.array[:] = x.array_r[: y.getLocalSize()]
@@ -157,8 +157,9 @@ class System:
         self.constrained_global = (self.constrained + offset).astype(PETSc.IntType)
         self.free = np.setdiff1d(np.arange(n_owned * bs, dtype=np.int32), self.constrained)
 
-    def prescribed(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(u, v, a) of the constrained dofs at time t (s), aligned with self.constrained."""
+    def prescribed(self, t: float) -> np.ndarray:
+        """(u, v, a), the rows of one array, of the constrained dofs at time t (s), aligned
+        with self.constrained."""
         values = np.zeros((3, len(self.constrained)))
         for k, motion in enumerate(self._motions):
             sel = self._which == k
@@ -193,6 +194,7 @@ def gather_by_coordinates(
     parts = comm.gather((x, np.asarray(values).reshape(n, bs)), root=0)
     if comm.rank != 0:
         return None
+    assert parts is not None  # gathered on rank 0
     x = np.concatenate([p[0] for p in parts])
     vals = np.concatenate([p[1] for p in parts])
     order = np.lexsort(np.round(x, 10).T[::-1])

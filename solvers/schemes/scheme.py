@@ -64,7 +64,7 @@ def assemble(form: ufl.Form) -> PETSc.Mat:
 def _diagonal(form: ufl.Form) -> PETSc.Vec:
     """The owned entries of an assembled linear form (ghost contributions added)."""
     b = dolfinx.fem.petsc.assemble_vector(fem.form(form))
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
     out = PETSc.Vec().createMPI(
         (b.getLocalSize(), b.getSize()), bsize=b.getBlockSize(), comm=b.getComm()
     )
@@ -124,7 +124,7 @@ def split_stiffness(
 
 def add(K: PETSc.Mat, other: PETSc.Mat, scale: float = 1.0) -> PETSc.Mat:
     """K += scale other in place, with the union of both patterns; frees other, returns K."""
-    K.axpy(scale, other, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    K.axpy(scale, other, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)  # type: ignore[arg-type]  # petsc4py's stubs: its enum constants are ints
     other.destroy()
     return K
 

@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable  # noqa: F401 (Any: in a type comment)
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -175,7 +175,7 @@ class Truth:
                 mesh, basix.ufl.mixed_element([vector] + [scalar] * n_pressures)
             )
             self.V, dofs = self.W.sub(0).collapse()
-            self.to_W = np.asarray(dofs).reshape(-1)
+            self.to_W = np.asarray(dofs).reshape(-1)  # type: np.ndarray | None
         else:
             self.W = self.V = fem.functionspace(mesh, vector)
             self.to_W = None
@@ -202,8 +202,8 @@ class Truth:
             wdofs = self.to_W[self.cdofs]
             order = np.argsort(wdofs)
             pair = [wdofs[order].astype(np.int32), self.cdofs[order].astype(np.int32)]
-            self.bc = fem.dirichletbc(self.g, pair, self.W.sub(0))
-            self.bc0 = fem.dirichletbc(zero, pair, self.W.sub(0))
+            self.bc = fem.dirichletbc(self.g, pair, self.W.sub(0))  # type: ignore[arg-type]  # dolfinx's annotation: the (W's, V's) dof pair of a subspace
+            self.bc0 = fem.dirichletbc(zero, pair, self.W.sub(0))  # type: ignore[arg-type]  # dolfinx's annotation: the (W's, V's) dof pair of a subspace
 
         # state at t_n (V), and the known parts of v_{n+1}, a_{n+1}
         self.un, self.vn, self.an = (fem.Function(V) for _ in range(3))
@@ -214,10 +214,11 @@ class Truth:
         self.load = fem.Constant(mesh, 1.0)  # load factor (1: the whole load)
         self.U = fem.Function(self.W)
         self.f = pb.body_force(ufl.SpatialCoordinate(mesh), self.t)
-        self._step_solver = None
-        self._full_newton = None  # full Newton, built where the modified one first fails
+        # type comments, not annotations: the truth's cache key hashes the code's syntax tree
+        self._step_solver = None  # type: Any  # _linear_solve's tuple or a NonlinearProblem
+        self._full_newton = None  # type: dolfinx.fem.petsc.NonlinearProblem | None  # full Newton, built where the modified one first fails
         self._refresh = False  # build the modified Newton's tangent again before the next step
-        self._step_h = None  # the step of the factorised linear step matrix, s
+        self._step_h = None  # type: float | None  # the step of the factorised linear step matrix, s
         self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
         self._jacobian = _Jacobian(self.un, 2 * pb.degree) if self.kind == "mixed-nh" else None
 
@@ -274,7 +275,7 @@ class Truth:
         return self._residual(u, v, a, ps)
 
     # -- solves ----------------------------------------------------------------------------
-    def _prescribe(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _prescribe(self, t: float) -> np.ndarray:
         """(u, v, a) at t (s) on the constrained nodes, as (nodes, gdim) arrays in V's order."""
         n, gdim = len(self.xnodes), self.gdim
         values = np.zeros((3, n, gdim))
@@ -339,7 +340,7 @@ class Truth:
         for fn, val in ((self.un, ug), (self.vn, vg)):
             fn.x.array[:] = 0.0
             fn.x.array[self.cdofs] = val
-        self.t.value = 0.0
+        self.t.value = 0.0  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
         A = fem.Function(self.W)  # unknown: the acceleration and the pressures at t = 0
         a, ps = self._split(A)
         residual = self._residual(self.un, self.vn, a, ps)
@@ -354,8 +355,8 @@ class Truth:
     def step(self, t_next: float, h: float) -> None:
         """Advance (u, v, a) from t_n to t_next = t_n + h (s)."""
         ug, vg, ag = self._prescribe(t_next)
-        self.c1.value, self.c2.value = 2 / h, 4 / h**2
-        self.t.value = t_next
+        self.c1.value, self.c2.value = 2 / h, 4 / h**2  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
+        self.t.value = t_next  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
         un, vn, an = self.un.x.array, self.vn.x.array, self.an.x.array
         self.vpred.x.array[:] = -2 / h * un - vn
         self.apred.x.array[:] = -4 / h**2 * (un + h * vn) - an
@@ -443,7 +444,7 @@ class Truth:
             solver = self._full_newton
             solver.solve()
         reason = solver.solver.getConvergedReason()
-        if reason <= 0:
+        if reason <= 0:  # type: ignore[operator]  # petsc4py's stubs: a ConvergedReason is an int
             raise RuntimeError(f"truth: Newton did not converge at t = {self.t.value} s ({reason})")
 
     def static(self, t: float) -> np.ndarray:
@@ -453,7 +454,7 @@ class Truth:
         RuntimeError when both fail (sub-steps of the load did not help where these failed:
         rod-nh-s3 at n = 8, up to 64 of them)."""
         ug, _, _ = self._prescribe(t)
-        self.t.value = t
+        self.t.value = t  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
         U = fem.Function(self.W)
         u, ps = self._split(U)
         rest = fem.Constant(self.problem.mesh, np.zeros(self.gdim))  # v = 0
@@ -473,10 +474,10 @@ class Truth:
         U.x.array[:] = 0.0  # from rest
         self.g.x.array[self.cdofs] = ug
         problem.solve()
-        if problem.solver.getConvergedReason() <= 0:  # from the state at hand
+        if problem.solver.getConvergedReason() <= 0:  # type: ignore[operator]  # petsc4py's stubs: a ConvergedReason is an int; from the state at hand
             U.x.array[:] = self.U.x.array
             problem.solve()
-        if problem.solver.getConvergedReason() <= 0:
+        if problem.solver.getConvergedReason() <= 0:  # type: ignore[operator]  # petsc4py's stubs: a ConvergedReason is an int
             raise RuntimeError(
                 "truth: the static Newton solve failed from rest and from the state at hand"
             )
@@ -484,7 +485,7 @@ class Truth:
 
     def tip(self, values: np.ndarray) -> np.ndarray:
         """The probe's displacement (m) for owned dof values of V. Collective."""
-        return self._probe(values)
+        return self._probe(values)  # type: ignore[misc]  # tip() needs a probe; no assert here: the truth's cache key hashes this code
 
     def num_dofs(self) -> int:
         im = self.W.dofmap.index_map
@@ -572,8 +573,8 @@ class _Jacobian:
         self.mesh = mesh
         owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.cells = np.arange(owned, dtype=np.int32)
-        self.J = fem.Expression(ufl.det(ufl.Identity(gdim) + ufl.grad(u)), points)
-        x = fem.Expression(ufl.SpatialCoordinate(mesh), points)
+        self.J = fem.Expression(ufl.det(ufl.Identity(gdim) + ufl.grad(u)), points)  # type: ignore[arg-type]  # basix annotates its arrays as ArrayLike
+        x = fem.Expression(ufl.SpatialCoordinate(mesh), points)  # type: ignore[arg-type]  # basix annotates its arrays as ArrayLike
         self.x = x.eval(mesh, self.cells).reshape(-1, gdim)
 
     def __call__(self) -> tuple[float, np.ndarray]:

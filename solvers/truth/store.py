@@ -31,7 +31,7 @@ import sys
 import time
 import zipfile
 from pathlib import Path
-from typing import Callable
+from typing import Callable, cast
 
 from mpi4py import MPI
 
@@ -306,16 +306,22 @@ def sample(
     boundary = ids[_facet_cycles(mesh)]
 
     basix_cell = basix.CellType[cell_type]
-    xi, w = basix.make_quadrature(basix_cell, 2 * QUADRATURE_POINTS - 1)
-    q1 = basix.create_element(basix.ElementFamily.P, basix_cell, 1).tabulate(1, xi)[..., 0]
+    # basix annotates its arrays as ArrayLike
+    xi, w = cast(
+        tuple[np.ndarray, ...], basix.make_quadrature(basix_cell, 2 * QUADRATURE_POINTS - 1)
+    )
+    q1 = cast(
+        np.ndarray, basix.create_element(basix.ElementFamily.P, basix_cell, 1).tabulate(1, xi)
+    )[..., 0]
     X = mesh.geometry.x[gdofs[:n_cells], :gdim]  # (cells, nodes, gdim)
     points = np.einsum("qk,cki->cqi", q1[0], X)
     J = np.einsum("jqk,cki->cqij", q1[1:], X)
     weights = w * np.abs(np.linalg.det(J))  # (cells, q)
-    phi = V.element.basix_element.tabulate(0, xi)[0, :, :, 0]  # (q, Q2 nodes)
+    phi = cast(np.ndarray, V.element.basix_element.tabulate(0, xi))[0, :, :, 0]  # (q, Q2 nodes)
     dofs = V.dofmap.list[:n_cells]
 
     fn = fem.Function(V)
+    assert run.u is not None  # a run that kept its steps
     steps = len(run.u)
     u_vertices = np.empty((steps, n_nodes, gdim))
     u_points = np.empty((steps, n_cells, len(w), gdim))
