@@ -538,7 +538,7 @@ def check_owned(path: Path, force: bool = True) -> None:
         raise OutputError(f"{path}: exists: --force replaces it")
 
 
-def write_owned(path: Path, write: Callable[[Path], None]) -> None:
+def write_owned(path: Path, write: Callable[[Path], object]) -> None:
     """write(tmp) into a temporary file beside path, rename it into place and list it with
     its hash in the folder's manifest (rank 0). Refuses a file that is not ours."""
     path = Path(path)

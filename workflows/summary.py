@@ -119,7 +119,7 @@ class RunSummary:
         return entry
 
     @classmethod
-    def from_json(cls, data: object, label: str = "") -> "RunSummary":
+    def from_json(cls, data: Any, label: str = "") -> "RunSummary":
         """The run of a summary.json["runs"] entry; ValueError (one line) if malformed."""
         where = f"run {label!r}" if label else "run"
         _check(isinstance(data, dict), f"{where} is not an object")
@@ -224,7 +224,7 @@ class CaseSummary:
         return json.dumps(self.to_json(), indent=2) + "\n"
 
     @classmethod
-    def from_json(cls, data: object) -> "CaseSummary":
+    def from_json(cls, data: Any) -> "CaseSummary":
         """The case of summary.json's dict; ValueError (one line) if it is not a study case's
         summary."""
         _check(isinstance(data, dict), "not an object")

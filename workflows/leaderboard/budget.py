@@ -9,8 +9,9 @@ Rank 0 only.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, TypeGuard
 
 from matplotlib.figure import Figure  # no pyplot: no global backend state
 
@@ -37,12 +38,12 @@ class BudgetRow(Protocol):
     budget: dict
 
 
-def measured(value: float | None) -> bool:
+def measured(value: float | None) -> TypeGuard[float]:
     """A part that was measured and can be drawn on a log axis (0 is drawn at the axis)."""
     return value is not None and math.isfinite(value) and value >= 0
 
 
-def budget_rows(rows: list[BudgetRow]) -> list[BudgetRow]:
+def budget_rows(rows: Sequence[BudgetRow]) -> list[BudgetRow]:
     """The rows that have a budget with a measured total, the largest total first (drawn at
     the top of the figure last: smallest at the bottom)."""
     kept = [r for r in rows if r.budget and measured(r.budget.get("total"))]

@@ -12,6 +12,7 @@ import os
 import platform
 import textwrap
 from pathlib import Path
+from typing import Any, cast
 
 from tissuebench.meshes import get_entry
 from tissuebench.solvers import interrupt
@@ -100,7 +101,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
     only when front_only: against the truth, runs of one mesh crowd one error)."""
     markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "Drake": "h",
                "MuJoCo": "X", "Kratos": "p", "user": "*"}  # fmt: skip
-    shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost > 0]
+    shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost is not None and r.cost > 0]
     # the axis spans at most DECADES below the largest error: a point below (round-off, a run
     # that is the reference by another code) sits on the axis's floor, said in the legend
     errors = [error_of(r) for r in shown]
@@ -109,7 +110,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
         raw = error_of
         error_of = lambda r: max(raw(r), floor)  # noqa: E731
         ax.axhline(floor, color="0.75", lw=0.8, label=f"at {floor:.0e}: E_i below it (round-off)")
-    placed = []
+    placed: list[tuple[float, Any]] = []
     crowded = front_only or sum(r.group is None for r in shown) > LABELLED
     for source in dict.fromkeys(r.group or r.source for r in shown):
         group = [r for r in shown if (r.group or r.source) == source]
@@ -125,7 +126,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
         for r in group:
             if (crowded or r.group) and not on_front(r) and r.source != "user":
                 continue  # a crowd, or a group: only its front is labelled (the table has all)
-            xy = (r.cost, error_of(r))
+            xy = (cast(float, r.cost), error_of(r))  # shown: rows with a cost
             near = sum(  # labels already placed next to this point go above it
                 abs(math.log(xy[0] / p[0])) < 0.25 and abs(math.log(xy[1] / p[1])) < 0.25
                 for p in placed
@@ -138,7 +139,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
                 xytext=(4, 3 + 9 * near),
                 fontsize=7,
             )
-    front = sorted((r for r in shown if on_front(r)), key=lambda r: r.cost)
+    front = sorted((r for r in shown if on_front(r)), key=lambda r: cast(float, r.cost))
     if front:
         ax.step(
             [r.cost for r in front],
@@ -222,7 +223,7 @@ def budget_table(rows: list[Row]) -> list[str]:
     ]
     for r in sorted(
         (r for r in rows if r.budget),
-        key=lambda r: r.budget.get("total") if finite(r.budget.get("total")) else math.inf,
+        key=lambda r: cast(float, r.budget["total"]) if finite(r.budget.get("total")) else math.inf,
     ):
         b = r.budget
         cells = []
@@ -236,10 +237,10 @@ def budget_table(rows: list[Row]) -> list[str]:
 def dominant(budget: dict) -> str:
     """The part of an error budget that dominates (the largest finite one of discretisation,
     algorithm, model) with its share of their sum, or "-" when none is known."""
-    parts = {p: budget.get(p) for p in BUDGET_PARTS[1:] if finite(budget.get(p))}
+    parts: dict[str, float] = {p: budget[p] for p in BUDGET_PARTS[1:] if finite(budget.get(p))}
     if not parts:
         return "-"
-    top = max(parts, key=parts.get)
+    top = max(parts, key=lambda p: parts[p])
     total = sum(parts.values())
     return top if total == 0 else f"{top} ({100 * parts[top] / total:.0f} %)"
 
@@ -342,7 +343,9 @@ def growth_lines(series: list[Board], rows: dict[str, list[Row]]) -> list[str]:
     grown = []
     for label, (a, b) in ends.items():
         if error(a) and error(b) and finite(a.cost) and finite(b.cost) and a.cost > 0:
-            grown.append((label, b.cost / a.cost, error(a) / error(b), b.cost))
+            grown.append(
+                (label, b.cost / a.cost, cast(float, error(a)) / cast(float, error(b)), b.cost)
+            )
     if not grown:
         return []
     grown.sort(key=lambda g: g[3])

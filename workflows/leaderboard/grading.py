@@ -54,7 +54,8 @@ def summarized(curve) -> tuple[float | None, float | None]:
     """(max, time-mean) of an error curve over steps 1..N, None for NaN."""
     from tissuebench.metrics.compare import summarize
 
-    return tuple(None if not finite(x) else float(x) for x in summarize(curve))
+    peak, mean = (None if not finite(x) else float(x) for x in summarize(curve))
+    return peak, mean
 
 
 def grade_row_truth(truth, row: Row) -> None:
@@ -88,7 +89,7 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
     from tissuebench.metrics.truth import own_error
     from tissuebench.solvers.truth.store import expected_words, load_cached
 
-    cases = {}
+    cases: dict[str, list[Board]] = {}
     for board in boards:
         if board.truth is not None:
             cases.setdefault(board.truth, []).append(board)
@@ -190,6 +191,8 @@ def error_budget(
             b["algorithm"] = 0.0
         elif ours is not None:
             try:
+                if ours.series is None or row.series is None:
+                    raise TypeError("a row without its series")  # as grade(None) would
                 g = grade(
                     ours.series, row.series, comm=MPI.COMM_SELF, candidate_field=row.series_field
                 )

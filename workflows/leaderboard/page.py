@@ -22,6 +22,7 @@ import html
 import json
 import math
 from pathlib import Path
+from typing import Any, cast
 
 from tissuebench.workflows.leaderboard.figures import sessions_line
 from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
@@ -180,7 +181,7 @@ def read_frontier(path: Path) -> dict[str, list[dict]]:
     out: dict[str, list[dict]] = {}
     for r in raw:
         try:
-            row = {
+            row: dict[str, Any] = {
                 "case": str(r["case"]),
                 "scheme": str(r["scheme"]),
                 "algorithm": str(r["algorithm"]),
@@ -352,13 +353,14 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
     # the Pareto front (from the record's flags)
     front = sorted(
         (r for r in rows if (r.truth_pareto if truth else r.pareto).get("mean")),
-        key=lambda r: r.cost,
+        key=lambda r: cast(float, r.cost),  # flagged: rows with a finite cost
     )
     front = [r for r in front if finished(r) and (error_of(r, truth) or 0) > 0]
     if front:
-        pts = []
+        pts: list[str] = []
         for k, r in enumerate(front):
             e = error_of(r, truth)
+            assert e is not None and r.cost is not None  # front: finished rows with an error
             px, py = ax.x(r.cost), ax.y(e) if e >= ax.floor else ax.BOTTOM + 16
             if k:
                 pts.append(f"{px:.1f},{pts[-1].split(',')[1]}")
@@ -390,7 +392,7 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
         e = error_of(r, truth)
         placed = "plotted"
         if finished(r) and e is not None:
-            px = ax.x(r.cost)
+            px = ax.x(cast(float, r.cost))  # finished: a finite cost
             py = ax.y(e) if e >= ax.floor else ax.BOTTOM + 16
             placed = "plotted" if e >= ax.floor else "below"
         else:

@@ -7,6 +7,7 @@ import json
 import math
 from dataclasses import asdict, fields
 from pathlib import Path
+from typing import Any
 
 from tissuebench.meshes.errors import UserError
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
@@ -116,7 +117,7 @@ def check_board(d) -> None:
         raise Invalid(f"load {one_line(repr(load))[:40]} is not a list of numbers")
 
 
-def board_of(d: dict) -> Board:
+def board_of(d: Any) -> Board:
     """A Board from its record (lists back to tuples), checked (check_board)."""
     check_board(d)
     known = {f.name for f in fields(Board)}
@@ -173,7 +174,9 @@ def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
             raise ValueError(f"not a {RECORD_SCHEMA} record of version {RECORD_VERSION}")
         if not isinstance(doc.get("cases"), list):
             raise ValueError("no list of cases")
-        boards, rows, notes = [], {}, {}
+        boards: list[Board] = []
+        rows: dict[str, list[Row]] = {}
+        notes: dict[str, list[str]] = {}
         for i, case in enumerate(doc["cases"]):
             where = f"case {i + 1}"
             if not isinstance(case, dict) or not isinstance(case.get("rows"), list):

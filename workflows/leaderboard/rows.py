@@ -39,7 +39,7 @@ import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeGuard, cast
 
 from tissuebench.meshes import get_entry
 from tissuebench.metrics.table import METRICS
@@ -158,12 +158,12 @@ STATUSES = ("ok", "diverged", "reference diverged", "missing")  # compare's
 TOLERANCE = 1e-5  # relative, on h and T: compare's time stamps match to six printed digits
 
 
-def real(x) -> bool:
+def real(x: object) -> TypeGuard[float]:
     """True for a real number that is not a bool (it may be NaN or infinite)."""
     return isinstance(x, numbers.Real) and not isinstance(x, bool)
 
 
-def finite(x) -> bool:
+def finite(x: object) -> TypeGuard[float]:
     """True for a real number (not a bool) that is neither NaN nor infinite."""
     return real(x) and math.isfinite(x)
 
@@ -279,6 +279,7 @@ def reference_problem(
             return f"graded against the truth {truth}; {where} has {has}: {move}"
         return None
     if fp.get("benchmark") is None:
+        assert isinstance(reference, dict)  # fp came from it
         return (
             f"its reference {one_line(reference.get('file'))[:200]} is neither in a run folder "
             "of ours nor an export's (NAME.reference.xdmf beside NAME.json), so its case is "
@@ -318,7 +319,7 @@ def user_mesh(summary: dict) -> tuple[str, int]:
     ):
         return "?", 0
     plural = {"hexahedron": "hexahedra", "tetrahedron": "tetrahedra"}.get(kind, f"{kind}s")
-    return f"{one_line(plural)[:40]}: {cells:,} cells, {nodes:,} nodes", dofs
+    return f"{one_line(plural)[:40]}: {cells:,} cells, {nodes:,} nodes", cast(int, dofs)
 
 
 def run_problem(label, run) -> str | None:
@@ -497,7 +498,8 @@ def user_rows(
     and one line for each folder or run left out and why (see reference_problem and
     run_problem); a folder graded for another of `boards` is told where it belongs. Reads
     files only; rank 0."""
-    rows, skipped = [], []
+    rows: list[Row] = []
+    skipped: list[str] = []
     folder = Path(folder)
     if not folder.is_dir():
         return rows, skipped
@@ -530,6 +532,7 @@ def user_rows(
         if problem:
             skipped.append(f"{where}: left out: {problem}")
             continue
+        assert isinstance(runs, dict)  # a summary with runs: checked above
         for label, run in runs.items():
             problem = run_problem(label, run)
             if problem:
@@ -602,6 +605,7 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
         from tissuebench.workflows.grading import candidate_file
 
         file = candidate_file(summary, folder) or file
+    assert isinstance(cand, dict)  # file came from it
     field = cand.get("field")
     return {"series": file, "series_field": field if isinstance(field, str) else None}
 
@@ -641,7 +645,8 @@ def mark_pareto(rows: list[Row]) -> None:
     the reference left out (its error is zero by definition)."""
     for kind in ("mean", "max"):
         ranked = [r for r in rows if ranked_error(r, kind) is not None]
-        flags = pareto([(r.cost, ranked_error(r, kind)) for r in ranked])
+        # ranked: rows with a finite cost and error
+        flags = pareto([cast(Any, (r.cost, ranked_error(r, kind))) for r in ranked])
         for r in rows:
             r.pareto.pop(kind, None)
         for r, flag in zip(ranked, flags, strict=True):
@@ -667,7 +672,8 @@ def mark_truth_pareto(rows: list[Row]) -> None:
     """Set row.truth_pareto["mean"|"max"] on the rows graded against the truth (truth_error)."""
     for kind in ("mean", "max"):
         ranked = [r for r in rows if truth_error(r, kind) is not None]
-        flags = pareto([(r.cost, truth_error(r, kind)) for r in ranked])
+        # ranked: rows with a finite cost and error
+        flags = pareto([cast(Any, (r.cost, truth_error(r, kind))) for r in ranked])
         for r in rows:
             r.truth_pareto.pop(kind, None)
         for r, flag in zip(ranked, flags, strict=True):
