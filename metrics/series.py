@@ -180,7 +180,7 @@ def planar(path: Path, u: np.ndarray, dim: int, what: str) -> np.ndarray:
 
 
 def check_same_mesh(
-    where: str, first: tuple[np.ndarray, np.ndarray], step: tuple[np.ndarray, np.ndarray]
+    where: str, first: tuple[ArrayLike, ArrayLike | None], step: tuple[ArrayLike, ArrayLike | None]
 ) -> None:
     """Refuse (InputError, `where` naming the file and step) a step whose points (n, 2 or 3)
     or cells differ from the first step's: the nodes must be the same, in the same order,

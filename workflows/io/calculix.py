@@ -225,8 +225,8 @@ def read_frd(path: str | Path, names: Sequence[str] = ("DISP",)) -> FieldData:
         elif key == "3" and line[5:6] == "C":
             _read_elements(src, line, elements)
         elif key == "100" and line[5:6] == "C":
-            name, t, values = _read_results(src, line)
-            blocks.setdefault(name, []).append((t, values))
+            name, t, by_node = _read_results(src, line)
+            blocks.setdefault(name, []).append((t, by_node))
     if not ended:
         raise InputError(
             f"{path}: truncated: no closing 9999 record (cut short, or CalculiX has not "
@@ -246,6 +246,7 @@ def read_frd(path: str | Path, names: Sequence[str] = ("DISP",)) -> FieldData:
     if len(kinds) != 1:
         raise InputError(f"{path}: cells of several types; expected one of he8, he20 or qu4")
     cell_type = kinds.pop()
+    assert cell_type is not None  # _read_elements refuses the other types
     used = sorted({n for _, conn in elements for n in conn})
     missing = [n for n in used if n not in nodes]
     if missing:
@@ -253,7 +254,8 @@ def read_frd(path: str | Path, names: Sequence[str] = ("DISP",)) -> FieldData:
     index = {n: i for i, n in enumerate(used)}
     points = np.array([nodes[n] for n in used])
     cells = np.array([[index[n] for n in conn] for _, conn in elements], dtype=np.int64)
-    times, values = [], []
+    times: list[float] = []
+    values: list[np.ndarray] = []
     for t, result in blocks[found]:
         lacking = [n for n in used if n not in result]
         if lacking:
@@ -311,7 +313,7 @@ def _read_elements(src: _Lines, header: str, elements: list) -> None:
         elements.append((kind, connectivity[: FRD_CORNERS.get(kind, count)]))
 
 
-def _read_results(src: _Lines, header: str) -> tuple[str, float, dict]:
+def _read_results(src: _Lines, header: str) -> tuple[str, float, dict[int, list[float]]]:
     """A nodal result block: (name, time, {node: values})."""
     long = _block_format(src, header) == 1
     start = 13 if long else 8
@@ -331,7 +333,7 @@ def _read_results(src: _Lines, header: str) -> tuple[str, float, dict]:
             raise src.error(f"{name}: expected a component (-5)")
         exists = line[33:38].strip()
         stored += exists in ("", "0")  # 1: computed by the viewer (ALL), not stored
-    values = {}
+    values: dict[int, list[float]] = {}
     what = f"{name} at t = {t:g}"
     while True:
         line = src.next(what)
@@ -469,7 +471,8 @@ def _scan_inp(path: Path, nodes: dict, elements: list, kinds: set, depth: int) -
     if depth > 8:
         raise InputError(f"{path}: *INCLUDE nested more than 8 deep")
     src = _Lines(path)
-    card, count, pending = None, 0, []
+    card, count = None, 0
+    pending: list[int] = []
     for number, raw in enumerate(src.lines, start=1):
         line = raw.strip()
         if not line or line.startswith("**"):

@@ -278,6 +278,7 @@ def algorithm(procedure: str) -> dict:
             "when Newton fails",
         }
     entry = ALGORITHMS["implicit"]
+    assert entry.beta_N is not None  # a Newmark scheme's
     return {
         "name": "implicit",
         "scheme": "Newmark's trapezoidal rule (average acceleration), unconditionally stable",

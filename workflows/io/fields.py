@@ -5,14 +5,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 from numpy.typing import ArrayLike
 
 from tissuebench.metrics.series import InputError
 
 # what a reader returns: (points (n, 3), cells (VTK node order), cell type, times (s), the
 # (n, components) values at each time, the field's name), checked by metrics/series.series_of
-FieldData = tuple[ArrayLike, ArrayLike, str, ArrayLike, ArrayLike, str]
+FieldData = tuple[ArrayLike, ArrayLike, str, ArrayLike, np.ndarray | list[Any], str]
 
 DEFAULT_FIELDS = ("displacement", "U", "DISP", "Displacement")
 

@@ -94,7 +94,8 @@ def read_on_rank0(comm: MPI.Comm, *files: tuple) -> list[Series | None]:
     """The series of each (path, field) read on rank 0 (None on the other ranks), once
     check_memory has found that they fit. Collective: an unreadable file, or series that
     cannot fit in memory, raise one InputError on every rank, so that none is left waiting."""
-    series, error = [], None
+    series: list[Series | None] = []
+    error = None
     if comm.rank == 0:
         try:
             check_memory(files)

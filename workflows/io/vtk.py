@@ -67,4 +67,6 @@ def read_pvd(path: Path, names: Sequence[str]) -> FieldData:
                 f"{path}: timestep {dataset.get('timestep')!r} is not a number"
             ) from None
         values.append(mesh.point_data[field])
+    assert points is not None and cells is not None  # the first step's (there is one)
+    assert cell_type is not None and field is not None
     return points, cells, cell_type, times, values, field

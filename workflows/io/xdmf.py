@@ -89,6 +89,7 @@ def gather_series(
     }
     if comm.rank != 0:
         return None
+    assert mesh_data is not None  # gathered on rank 0
     points = mesh_data[0]
     n_steps = min(len(v) for v in fields.values())
     data = {}
@@ -100,7 +101,9 @@ def gather_series(
 
 
 def write_series(
-    path: str | Path, gathered: tuple[MeshData, dict[str, np.ndarray]], times: Sequence[float]
+    path: str | Path,
+    gathered: tuple[MeshData, dict[str, np.ndarray]],
+    times: Sequence[float] | np.ndarray,
 ) -> None:
     """Write a gathered series (see gather_series) at `times` (s): path (.xdmf) and its .h5."""
     (points, cells, cell_type), data = gathered
@@ -236,7 +239,9 @@ def read_xdmf(path: Path, names: Sequence[str]) -> FieldData:
         for g in grids
         if g.get("GridType", "Uniform") == "Uniform" and g.find("Attribute") is not None
     ]
-    fields = sorted({a.get("Name") for g in steps for a in g.findall("Attribute")})
+    fields = sorted(  # a nameless Attribute, which no name given matches, is left out
+        {name for g in steps for a in g.findall("Attribute") if (name := a.get("Name")) is not None}
+    )
     field = next((n for n in names if n in fields), None)
     if field is None:
         raise missing_field(path, names, fields)
@@ -244,6 +249,7 @@ def read_xdmf(path: Path, names: Sequence[str]) -> FieldData:
     hdf = _HDF(path)
     try:
         topology, geometry = mesh.find("Topology"), mesh.find("Geometry")
+        assert topology is not None and geometry is not None  # mesh was chosen for them
         cell_type = topology.get("TopologyType", topology.get("Type", "")).lower()
         if geometry.get("GeometryType", geometry.get("Type", "XYZ")).upper() not in ("XY", "XYZ"):
             raise InputError(
@@ -256,8 +262,9 @@ def read_xdmf(path: Path, names: Sequence[str]) -> FieldData:
         for k, grid in enumerate(steps):
             time = grid.find("Time")
             try:
-                times.append(float(time.get("Value")) if time is not None else float(k))
+                times.append(float(time.get("Value", "")) if time is not None else float(k))
             except (TypeError, ValueError):
+                assert time is not None  # float(k) does not fail
                 raise InputError(
                     f"{path}: time value {time.get('Value')!r} is not a number"
                 ) from None
@@ -291,6 +298,7 @@ def xdmf_size(path: Path, names: Sequence[str]) -> tuple[float, int, int] | None
         grids = list(root.iter("Grid"))
         mesh = next(g for g in grids if g.find("Topology") is not None)
         topology = mesh.find("Topology")
+        assert topology is not None  # mesh was chosen for it
         kind = topology.get("TopologyType", topology.get("Type", "")).lower()
         dim = 2 if kind in ("triangle", "quadrilateral", "quad") else 3
         attributes = [a for g in grids for a in g.findall("Attribute")]
@@ -299,6 +307,7 @@ def xdmf_size(path: Path, names: Sequence[str]) -> tuple[float, int, int] | None
         files, shapes = {}, []
         try:
             for item in [topology.find("DataItem"), *items]:
+                assert item is not None  # else no size: None, below
                 shape = tuple(int(x) for x in (item.get("Dimensions") or "").split())
                 size = 8  # bytes per value: inline XML data is read as float64
                 if item.get("Format", "XML").upper() == "HDF":

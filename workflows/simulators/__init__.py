@@ -89,7 +89,11 @@ def integrated(
     for `reason`, produced: status "failed" and "diverged at step i (t = i h s): reason" when it
     diverged (h in s)."""
     failed = diverged is not None
-    said = f"diverged at step {diverged} (t = {diverged * h:.6g} s): {reason}" if failed else None
+    said = (
+        f"diverged at step {diverged} (t = {diverged * h:.6g} s): {reason}"
+        if diverged is not None
+        else None
+    )
     return ExternalRun(
         series=series,
         wall_time_s=wall_time_s,

@@ -277,7 +277,9 @@ def build(data: Exported, variant: str, mesh_file: Path):
     geometry.set_proximity_properties(ProximityProperties())  # Drake's driver asks for it
     model = plant.mutable_deformable_model()
     body = model.RegisterDeformableBody(geometry, config, 1.0)  # the hint is for primitives
-    point, normal = wall(data)
+    found = wall(data)
+    assert found is not None  # variants() offers none where no wall holds the nodes
+    point, normal = found
     model.SetWallBoundaryCondition(body, point, normal)
     plant.mutable_gravity_field().set_gravity_vector(np.asarray(data.gravity, dtype=float))
     plant.Finalize()

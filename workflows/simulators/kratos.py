@@ -308,7 +308,9 @@ def initial_acceleration(part, n_nodes: int, dim: int, fixed: np.ndarray, motion
 
     info = part.ProcessInfo
     n = dim * n_nodes
-    rows, cols, values = [], [], {"M": [], "C": [], "K": []}
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    values: dict[str, list[np.ndarray]] = {"M": [], "C": [], "K": []}
     f = np.zeros(n)
     A_e, f_e = KM.Matrix(), KM.Vector()
     for element in part.Elements:

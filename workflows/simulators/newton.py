@@ -270,7 +270,7 @@ def conforming(tets: np.ndarray, cells: np.ndarray) -> bool:
     quads = np.asarray(cells)[:, HEX_FACES].reshape(-1, 4)
     _, quad_counts = np.unique(np.sort(quads, axis=1), axis=0, return_counts=True)
     boundary = int(np.sum(quad_counts == 1))
-    return counts.max() <= 2 and int(np.sum(counts == 1)) == 2 * boundary
+    return bool(counts.max() <= 2) and int(np.sum(counts == 1)) == 2 * boundary
 
 
 def lumped_masses(nodes: np.ndarray, tets: np.ndarray, rho: float) -> np.ndarray:

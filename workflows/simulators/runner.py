@@ -122,13 +122,15 @@ def run_variant(
             entry["status"] = "failed"
             entry["reason"] = entry["reason"] or f"not graded: {exc}"
     if graded is not None:
-        run = graded["runs"][label]
-        entry.update({k: v for k, v in run.items() if k not in ("status", "wall_time_s")})
+        graded_run = graded["runs"][label]
+        entry.update({k: v for k, v in graded_run.items() if k not in ("status", "wall_time_s")})
         # the simulator's own words on why it failed ("diverged at step 3 (t = 0.1 s): 12
         # tetrahedra inverted") say more than compare's reading of its series
-        entry["reason"] = result.reason or run.get("reason")
-        if run["status"] != "ok" and entry["status"] == "ok":
-            entry["status"] = "diverged" if run["diverged_step"] is not None else run["status"]
+        entry["reason"] = result.reason or graded_run.get("reason")
+        if graded_run["status"] != "ok" and entry["status"] == "ok":
+            entry["status"] = (
+                "diverged" if graded_run["diverged_step"] is not None else graded_run["status"]
+            )
     if comm.rank == 0:
         state = entry["status"] + (f" ({entry['reason']})" if entry["reason"] else "")
         wall = "" if entry["wall_time_s"] is None else f", {entry['wall_time_s']:.2f} s"

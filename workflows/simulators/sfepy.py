@@ -57,7 +57,7 @@ TIMING = "SfePy problem setup and time loop, in process"
 DIVERGENCE_FACTOR = 100.0  # SPEC section 3: a displacement beyond 100 x the extent diverges
 
 # variant -> (SfePy time stepper, its parameters, mass, one line of what it is)
-VARIANTS = {
+VARIANTS: dict[str, tuple[str, dict[str, float | None], str, str]] = {
     "newmark": (
         "ts.newmark",
         {"beta": 0.25, "gamma": 0.5},
