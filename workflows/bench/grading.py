@@ -33,7 +33,7 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
-from typing import TypeVar  # noqa: E402
+from typing import TypeVar, cast  # noqa: E402
 
 from mpi4py import MPI  # noqa: E402
 
@@ -61,7 +61,9 @@ def rod(n: int) -> tuple[np.ndarray, np.ndarray] | None:
     if tagged is None:
         return None
     V = fem.functionspace(tagged.mesh, ("Lagrange", 1, (3,)))
-    (points, cells, _), _ = gather_mesh(V)
+    mesh_data, _ = gather_mesh(V)
+    assert mesh_data is not None  # V is on COMM_SELF: this is its rank 0
+    points, cells, _ = mesh_data
     return points, cells
 
 
@@ -119,8 +121,8 @@ def grading_table(folder: Path, n: int, steps: int, repeat: int) -> list[tuple]:
     times = H * np.arange(steps + 1)
     cases = {}
     if comm.rank == 0:
-        points, hexes = rod(n)
-        coarse_points, coarse_hexes = rod(n - 1)
+        points, hexes = cast(tuple[np.ndarray, np.ndarray], rod(n))  # rank 0's: not None
+        coarse_points, coarse_hexes = cast(tuple[np.ndarray, np.ndarray], rod(n - 1))
         tets = hexes[:, SIX_TETRAHEDRA].reshape(-1, 4)
         write(folder / "reference.xdmf", points, hexes, "hexahedron", times, late=False)
         meshes = {
@@ -135,6 +137,7 @@ def grading_table(folder: Path, n: int, steps: int, repeat: int) -> list[tuple]:
     rows = []
     for name, (path, nodes, cells) in cases.items():
         seconds, g = timed(lambda: grade(folder / "reference.xdmf", path, comm=comm), repeat)
+        assert g is not None  # repeat >= 1
         rows.append(
             (
                 name,
@@ -162,10 +165,10 @@ def location_table(n: int, repeat: int) -> list[tuple]:
     owned = V.dofmap.index_map.size_local
     nodes = V.tabulate_dof_coordinates()[:owned]
     cells = reference.topology.index_map(3).size_local
-    xi, _ = basix.make_quadrature(basix.CellType.hexahedron, 5)
-    phi = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1).tabulate(0, xi)[
-        0, :, :, 0
-    ]
+    # basix annotates its arrays as ArrayLike
+    xi = cast(np.ndarray, basix.make_quadrature(basix.CellType.hexahedron, 5)[0])
+    element = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1)
+    phi = cast(np.ndarray, element.tabulate(0, xi))[0, :, :, 0]
     X = reference.geometry.x[reference.geometry.dofmaps[0][:cells]]
     quadrature = np.einsum("qk,cki->cqi", phi, X).reshape(-1, 3)
     tol = 1e-6 * max(SIZE)
@@ -185,6 +188,7 @@ def location_table(n: int, repeat: int) -> list[tuple]:
     rows.append(("DOLFINx create_interpolation_data: nodes", comm.allreduce(owned), seconds))
     u_cand, u = fem.Function(W), fem.Function(V)
     u_cand.interpolate(lambda x: bending(x.T, 0.01).T)
+    assert data is not None  # repeat >= 1
     seconds, _ = timed(lambda: u.interpolate_nonmatching(u_cand, all_cells, data), repeat)
     rows.append(
         ("DOLFINx interpolate_nonmatching, per step: nodes", comm.allreduce(owned), seconds)

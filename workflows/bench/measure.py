@@ -27,7 +27,7 @@ import sys
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -137,7 +137,7 @@ def case_scheme(label: str) -> str:
     return label.partition("@")[2] or "standard"
 
 
-def get(rec: dict, side: str, case: tuple, field: str) -> object:
+def get(rec: dict, side: str, case: tuple, field: str) -> Any:
     """One field of one case of one side ("ours1", "ours2", "peer") of a record, or None."""
     return rec.get(side, {}).get("cases", {}).get(key(case), {}).get(field)
 
@@ -177,7 +177,7 @@ def triad_bandwidth(comm: MPI.Comm, size: int = TRIAD_SIZE, repeats: int = 10) -
     per entry: two reads, one write)."""
     from petsc4py import PETSc
 
-    x = PETSc.Vec().createMPI((PETSc.DECIDE, size), comm=comm)
+    x = PETSc.Vec().createMPI((PETSc.DECIDE, size), comm=comm)  # type: ignore[arg-type]  # petsc4py's stubs: it takes an mpi4py Comm
     y, w = x.duplicate(), x.duplicate()
     x.set(1.0)
     y.set(2.0)
@@ -233,7 +233,7 @@ def ours_worker(spec: dict) -> dict:
     from tissuebench.solvers.system import System, gather_by_coordinates
 
     comm = MPI.COMM_WORLD
-    out = {"ranks": comm.size, "cases": {}}
+    out: dict[str, Any] = {"ranks": comm.size, "cases": {}}
     if spec.get("triad", True):
         out["triad_Bps"] = triad_bandwidth(comm)
     bench = get_benchmark(spec["benchmark"], mesh_size=spec["size"], comm=comm)
@@ -328,6 +328,7 @@ def ours_worker(spec: dict) -> dict:
             record["finite"] = bool(comm.allreduce(finite, op=MPI.LAND))
             gathered = gather_by_coordinates(systems[scheme].V, state.u.array_r, comm)
             if comm.rank == 0:
+                assert gathered is not None  # gathered on rank 0
                 displacements[key((label, solver))] = gathered[1]
                 displacements["x"] = gathered[0][:, : system.gdim]
             integrator.destroy()
@@ -347,7 +348,7 @@ def ours_worker(spec: dict) -> dict:
         record["peak_bytes"] = comm.allreduce(peak_memory())
         out["cases"][key((label, solver))] = record
     if comm.rank == 0 and spec.get("u_out"):
-        np.savez(spec["u_out"], **displacements)
+        np.savez(spec["u_out"], **displacements)  # type: ignore[arg-type]  # numpy's stubs: ** may hold allow_pickle
     return out
 
 
@@ -375,7 +376,7 @@ def explicit_worker(spec: dict) -> dict:
     from tissuebench.solvers.system import System
 
     comm = MPI.COMM_WORLD
-    out = {"ranks": comm.size, "cases": {}, "assembly_s": {}}
+    out: dict[str, Any] = {"ranks": comm.size, "cases": {}, "assembly_s": {}}
     bench = get_benchmark(spec["benchmark"], mesh_size=spec["size"], comm=comm)
     start = time.perf_counter()
     systems = {"standard": System(bench)}
@@ -438,7 +439,7 @@ def peer_worker(spec: dict) -> dict:
 
     data = np.load(spec["mesh_in"])
     material = peer.Material(*(float(data[k]) for k in ("mu", "lmbda", "rho", "alpha", "beta")))
-    out = {"ranks": 1, "cases": {}, "pardiso": peer.pardiso_available()}
+    out: dict[str, Any] = {"ranks": 1, "cases": {}, "pardiso": peer.pardiso_available()}
     system = peer.PeerSystem(spec["benchmark"], data["points"], data["cells"], material)
     out["dofs"] = system.num_dofs()
     out["assembly_s"] = system.assembly_s
@@ -477,7 +478,7 @@ def peer_worker(spec: dict) -> dict:
             record["error"] = str(err)[:200]
         record["peak_bytes"] = peak_memory()
         out["cases"][key((algorithm, solver))] = record
-    np.savez(spec["u_out"], **displacements)
+    np.savez(spec["u_out"], **displacements)  # type: ignore[arg-type]  # numpy's stubs: ** may hold allow_pickle
     return out
 
 
@@ -555,8 +556,8 @@ class Budget:
 
     def __init__(self, mode: str):
         self.limits = BUDGET[mode]
-        self.last = {}
-        self.stopped = set()
+        self.last: dict[tuple, tuple] = {}  # (dofs, setup, step) or (dofs, assembly)
+        self.stopped: set[tuple] = set()
 
     def steps(self, side: str, benchmark: str, case: tuple[str, str], dofs: int) -> int:
         k = (side, benchmark, case)
@@ -652,7 +653,7 @@ def measure_explicit(mode: str, out: Path, log: Callable[[str], None]) -> list[d
             "cases": [(*c, STEPS) for c in EXPLICIT_CASES],
             "triad": False,
         }
-        rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
+        rec: dict[str, Any] = {"benchmark": benchmark, "size": size, "dofs": dofs}
         rec["ours1"] = run_worker("explicit", 1, spec, tmp, tag + "-ours1", timeout)
         rec["wall_s"] = time.perf_counter() - start
         records.append(rec)
@@ -695,7 +696,7 @@ def measure(
     records = []
     for benchmark, size, dofs in sweep_sizes(mode):
         tag = f"{benchmark}-{size}"
-        rec = {"benchmark": benchmark, "size": size, "dofs": dofs}
+        rec: dict[str, Any] = {"benchmark": benchmark, "size": size, "dofs": dofs}
         start = time.perf_counter()
         ocases = [(*c, budget.steps("ours", benchmark, c, dofs)) for c in OURS_CASES + MODEL_CASES]
         ocases = [c for c in ocases if c[2]]
@@ -822,7 +823,7 @@ def time_paper(tmp: Path, log: Callable[[str], None]) -> dict[str, float | None]
     `mpiexec -n 2` with the cache warm."""
     command = [sys.executable, "-m", "tissuebench.workflows.cli", "paper"]
     mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
-    times = {}
+    times: dict[str, float | None] = {}
     for name, prefix in (("serial, cold", []), ("serial", []), ("2 ranks", [mpiexec, "-n", "2"])):
         out = tmp / f"paper-{len(times)}"
         shutil.rmtree(out, ignore_errors=True)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import ctypes
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from skfem.element import DiscreteField
 
 # an integrator's state: [step i, u, v, a] (m, m/s, m/s^2 per dof)
-PeerState = list[int | np.ndarray]
+PeerState = list[Any]  # [i, u, v, a]: the step, then three arrays
 
 # The benchmarks as SPEC sections 4 and 5 define them (the needle tip width is 0).
 ROD_GRAVITY = (0.0, -0.05, 0.0)  # m/s^2
@@ -148,7 +148,7 @@ class PeerSystem:
         return self.K.shape[0]
 
 
-_PARDISO = []  # MKL's pardiso function, found once (pypardiso's library search is slow)
+_PARDISO: list[Any] = []  # MKL's pardiso function, found once (pypardiso's library search is slow)
 
 
 def mkl_pardiso() -> Callable[..., None]:

@@ -7,6 +7,7 @@ Units: seconds, bytes (MiB in the tables), degrees of freedom.
 
 import os
 import platform
+from collections.abc import Sequence
 from pathlib import Path
 
 from tissuebench.workflows.bench.measure import (
@@ -158,7 +159,7 @@ def machine_description() -> str:
 
 def sizes_ran(records: list[dict]) -> dict[tuple[str, str, str], list[str]]:
     """{(bench, side, case): sizes that ran it}, a size marked * where it ran SHORT steps."""
-    ran = {}
+    ran: dict[tuple[str, str, str], list[str]] = {}
     for rec in records:
         for side in ("ours1", "ours2", "peer"):
             for k, r in rec.get(side, {}).get("cases", {}).items():
@@ -194,7 +195,7 @@ def write_report(
     mode: str,
     wall: float,
     out: Path,
-    newton: list[dict] = (),
+    newton: Sequence[dict] = (),
 ) -> None:
     """Write out/performance.md (it shows performance.png beside it)."""
     sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in ("rod", "block")}
