@@ -47,8 +47,14 @@ if TYPE_CHECKING:
 
 GRACE = 10.0  # s: how long rank 0 waits for a point where all ranks can stop together
 
-STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}  # exit status of the command line
-SAID = {signal.SIGINT: "interrupted (SIGINT)", signal.SIGTERM: "terminated (SIGTERM)"}
+STATUS: dict[int, int] = {
+    signal.SIGINT: 130,
+    signal.SIGTERM: 143,
+}  # exit status of the command line
+SAID: dict[int, str] = {
+    signal.SIGINT: "interrupted (SIGINT)",
+    signal.SIGTERM: "terminated (SIGTERM)",
+}
 
 _pending = 0  # the signal received and not yet raised, 0 if none
 _raised = 0  # the signal last raised and not yet acknowledged by the command line

@@ -6,6 +6,7 @@ here."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 from tissuebench.solvers import MODELS
 from tissuebench.workflows.simulators import SIMULATORS
@@ -142,10 +143,11 @@ BOARDS = [
             mesh_size=None if n == 3 else n,
             truth="rod-MP2",
             sizes="rod-MP2",
-            **(
+            **cast(
+                dict[str, Any],
                 {"variants": N12_VARIANTS, "skip_note": f"as on rod-MP3-n12, {N12_NOTE}"}
                 if n == 12
-                else {}
+                else {},
             ),
         )
         for n, words, dofs, suffix in (

@@ -34,7 +34,9 @@ def _record(signum, frame):
     _record.received = _record.received or signum
 
 
-_record.received, _record.finished = 0, None
+# function attributes, which mypy does not model: set by name
+setattr(_record, "received", 0)
+setattr(_record, "finished", None)
 if __name__ == "__main__" or Path(sys.argv[0]).name == "tissuebench":  # not when imported
     if not hasattr(signal.getsignal(signal.SIGINT), "received"):  # python -m: once
         signal.signal(signal.SIGINT, _record)
@@ -219,7 +221,7 @@ def command_line(argv: list[str] | None = None) -> int:
         gc.collect()
         first = signal.getsignal(signal.SIGINT)  # _record when run as the command line
         if succeeded and hasattr(first, "finished"):
-            first.finished = (command, comm.rank == 0)
+            setattr(first, "finished", (command, comm.rank == 0))
 
 
 if __name__ == "__main__":  # python -m: run the imported module, not a second copy of it

@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 from mpi4py import MPI
 
@@ -40,6 +41,9 @@ from tissuebench.workflows.io.tables import append_row, write_rows
 from tissuebench.workflows.io.tables import read_rows as read_csv
 from tissuebench.workflows.io.xdmf import gather_series
 
+if TYPE_CHECKING:
+    from tissuebench.solvers.truth.samples import TruthSamples
+
 # the cases of SPEC 11, the compressible control last
 FRONTIER_CASES = ("block-MP2-w0.2", "block-MP1-w0.2", "rod-MP2", "rod")
 # four mesh sizes of each benchmark: the finest take more than 1 s per simulated s with some
@@ -48,7 +52,11 @@ SIZES = {"block": (10, 20, 40, 80), "rod": (2, 3, 6, 12)}
 QUICK_SIZES = {"block": (10,), "rod": (2,)}
 # explicit-lumped at the benchmark's step ("large time-step"), and with the sub-steps that keep
 # it stable; implicit, the reference algorithm
-RUNS = (("implicit", 1), ("explicit-lumped", 1), ("explicit-lumped", "auto"))
+RUNS: tuple[tuple[str, int | Literal["auto"]], ...] = (
+    ("implicit", 1),
+    ("explicit-lumped", 1),
+    ("explicit-lumped", "auto"),
+)
 # explicit-lumped at h = 1/30 s, whether stable or not, with these schemes only: the paper's
 # element and Picinbono's remedy (the paper's question); auto takes k = 1 wherever h is stable
 AT_H = ("standard", "penalty")
@@ -94,7 +102,7 @@ class Config:
     cell: str
     scheme: str
     algorithm: str
-    substeps: int | str
+    substeps: int | Literal["auto"]
     mesh_size: int
 
     def key(self) -> tuple:
@@ -131,7 +139,7 @@ def configs(cases: tuple[str, ...] = FRONTIER_CASES, quick: bool = False) -> Ite
 def benchmark_of(config: Config, comm: MPI.Comm):
     """The benchmark of a config: the case's load scale and needle width, its cell shape."""
     name, _, _, scale, width = CASES[config.case]
-    options = {"load_scale": scale}
+    options: dict[str, Any] = {"load_scale": scale}
     if width is not None:
         options["needle_width"] = width
     if config.cell != CELLS[get_entry(name).gdim][0]:
@@ -176,7 +184,9 @@ def run_config(config: Config, truth, comm: MPI.Comm = MPI.COMM_SELF) -> dict:
     for name in ("interior_error", "relative_error"):
         row[f"{name}_mean"] = row[f"{name}_max"] = math.nan
     if run.status == "ok":  # a diverged run did not reach T: it has no reading
-        mesh, data = gather_series(system.V, {"displacement": run.u})
+        gathered = gather_series(system.V, {"displacement": run.u})
+        assert gathered is not None  # serial (COMM_SELF): rank 0's
+        mesh, data = gathered
         points, cells, cell_type = mesh
         gdim = system.gdim
         series = series_of(
@@ -204,7 +214,7 @@ def read_rows(path: Path) -> list[dict]:
         return []
     rows = []
     for raw in read_csv(path):
-        row = {}
+        row: dict[str, Any] = {}
         for key, value in raw.items():
             if key is None:  # cells past the header's (a file of an older version)
                 continue
@@ -244,7 +254,8 @@ def run_study(
     comm = MPI.COMM_SELF
     path = out / "frontier.csv"
     rows = read_rows(path)
-    truths = {case: load_truth(case, comm) for case in cases}
+    # serial (COMM_SELF): rank 0's truths, never None
+    truths = {case: cast("TruthSamples", load_truth(case, comm)) for case in cases}
     # a row graded against another truth (computed again since: its own error differs) is stale
     stale = [
         r
@@ -341,7 +352,11 @@ def side_by_side(case: str, repeats: int = PAIR_REPEATS) -> list[dict]:
     benchmark = CASES[case][0]
     cell = CELLS[get_entry(benchmark).gdim][0]
     rows = []
-    for algorithm, k in (("implicit", 1), ("explicit-lumped", "auto")):
+    pairs: tuple[tuple[str, int | Literal["auto"]], ...] = (
+        ("implicit", 1),
+        ("explicit-lumped", "auto"),
+    )
+    for algorithm, k in pairs:
         loops: dict[str, list[float]] = {"standard": [], "mean-dilatation": []}
         substeps = {}
         for _ in range(repeats):

@@ -147,7 +147,7 @@ def roughly(ratio: float) -> bool:
 
 def material_ratio(quasi_static_mp2: float, mp1: dict) -> tuple[str, float]:
     """Claim 5: (the MP1 run of smallest error, its error over quasi-static MP2's)."""
-    smallest = min(mp1, key=mp1.get)
+    smallest = min(mp1, key=lambda k: mp1[k])
     return smallest, mp1[smallest] / quasi_static_mp2
 
 
@@ -232,7 +232,7 @@ def _values(curves: dict) -> dict:
     return values
 
 
-def grade_runs(folder: Path, labels: list[str], truth: TruthSamples, comm: MPI.Comm) -> dict:
+def grade_runs(folder: Path, labels: list[str], truth: TruthSamples | None, comm: MPI.Comm) -> dict:
     """{label: {metric_reading: value}} of each run's displacement series (folder/label.xdmf)
     graded against the truth (rank 0's TruthSamples). Collective."""
     from tissuebench.metrics.truth import grade_truth
@@ -300,7 +300,9 @@ def compute(
     graded, own = {}, {}
     for name, (case, labels) in wanted.items():
         truth = truth_samples(name, comm=comm, log=log if comm.rank == 0 else None)
-        own[name] = comm.bcast(own_error(truth) if comm.rank == 0 else None, root=0)
+        own[name] = comm.bcast(
+            own_error(truth) if comm.rank == 0 and truth is not None else None, root=0
+        )
         graded[name] = grade_runs(folders[case][0], labels, truth, comm)
         truth = None
     return assemble(graded, own, [])

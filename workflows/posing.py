@@ -41,7 +41,7 @@ def oriented(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return cells
 
 
-def constrained_sets(bench, V) -> dict[str, np.ndarray]:
+def constrained_sets(bench, V) -> dict[str, np.ndarray] | None:
     """On rank 0: {constraint name: sorted global node indices of V} (None elsewhere)."""
     from dolfinx import fem
 
@@ -56,6 +56,7 @@ def constrained_sets(bench, V) -> dict[str, np.ndarray]:
     parts = mesh.comm.gather(local, root=0)
     if mesh.comm.rank != 0:
         return None
+    assert parts is not None  # gathered on rank 0
     return {
         c.name: np.unique(np.concatenate([p[c.name] for p in parts])) for c in bench.constraints
     }
@@ -204,6 +205,7 @@ def build(
     sets = constrained_sets(bench, V)
     if comm.rank != 0:
         return None, bench, V
+    assert mesh_data is not None and sets is not None  # gathered on rank 0
     points, cells, cell_type = mesh_data
     points = np.ascontiguousarray(points[:, :dim])
     times = np.arange(steps + 1) * h
@@ -261,7 +263,7 @@ def run_reference(
 
     model, procedure, h, steps, plane = comm.bcast(
         (data.model, data.procedure, data.h, data.steps, data.plane or "strain")
-        if comm.rank == 0
+        if comm.rank == 0 and data is not None
         else None,
         root=0,
     )

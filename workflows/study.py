@@ -10,7 +10,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 from mpi4py import MPI
 
@@ -74,7 +74,9 @@ class Case:
     petsc: str = ""
     description: str = ""
     scheme: str = "standard"  # SPEC 11: the element's scheme, NAME or NAME:key=value,...
-    substeps: int | str = 1  # SPEC 11: sub-steps of the explicit runs per step h, or "auto"
+    substeps: int | Literal["auto"] = (
+        1  # SPEC 11: sub-steps of the explicit runs per step h, or "auto"
+    )
 
     def __post_init__(self):
         self.runs = [RunSpec(*run) for run in self.runs]
@@ -284,15 +286,15 @@ def compute_case(
                 [probe(system.V, u, bench.probe) for u in run.u], (len(run.u), system.gdim)
             )
         if rank0:
-            status = (
+            said = (
                 "ok"
                 if run.status == "ok"
                 else f"DIVERGED at step {run.diverged_step} (t = {run.diverged_time:.4g} s)"
             )
             if run.reason:
-                status += f": {run.reason}"
+                said += f": {run.reason}"
             log(
-                f"{case.name:>18} {label:<18} {systems[material].material.name}: {status}, "
+                f"{case.name:>18} {label:<18} {systems[material].material.name}: {said}, "
                 f"{run.steps} steps in {run.wall_time_s:.2f} s"
             )
 

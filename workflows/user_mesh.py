@@ -141,6 +141,7 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
     from tissuebench.workflows.io.series import read_series
     from tissuebench.workflows.leaderboard.rows import E_I, board_case
 
+    assert row.series is not None  # a user row with its series (the caller's condition)
     case = board_case(board)
     real = CASES[board.truth][2] if board.truth in CASES else board.model
 

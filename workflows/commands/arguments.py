@@ -4,7 +4,7 @@ UserError). Commands import these; no command imports another command."""
 from __future__ import annotations
 
 import argparse
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
 from tissuebench.meshes.errors import UserError
@@ -12,6 +12,9 @@ from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS
 from tissuebench.solvers.models import LINEAR
 from tissuebench.solvers.options import check_petsc_options
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.materials import Material
 
 
 def positive(text: str) -> float:
@@ -152,7 +155,7 @@ class Posed(NamedTuple):
     benchmark: str
     mesh_size: int
     options: dict
-    material: object  # Material
+    material: Material
     model: str
     h: float  # s
     end_time: float  # s

@@ -84,10 +84,11 @@ def main(args: argparse.Namespace) -> int:
     )
     every = tuple(c for c in cases if any(r["case"] == c for r in rows))
     for case in every:
-        write_owned(
-            folder / f"frontier-{case}.png",
-            lambda tmp, case=case: plot(tmp, case, [r for r in rows if r["case"] == case]),
-        )
+
+        def draw(tmp: Path, case: str = case) -> None:
+            plot(tmp, case, [r for r in rows if r["case"] == case])
+
+        write_owned(folder / f"frontier-{case}.png", draw)
     text = markdown(rows, every, header, timing)
     write_owned(report, lambda tmp: tmp.write_text(text))
     print(f"wrote {report}, {folder / 'frontier.csv'} and {folder}/frontier-*.png")

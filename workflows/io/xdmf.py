@@ -102,10 +102,12 @@ def gather_series(
 
 def write_series(
     path: str | Path,
-    gathered: tuple[MeshData, dict[str, np.ndarray]],
+    gathered: tuple[MeshData, dict[str, np.ndarray]] | None,
     times: Sequence[float] | np.ndarray,
 ) -> None:
-    """Write a gathered series (see gather_series) at `times` (s): path (.xdmf) and its .h5."""
+    """Write a gathered series (see gather_series) at `times` (s): path (.xdmf) and its .h5.
+    Rank 0, where gather_series' result is not None."""
+    assert gathered is not None  # gather_series' on rank 0
     (points, cells, cell_type), data = gathered
     path = Path(path)
     h5name = path.with_suffix(".h5").name

@@ -6,8 +6,9 @@ be checked without its sentence.
 Where the time-mean and the maximum over steps 1..N disagree, both are given, and the verdict
 says which one it rests on and why."""
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -443,7 +444,8 @@ def judge_rod(out: Path, rod: CaseSummary, long: CaseSummary | None) -> Verdict:
     t, y = tips[rod.reference]
     overshoot = (level - y.min()) / abs(level)
     times, curves = read_curves(out / "rod-MP3" / "metrics.csv")
-    qs = curves[static_label(rod, rod.reference)]["relative_error"]
+    # the rod has its quasi-static run (tip_crossings read its tip above)
+    qs = curves[cast(str, static_label(rod, rod.reference))]["relative_error"]
     interior = np.flatnonzero((qs[1:-1] < qs[:-2]) & (qs[1:-1] < qs[2:])) + 1
     minimum = int(interior[0]) if len(interior) else None
     tmin = times[minimum] if minimum is not None else None
@@ -572,7 +574,7 @@ def judge_claims(out: Path, s: dict[str, CaseSummary]) -> list[Verdict]:
     return result
 
 
-RENDER = {
+RENDER: dict[int | str, Callable[[Verdict], list[str]]] = {
     1: render_order,
     2: render_sum,
     3: render_settle,

@@ -4,6 +4,7 @@ explicit schemes' linear critical step, the growth of the error, the smallest J 
 
 import re
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -35,7 +36,10 @@ def diverged_runs(large: dict[str, CaseSummary]) -> list[tuple[str, str, RunSumm
     result = []
     for name, s in large.items():
         runs = [(label, r) for label, r in s.runs.items() if r.status == "diverged"]
-        result += [(name, label, r) for label, r in sorted(runs, key=lambda x: x[1].diverged_time)]
+        result += [
+            (name, label, r)
+            for label, r in sorted(runs, key=lambda x: cast(float, x[1].diverged_time))
+        ]
     return result
 
 
@@ -77,7 +81,7 @@ def divergences(
             f"{j_text(s, deformation.get(name), label)} |"
         )
     lines.append("")
-    models = {}
+    models: dict[str, list[tuple[str, str, RunSummary]]] = {}
     for name, label, r in runs:
         models.setdefault(r.model, []).append((name, label, r))
     for model, items in models.items():
@@ -173,7 +177,7 @@ def why_explicit(
     """The neo-Hookean runs that diverged (explicit ones, so far): the linear critical step of
     their scheme on the case's mesh against h, and how their error grew before they stopped."""
     model = "neo-hookean"
-    by_algorithm = {}
+    by_algorithm: dict[str, dict[str, list[tuple[str, RunSummary]]]] = {}
     for name, s in large.items():
         for label, r in s.runs.items():
             if r.model == model and r.algorithm != "quasi-static":

@@ -6,12 +6,14 @@ beside the pictures, never over them."""
 
 import io
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
 from tissuebench.meshes import BENCHMARKS
+from tissuebench.metrics.series import Series
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.solvers import interrupt
 from tissuebench.workflows.io.tables import spans_decades
@@ -160,12 +162,15 @@ def tip_figure(case: CaseView, summary: CaseSummary, times: np.ndarray, tips: di
     static = static_label(summary, ref)
     level = None if static is None else float(tips[static][-1, 1])
     fig = Figure(figsize=(9, 5 if level is None else 8), layout="constrained")
-    axes = np.atleast_1d(
-        fig.subplots(
-            1 if level is None else 2,
-            1,
-            sharex=True,
-            height_ratios=None if level is None else [3, 2],
+    axes = np.atleast_1d(  # numpy's stubs take no Axes, which atleast_1d takes
+        cast(
+            Any,
+            fig.subplots(
+                1 if level is None else 2,
+                1,
+                sharex=True,
+                height_ratios=None if level is None else [3, 2],
+            ),
         )
     )
     others = [label for label in tips if label not in (ref, static)]
@@ -395,7 +400,7 @@ def crop(images: list[np.ndarray], pad: int = 6) -> list[np.ndarray]:
 def shape_grid(
     case: CaseView,
     summary: CaseSummary,
-    series: list,
+    series: Series,
     steps: list[int],
     images: list,
     clim: tuple[float, float],
@@ -445,7 +450,7 @@ def colour_bar(clim: tuple[float, float], height: int, dpi: int = 100) -> np.nda
     from matplotlib.colors import Normalize
 
     fig = Figure(figsize=(1.0, height / dpi), dpi=dpi)
-    ax = fig.add_axes([0.08, 0.05, 0.17, 0.9])
+    ax = fig.add_axes((0.08, 0.05, 0.17, 0.9))
     fig.colorbar(ScalarMappable(Normalize(*clim), cmap=CMAP), cax=ax, label="|u| (m)")
     return _rgba(fig, dpi)
 
@@ -541,7 +546,7 @@ def deformed_shapes(out: Path, case: CaseView, summary: CaseSummary, frames: int
     ]
     times = series[0].times
     norms = [max(float(np.linalg.norm(u, axis=1).max()) for u in s.displacements) for s in series]
-    clim = [0.0, max(norms) or 1.0]
+    clim = (0.0, max(norms) or 1.0)
     x0 = _pad3(series[0].points)
     lo, hi = x0.min(axis=0), x0.max(axis=0)
     for s in series:
@@ -555,7 +560,7 @@ def deformed_shapes(out: Path, case: CaseView, summary: CaseSummary, frames: int
         steps = shown_steps(times)
         still = [[renderer.image(s.displacements[step]) for step in steps] for s in series]
         renderer.resize(
-            tuple(round(0.7 * n) for n in size)
+            (round(0.7 * size[0]), round(0.7 * size[1]))
         )  # the GIF's smaller pictures render faster
         gif_steps = np.unique(np.linspace(0, len(times) - 1, frames).round().astype(int))
         moving = [[renderer.image(s.displacements[step]) for s in series] for step in gif_steps]

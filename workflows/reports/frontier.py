@@ -7,7 +7,9 @@ with sub-steps). Every number comes from frontier.csv."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from tissuebench.meshes import get_entry
 from tissuebench.solvers.truth.cases import CASES
@@ -82,7 +84,9 @@ def _reading(r: dict | None) -> str:
     return f"E_i mean {r['interior_error_mean']:.3g}, max {r['interior_error_max']:.3g}"
 
 
-def case_section(case: str, rows: list[dict], figure: str, timing: list[dict] = ()) -> list[str]:
+def case_section(
+    case: str, rows: list[dict], figure: str, timing: Sequence[dict] = ()
+) -> list[str]:
     """The markdown of one case; `timing`: its rows of frontier.side_by_side."""
     benchmark, material, model, scale, width = CASES[case]
     entry = get_entry(benchmark)
@@ -284,7 +288,7 @@ def place_labels(fig, ax, labels: list[tuple[str, tuple[float, float]]]) -> None
     way; then it stays where it covers least). The axes' layout is settled first."""
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
-    placed = []
+    placed: list[Any] = []  # the placed labels' boxes
     for text, xy in labels:
         offsets = [4 + k * LABEL_STEP * sign for k in range(7) for sign in (-1, 1)][1:]
         best = None
@@ -304,10 +308,13 @@ def place_labels(fig, ax, labels: list[tuple[str, tuple[float, float]]]) -> None
                 note.remove()
             if cover == 0:
                 break
+        assert best is not None  # offsets is not empty
         placed.append(best[2])
 
 
-def markdown(rows: list[dict], cases: tuple[str, ...], header: str, timing: list[dict] = ()) -> str:
+def markdown(
+    rows: list[dict], cases: tuple[str, ...], header: str, timing: Sequence[dict] = ()
+) -> str:
     """The whole report: its header (how and when it was made), then each case; `timing`:
     the rows of frontier.side_by_side."""
     out = [MARKER, "", header, ""]

@@ -4,6 +4,7 @@ model, and each large-deformation case's section (figures, captions, table). Whi
 diverge and why is reports/divergence.py."""
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -256,7 +257,7 @@ def paper_loads(large: dict[str, CaseSummary]) -> list[str]:
 def load_growth(large: dict[str, CaseSummary]) -> list[str]:
     """How the linear model's loss grows with the load scale, per benchmark."""
     lines = []
-    by_bench = {}
+    by_bench: dict[str, list[tuple[Any, str, CaseSummary]]] = {}
     for name, s in large.items():
         by_bench.setdefault(s.benchmark, []).append((s.option("load_scale", 1), name, s))
     for bench, items in by_bench.items():

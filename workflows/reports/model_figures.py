@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -63,7 +63,7 @@ def case_figures(
     out: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict, tips: dict
 ) -> list[str]:
     """Write the figures of a case with models into out; return their file names."""
-    cache = {}
+    cache: dict[str, Any] = {}
     deformation = deformation_data(out, summary, cache)
     (out / DEFORMATION).write_text(json.dumps(deformation, indent=2) + "\n")
     files = [
@@ -106,7 +106,7 @@ def realism_table(
     algorithms, models, labels = grid(summary)
     table = []
     for a in algorithms:
-        row = []
+        row: list[dict[str, Any] | str | None] = []
         for m in models:
             label = labels.get((a, m))
             if label is None:
@@ -142,7 +142,7 @@ def error_figure(case_name: str, summary: CaseSummary, times: np.ndarray, curves
     ref = summary.reference
     shown = [group[0] for group in panels()]
     fig = Figure(figsize=(4.1 * len(shown) + 0.4, 2.45 * len(models) + 1.5), layout="constrained")
-    rows = np.atleast_1d(fig.subfigures(len(models), 1))
+    rows = np.atleast_1d(cast(Any, fig.subfigures(len(models), 1)))  # numpy's stubs: no SubFigure
     every = max(1, (len(times) - 1) // 8)
     axes = np.empty((len(models), len(shown)), dtype=object)
     for r, (row, model) in enumerate(zip(rows, models, strict=True)):
@@ -267,7 +267,7 @@ def realism_figure(case_name: str, summary: CaseSummary, metric: str = "interior
     symbol = METRICS[metric].symbol
     for i, row in enumerate(table):
         for j, cell in enumerate(row):
-            box = dict(xy=(j - 0.5, i - 0.5), width=1, height=1)
+            box: dict[str, Any] = dict(xy=(j - 0.5, i - 0.5), width=1, height=1)
             if cell is None:
                 ax.add_patch(Rectangle(**box, facecolor="white", edgecolor="0.6"))
                 ax.text(j, i, "not run", ha="center", va="center", fontsize=8, color="0.4")
@@ -400,7 +400,7 @@ def deformation_data(folder: Path, summary: CaseSummary, cache: dict | None = No
 
     cache = {} if cache is None else cache
     ref = summary.reference
-    result = {"largest_deflection": None, "smallest_J": {}}
+    result: dict[str, Any] = {"largest_deflection": None, "smallest_J": {}}
     for label, run in summary.runs.items():
         try:
             series = cache[label] = read_series(folder / f"{label}.xdmf")
@@ -467,7 +467,8 @@ def draw_outline(ax: Axes, geometry: BaseGeometry, **style) -> None:
             continue
         for ring in [polygon.exterior, *polygon.interiors]:
             xy = np.asarray(ring.coords)
-            ax.plot(xy[:, 0], xy[:, 1], **style, **({} if first else {"label": None}))
+            unlabelled = cast(dict[str, Any], {} if first else {"label": None})
+            ax.plot(xy[:, 0], xy[:, 1], **style, **unlabelled)
             first = False
 
 
@@ -541,7 +542,7 @@ def shapes_figure(
 
     zoom = 2 * half <= 0.5 * extent  # a larger square would show little more than the whole
     fig = Figure(figsize=(12, 5.8) if zoom else (7.5, 6.2), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(1, 2 if zoom else 1))
+    axes = np.atleast_1d(cast(Any, fig.subplots(1, 2 if zoom else 1)))  # numpy's stubs: no Axes
     order = sorted(keys, key=lambda m: m != ref_model)  # the wide reference first, underneath
     for ax in axes:
         draw_outline(ax, undeformed, color="k", ls=":", lw=1.0, label="undeformed")

@@ -41,6 +41,7 @@ def caption_errors(out: Path, name: str, s: CaseSummary) -> str:
     for label, run in s.runs.items():
         if run.status == "diverged" and label != ref:
             step = run.diverged_step
+            assert step is not None  # a diverged run's
             text += (
                 f" {label} diverged at step {step} (t = {run.diverged_time:.3g} s): its curve "
                 "ends at step "
