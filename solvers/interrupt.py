@@ -47,10 +47,8 @@ if TYPE_CHECKING:
 
 GRACE = 10.0  # s: how long rank 0 waits for a point where all ranks can stop together
 
-STATUS: dict[int, int] = {
-    signal.SIGINT: 130,
-    signal.SIGTERM: 143,
-}  # exit status of the command line
+# keyed by signal number (a handler's signum is an int)
+STATUS: dict[int, int] = {signal.SIGINT: 130, signal.SIGTERM: 143}  # command line's exit status
 SAID: dict[int, str] = {
     signal.SIGINT: "interrupted (SIGINT)",
     signal.SIGTERM: "terminated (SIGTERM)",
