@@ -320,6 +320,27 @@ def test_an_xdmf_series_whose_steps_change_their_nodes_is_refused(tmp_path):
         assert "moved or numbered otherwise" in message
 
 
+def test_a_nameless_xdmf_attribute_is_left_out(tmp_path):
+    """An Attribute without a Name beside the named field is left out (no name asked for can
+    match it), not a failure to read the file (sorting the names with None among them was a
+    TypeError)."""
+    points, cells, cell_type, ref, cand, _ = series(2)
+
+    def write():
+        write_meshio_xdmf(tmp_path / "ref.xdmf", points, cells, cell_type, ref, times=TIMES)
+        write_xdmf(tmp_path / "own.xdmf", points, cells, cell_type, cand)
+        text = (tmp_path / "own.xdmf").read_text()
+        nameless = '<Attribute AttributeType="Scalar" Center="Node"></Attribute></Grid>'
+        (tmp_path / "nameless.xdmf").write_text(text.replace("</Grid>", nameless, 1))  # own.h5
+
+    on_rank_0(write)
+    assert "<Attribute AttributeType" in (tmp_path / "nameless.xdmf").read_text()
+    own = grade(tmp_path / "ref.xdmf", tmp_path / "own.xdmf", comm=COMM)
+    nameless = grade(tmp_path / "ref.xdmf", tmp_path / "nameless.xdmf", comm=COMM)
+    for name, curve in own.curves.items():
+        np.testing.assert_array_equal(nameless.curves[name], curve)
+
+
 # --- the command line, serial and under mpiexec -n 2 -------------------------------------------
 
 
