@@ -5,7 +5,9 @@ browser): loaded from file:// without console errors, one point per row of the r
 case, a user's point shows its label on hover, filtering by source hides the others, and a
 screenshot of every case (into $TISSUEBENCH_SCREENSHOTS when set, else a temporary folder).
 Where chromium, chromedriver or selenium is missing the browser tests skip and say which;
-`make browser-tests` installs them where it may.
+`make browser-tests` installs them where it may. In CI (the environment variable CI set and not
+"false" or "0", as .ci/run's runners set it) a missing one fails the tests with the same reason
+instead: there the browser tests must run.
 """
 
 import json
@@ -109,21 +111,33 @@ def test_users_page_escapes_and_counts(tmp_path):
 # --- in a real browser -------------------------------------------------------------------------
 
 
+def in_ci() -> bool:
+    """Whether the tests run in CI: $CI set to anything but "", "0" or "false"."""
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false")
+
+
+def missing(reason: str):
+    """A browser part is missing: the tests skip with the reason, or fail with it in CI."""
+    if in_ci():
+        pytest.fail(f"CI={os.environ['CI']}: the browser tests must run here, but {reason}")
+    pytest.skip(reason)
+
+
 @pytest.fixture(scope="module")
 def browser():
     """Headless chromium through the system chromedriver (its path given: no Selenium
-    Manager, no download); skipped with the reason where one is missing."""
+    Manager, no download); skipped with the reason where one is missing (failed, in CI)."""
     try:
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
     except ImportError:
-        pytest.skip("selenium is not installed (pip install -e '.[test]')")
+        missing("selenium is not installed (pip install -e '.[test]')")
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     driver = shutil.which("chromedriver") or (
         "/usr/bin/chromedriver" if Path("/usr/bin/chromedriver").is_file() else None
     )
     if chromium is None or driver is None:
-        pytest.skip(
+        missing(
             "chromium or chromedriver is missing: `make browser-tests` installs Debian's "
             "chromium and chromium-driver where it may (apt-get as root)"
         )
@@ -202,3 +216,19 @@ def test_users_point_hover_and_source_filter(browser, tmp_path):
         str(screenshot_folder(tmp_path) / "users-page.png")
     )
     assert severe(browser) == []
+
+
+def test_a_missing_browser_fails_in_ci_and_skips_elsewhere(monkeypatch):
+    """CI=true (as CI runners set it): a missing browser part is a failure with its reason;
+    without CI (or CI=false) it is a skip with the same reason."""
+    for value in ("true", "1", "yes"):
+        monkeypatch.setenv("CI", value)
+        with pytest.raises(pytest.fail.Exception, match="must run here, but chromium is gone"):
+            missing("chromium is gone")
+    for value in (None, "", "false", "0"):
+        if value is None:
+            monkeypatch.delenv("CI", raising=False)
+        else:
+            monkeypatch.setenv("CI", value)
+        with pytest.raises(pytest.skip.Exception, match="chromium is gone"):
+            missing("chromium is gone")
