@@ -13,6 +13,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.solvers import interrupt
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -344,7 +345,9 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
     by rank k mod size; every other rank sends each row's grades (truth columns, note, budget)
     to rank 0 as it ends, where they are put into rank 0's row and on_graded is called. A
     rank that cannot load a truth rank 0 has sends its rows back ungraded, and rank 0 grades
-    them; an error anywhere is raised on every rank once all rows are in."""
+    them; an error anywhere is raised on every rank once all rows are in. A signal (recorded,
+    under mpiexec, solvers/interrupt.py) stops each rank before its next row, and every rank
+    raises it together once the rows graded so far are in (and recorded by on_graded)."""
     from tissuebench.solvers.truth.store import load_cached
 
     plan = None
@@ -382,6 +385,8 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
         nonlocal error
         k, grades, seconds, problem = message
         board, row = tasks[k]
+        if problem == "stopped":
+            return  # not graded: a signal came (raised on every rank below)
         if problem == "no truth":
             back.append(k)
         elif problem is not None:
@@ -401,6 +406,11 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
             board, board_rows = shared[name]
             row = board_rows[index]
         message = (k, None, 0.0, None)
+        if interrupt.pending():  # a signal: no more rows; all ranks stop together below
+            message = (k, None, 0.0, "stopped")
+            if comm.rank != 0:
+                sent.append(comm.isend(message, dest=0, tag=GRADED_ROW))
+            continue
         try:
             truth = truth_of(board, here)
             if here and truth is None:
@@ -425,11 +435,14 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
         while received < expected:
             receive()
         for k in back:  # rows whose rank had no truth: graded here
+            if interrupt.pending():
+                break
             board, row = tasks[k]
             seconds = grade_user_row(board, rows[board.name], row, truths[board.truth], caches)
             if on_graded is not None:
                 on_graded(board, row, seconds)
     MPI.Request.Waitall(sent)
+    interrupt.checkpoint(comm)  # a signal on any rank: raised on every rank, the rows so far kept
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error
