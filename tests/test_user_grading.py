@@ -89,3 +89,14 @@ def test_a_located_mesh_is_reused_and_gives_the_same_numbers():
             np.testing.assert_array_equal(np.isnan(curve), np.isnan(fast.curves[name]))
             np.testing.assert_allclose(fast.curves[name], curve, rtol=1e-14, atol=0)
     assert len(located) == (1 if MPI.COMM_WORLD.rank == 0 else 0)
+
+
+def test_the_caches_keep_the_last_meshes_used():
+    """grading.Recent keeps its `most` last used entries: a get is a use."""
+    from tissuebench.workflows.leaderboard.grading import Recent
+
+    recent = Recent(2)
+    recent["a"], recent["b"] = 1, 2
+    assert recent.get("a") == 1  # "b" is now the oldest
+    recent["c"] = 3
+    assert list(recent) == ["a", "c"] and recent.get("b") is None

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 import time
+from collections import OrderedDict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -59,21 +60,47 @@ def summarized(curve) -> tuple[float | None, float | None]:
     return tuple(None if not finite(x) else float(x) for x in summarize(curve))
 
 
+class Recent(OrderedDict):
+    """A dict that keeps its `most` last used entries (get and set count as uses), so that a
+    leaderboard of many users' meshes, each located and run on, does not keep them all."""
+
+    def __init__(self, most: int):
+        super().__init__()
+        self.most = most
+
+    def get(self, key, default=None):
+        if key in self:
+            self.move_to_end(key)
+            return self[key]
+        return default
+
+    def __setitem__(self, key, value):
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > self.most:
+            self.popitem(last=False)
+
+
 class Caches:
     """What the gradings of a leaderboard run build once and share (one process): each truth's
     candidate meshes checked and located (`located`, {truth case: {mesh key: TruthMetrics}},
     metrics/truth.py's located_on), our implicit runs on the users' meshes and the budget
     parts that depend on the mesh alone (`on_mesh`, user_mesh.budget_on_mesh's cache), and
     the last series read (rows read their series once for both gradings). The numbers are
-    the same as without it."""
+    the same as without it. Each keeps its MESHES last used meshes: a mesh met again after
+    that is located and run on again (the same numbers)."""
+
+    MESHES = 16
 
     def __init__(self):
-        self.located: dict[str, dict] = {}
-        self.on_mesh: dict = {}
+        self.located: dict[str, Recent] = {}
+        self.on_mesh = Recent(self.MESHES)
         self._series = None
 
-    def located_for(self, truth) -> dict | None:
-        return None if truth is None else self.located.setdefault(truth.case, {})
+    def located_for(self, truth) -> Recent | None:
+        if truth is None:
+            return None
+        return self.located.setdefault(truth.case, Recent(self.MESHES))
 
     def series(self, path: str, field: str | None):
         """read_series(path, field), read once for consecutive asks of the same file."""
