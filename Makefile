@@ -65,8 +65,9 @@ external-tools: setup
 # The leaderboard page in a real browser (tests/test_leaderboard_page.py): Debian's chromium and
 # chromium-driver through apt-get where they are missing and we may (root, or sudo without a
 # password), with a message otherwise; selenium comes with the test extra and drives the system
-# chromedriver by its path (nothing downloads a browser). The tests skip, saying why, where the
-# browser is still missing. SCREENSHOTS: where they save a screenshot per case.
+# chromedriver by its path (nothing downloads a browser). Here the tests fail, saying why, where
+# the browser is still missing (in `make test` they skip). SCREENSHOTS: where they save a
+# screenshot per case.
 SCREENSHOTS ?= $(CURDIR)/.screenshots
 browser:
 	@if command -v chromium >/dev/null && command -v chromedriver >/dev/null; then \
@@ -80,7 +81,7 @@ browser:
 	else echo "chromium or chromedriver is missing and cannot be installed here: install chromium and chromium-driver (Debian/Ubuntu); the browser tests are skipped"; fi
 
 browser-tests: setup browser
-	TISSUEBENCH_SCREENSHOTS=$(SCREENSHOTS) $(BIN)/pytest -q -rs tests/test_leaderboard_page.py
+	TISSUEBENCH_BROWSER_REQUIRED=1 TISSUEBENCH_SCREENSHOTS=$(SCREENSHOTS) $(BIN)/pytest -q -rs tests/test_leaderboard_page.py
 
 leaderboard: external-tools
 	$(BIN)/tissuebench leaderboard --out results --rerun

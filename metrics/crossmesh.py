@@ -17,6 +17,7 @@ quadrature points in it, so that a point's value does not depend on the partitio
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from typing import cast
 
@@ -55,6 +56,18 @@ class Mesh:
     @classmethod
     def of(cls, series: Series) -> Mesh:
         return cls(series.points, series.cells, series.cell_type)
+
+    def key(self) -> str:
+        """A hash of the mesh, node for node and cell for cell (its cell type, points as
+        float64 and cells as int64, with their shapes): two series with the same key are on
+        the same mesh in the same order, so that whatever is built of one mesh (point
+        locations, a run on it) serves the other."""
+        h = hashlib.sha256(self.cell_type.encode())
+        for a in (np.asarray(self.points, np.float64), np.asarray(self.cells, np.int64)):
+            a = np.ascontiguousarray(a)
+            h.update(repr(a.shape).encode())
+            h.update(a.tobytes())
+        return h.hexdigest()
 
 
 # --- same body ------------------------------------------------------------------------------

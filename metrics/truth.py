@@ -181,22 +181,26 @@ class TruthMetrics:
 
     def evaluate_steps(self, displacements, steps: int, chunk: int = 16) -> dict[str, np.ndarray]:
         """`evaluate` of steps 0..steps-1 of a candidate's nodal displacements (a sequence of
-        (N′, d) arrays, m) without E_s (NaN), `chunk` steps per array operation: the same
-        numbers, several times faster than step by step (the interpolation at the truth's
-        points is most of a step's cost)."""
+        (N′, d) arrays, m) without E_s (NaN), `chunk` steps at a time: the same numbers to
+        round-off, many times faster than step by step. E_i's interpolation at the truth's
+        points and its differences with the truth's values there, most of a step's cost, are
+        one compiled loop (metrics/kernels.py)."""
+        from tissuebench.metrics.kernels import interior_norms
+
         out = {name: np.full(steps, np.nan) for name in METRICS}
         for start in range(0, steps, chunk):
             stop = min(steps, start + chunk)
             u = np.stack([np.asarray(displacements[i], np.float64) for i in range(start, stop)])
             u_v = np.asarray(self.truth.u_vertices[start:stop], dtype=np.float64)
-            u_q = np.asarray(self.truth.u_points[start:stop], dtype=np.float64)
             gap = np.linalg.norm(self.at_vertices.steps(u) - u_v, axis=2)  # (steps, vertices)
             reference = np.linalg.norm(u_v.reshape(len(u_v), -1), axis=1)
             with np.errstate(invalid="ignore", divide="ignore"):
                 relative = np.sqrt(np.einsum("sv,sv->s", gap, gap)) / reference
             out["relative_error"][start:stop] = np.where(reference > 0, relative, np.nan)
-            away = np.linalg.norm(self.at_points.steps(u) - u_q, axis=2)  # (steps, points)
-            out["interior_error"][start:stop] = self.scale * (away @ self.weights)
+            points = self.at_points
+            u_q = self.truth.u_points[start:stop]
+            away = interior_norms(points.nodes, points.weights, u, u_q, self.weights)
+            out["interior_error"][start:stop] = self.scale * away
             if "interior_error_nodal" in out:
                 out["interior_error_nodal"][start:stop] = self.scale * (gap @ self.nodal)
         return out
@@ -246,8 +250,35 @@ class TruthGrading(Grading):
         return {"case": self.case, "own_error": self.own_error, "seconds": self.seconds}
 
 
+def located_on(
+    truth: TruthSamples, ref: Series, cand: Series, located: dict | None
+) -> TruthMetrics:
+    """The TruthMetrics of the candidate's mesh: the same body checked (check_same_body) and the
+    truth's vertices and quadrature points located in it; taken from `located` ({mesh key:
+    TruthMetrics}, kept by the caller) when a series on the same mesh (crossmesh.Mesh.key)
+    was graded against this truth before, and kept there. A refusal is not kept: its message
+    names the candidate's file."""
+    mesh = Mesh.of(cand)
+    key = mesh.key() if located is not None else None
+    grader = located.get(key) if located is not None else None
+    if grader is not None and grader.truth is truth:
+        return grader
+    check_same_body(ref, cand)
+    extent = float(np.ptp(ref.points, axis=0).max())
+    where = f"{cand.path}: not a mesh of the body of {truth_name(truth)}"
+    grader = TruthMetrics(truth, mesh, BODY_TOLERANCE * extent, where)
+    if located is not None:
+        located[key] = grader
+    return grader
+
+
 def _grade(
-    truth: TruthSamples, cand: Series, label: str | None, log, surface: bool = True
+    truth: TruthSamples,
+    cand: Series,
+    label: str | None,
+    log,
+    surface: bool = True,
+    located: dict | None = None,
 ) -> TruthGrading:
     """grade_truth on one process."""
     start = time.perf_counter()
@@ -267,10 +298,7 @@ def _grade(
             "from the SPEC's zero initial state (u = 0 at t = 0, step 0)"
         )
     check_truth_times(ref, cand, h)
-    extent = float(np.ptp(ref.points, axis=0).max())
-    check_same_body(ref, cand)
-    where = f"{cand.path}: not a mesh of the body of {name}"
-    grader = TruthMetrics(truth, Mesh.of(cand), BODY_TOLERANCE * extent, where)
+    grader = located_on(truth, ref, cand, located)
     grader.surface = surface
     located = time.perf_counter() - start
     notes.append(
@@ -338,19 +366,23 @@ def grade_truth(
     label: str | None = None,
     log: Callable[[str], None] | None = None,
     surface: bool = True,
+    located: dict | None = None,
 ) -> TruthGrading:
     """Grade the candidate series (rank 0's; None may be passed elsewhere) against the truth
     (rank 0's) as the module docstring says. Collective: rank 0 computes, every rank gets the
     same TruthGrading; InputError on every rank for a candidate of another dimension or body,
     other time stamps, or points outside its mesh. `label` names the candidate (default: its
     file name without suffix); `log` (rank 0) is given one line with the time taken; without
-    `surface`, E_s is left NaN (its boolean of two deformed bodies is most of the cost)."""
+    `surface`, E_s is left NaN (its boolean of two deformed bodies is most of the cost).
+    `located`: a dict the caller keeps across gradings against this truth (rank 0's), in which
+    each candidate mesh is checked and located once (located_on): candidates on one mesh share
+    it."""
     result: TruthGrading | None = None
     error: Exception | None = None
     if comm.rank == 0:
         try:
             assert truth is not None and cand is not None  # rank 0's
-            result = _grade(truth, cand, label, log, surface)
+            result = _grade(truth, cand, label, log, surface, located)
         except InputError as exc:
             error = InputError(str(exc))
         except Exception as exc:  # never leave the other ranks waiting

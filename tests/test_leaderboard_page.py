@@ -5,7 +5,10 @@ browser): loaded from file:// without console errors, one point per row of the r
 case, a user's point shows its label on hover, filtering by source hides the others, and a
 screenshot of every case (into $TISSUEBENCH_SCREENSHOTS when set, else a temporary folder).
 Where chromium, chromedriver or selenium is missing the browser tests skip and say which;
-`make browser-tests` installs them where it may.
+`make browser-tests` installs them where it may, then runs these tests with
+TISSUEBENCH_BROWSER_REQUIRED=1, under which a missing one fails them with the same reason
+instead: CI runs that target, so there the browser tests must run. (`make test`, which CI runs
+first on a machine that may not have chromium yet, keeps the skip.)
 """
 
 import json
@@ -109,21 +112,40 @@ def test_users_page_escapes_and_counts(tmp_path):
 # --- in a real browser -------------------------------------------------------------------------
 
 
+REQUIRED = "TISSUEBENCH_BROWSER_REQUIRED"  # set by `make browser-tests` (CI runs it)
+
+
+def required() -> bool:
+    """Whether the browser must be here: $TISSUEBENCH_BROWSER_REQUIRED set to anything but "",
+    "0" or "false"."""
+    return os.environ.get(REQUIRED, "").strip().lower() not in ("", "0", "false")
+
+
+def missing(reason: str):
+    """A browser part is missing: the tests skip with the reason, or fail with it where the
+    browser is required."""
+    if required():
+        pytest.fail(
+            f"{REQUIRED}={os.environ[REQUIRED]}: the browser tests must run here, but {reason}"
+        )
+    pytest.skip(reason)
+
+
 @pytest.fixture(scope="module")
 def browser():
     """Headless chromium through the system chromedriver (its path given: no Selenium
-    Manager, no download); skipped with the reason where one is missing."""
+    Manager, no download); skipped with the reason where one is missing (failed where required)."""
     try:
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
     except ImportError:
-        pytest.skip("selenium is not installed (pip install -e '.[test]')")
+        missing("selenium is not installed (pip install -e '.[test]')")
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     driver = shutil.which("chromedriver") or (
         "/usr/bin/chromedriver" if Path("/usr/bin/chromedriver").is_file() else None
     )
     if chromium is None or driver is None:
-        pytest.skip(
+        missing(
             "chromium or chromedriver is missing: `make browser-tests` installs Debian's "
             "chromium and chromium-driver where it may (apt-get as root)"
         )
@@ -202,3 +224,19 @@ def test_users_point_hover_and_source_filter(browser, tmp_path):
         str(screenshot_folder(tmp_path) / "users-page.png")
     )
     assert severe(browser) == []
+
+
+def test_a_missing_browser_fails_where_required_and_skips_elsewhere(monkeypatch):
+    """TISSUEBENCH_BROWSER_REQUIRED=1 (as `make browser-tests` sets it): a missing browser part
+    is a failure with its reason; without it (or =0) it is a skip with the same reason."""
+    for value in ("true", "1", "yes"):
+        monkeypatch.setenv(REQUIRED, value)
+        with pytest.raises(pytest.fail.Exception, match="must run here, but chromium is gone"):
+            missing("chromium is gone")
+    for value in (None, "", "false", "0"):
+        if value is None:
+            monkeypatch.delenv(REQUIRED, raising=False)
+        else:
+            monkeypatch.setenv(REQUIRED, value)
+        with pytest.raises(pytest.skip.Exception, match="chromium is gone"):
+            missing("chromium is gone")

@@ -127,15 +127,29 @@ def one_line(exc: BaseException) -> str:
     return text if isinstance(exc, UserError) else f"{type(exc).__name__}: {text}"
 
 
-def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
+def budget_on_mesh(
+    board: Board,
+    row: Row,
+    truth: TruthSamples | None,
+    user: Series | None = None,
+    cache: dict | None = None,
+    located: dict | None = None,
+) -> dict:
     """A user row's error budget parts beyond its total (SPEC 10), time-mean E_i in m^gdim,
-    from our implicit run here on the row's own mesh (read from its series, row.series):
-    discretisation, I(M', truth's model) against the truth; algorithm, the row against
-    I(M', m) with m the case's model (board.model: a user's own model, if another, stays in
-    this part); model, I(M', m) against I(M', truth's model), 0 when m is the truth's. Each
-    part's `_how` says how it was measured; where our implicit cannot run on that mesh, every
-    part is None and discretisation_how says why in one line. Rank 0, serial."""
+    from our implicit run here on the row's own mesh (read from its series, row.series, unless
+    `user` is that series read already): discretisation, I(M', truth's model) against the
+    truth; algorithm, the row against I(M', m) with m the case's model (board.model: a user's
+    own model, if another, stays in this part); model, I(M', m) against I(M', truth's model),
+    0 when m is the truth's. Each part's `_how` says how it was measured; where our implicit
+    cannot run on that mesh, every part is None and discretisation_how says why in one line.
+
+    `cache`, a dict the caller keeps: what depends on the mesh and the case only (our runs on
+    the mesh, the discretisation and model parts, or why our implicit cannot run there) is
+    computed once per mesh (crossmesh.Mesh.key) and case, and rows on the same mesh take it
+    from there; only the algorithm part is graded per row. `located` is grade_truth's for this
+    truth. The same numbers as without them. Rank 0, serial."""
     from tissuebench.metrics.compare import grade_series, summarize
+    from tissuebench.metrics.crossmesh import Mesh
     from tissuebench.metrics.truth import grade_truth
     from tissuebench.solvers.truth.cases import CASES
     from tissuebench.workflows.io.series import read_series
@@ -149,8 +163,16 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
         value = float(summarize(curve)[1])
         return value if np.isfinite(value) else None
 
-    try:
-        user = read_series(row.series, row.series_field)
+    def failed(exc: BaseException) -> dict:
+        return {
+            "discretisation": None,
+            "discretisation_how": f"our implicit not run on its mesh: {one_line(exc)}",
+            "algorithm": None,
+            "model": None,
+        }
+
+    def on_its_mesh(user: Series) -> tuple[dict, dict]:
+        """Our runs on the user's mesh and the parts they give (discretisation, model)."""
         runs = {}
         for model in dict.fromkeys((real, board.model)):
             runs[model] = implicit_on(
@@ -162,26 +184,49 @@ def budget_on_mesh(board: Board, row: Row, truth: TruthSamples | None) -> dict:
                 case["h"],
                 case["steps"],
             )
-        graded = grade_truth(truth, runs[real], MPI.COMM_SELF, surface=False)
+        graded = grade_truth(truth, runs[real], MPI.COMM_SELF, surface=False, located=located)
         parts = {"discretisation": mean(graded.curves[E_I])}
-        # E_i only: E_s (surface=False) is most of a grading's cost and no part of the budget
-        against = grade_series(runs[board.model], user, MPI.COMM_SELF, surface=False)
-        parts["algorithm"] = mean(against.curves[E_I])
         if board.model == real:
             parts["model"] = 0.0
         else:
             between = grade_series(runs[real], runs[board.model], MPI.COMM_SELF, surface=False)
             parts["model"] = mean(between.curves[E_I])
+        return runs, parts
+
+    try:
+        user = read_series(row.series, row.series_field) if user is None else user
+        key = (
+            Mesh.of(user).key(),
+            board.benchmark,
+            board.material,
+            real,
+            board.model,
+            repr(sorted(board.options.items())),
+            case["h"],
+            case["steps"],
+            None if truth is None else truth.case,
+        )
+        found = None if cache is None else cache.get(key)
+        if found is None:
+            try:
+                found = on_its_mesh(user)
+            except Exception as exc:  # anything a run can do: no parts on this mesh
+                found = exc
+            if cache is not None:
+                cache[key] = found
+        if isinstance(found, BaseException):
+            raise found
+        runs, parts = found
+        # E_i only: E_s (surface=False) is most of a grading's cost and no part of the budget
+        against = grade_series(runs[board.model], user, MPI.COMM_SELF, surface=False)
+        parts = {**parts, "algorithm": mean(against.curves[E_I])}
     except Exception as exc:  # anything a file or a run can do: this row's parts are not known
-        return {
-            "discretisation": None,
-            "discretisation_how": f"our implicit not run on its mesh: {one_line(exc)}",
-            "algorithm": None,
-            "model": None,
-        }
+        return failed(exc)
     nodes = len(user.points)
     return {
-        **parts,
+        "discretisation": parts["discretisation"],
+        "algorithm": parts["algorithm"],
+        "model": parts["model"],
         "discretisation_how": f"our {REFERENCE} ({real}) run here on its mesh, {nodes:,} nodes",
         "algorithm_how": f"against our {REFERENCE} ({board.model}) on its mesh",
         "model_how": (

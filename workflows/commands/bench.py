@@ -16,6 +16,11 @@ neo-hookean and corotational at the paper's loads.
 remedy beside the linear one (1 rank, the full sizes unless --quick) into
 DIR/performance-explicit.md and .json, leaving DIR/performance.* alone.
 
+`--only leaderboard-users` times `tissuebench leaderboard` grading --users copies (200; 20
+with --quick) of one user's compare folder, serial and under `mpiexec -n 2` (--ranks 1,2),
+into DIR/performance-leaderboard.md and .json (workflows/bench/leaderboard_users.py; the
+truth `rod` must be computed).
+
 A quick run never replaces a full one: without --out it writes into a folder of the system's
 temporary directory, and it refuses an --out whose performance.json holds a full run.
 
@@ -52,11 +57,24 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
     p.add_argument(
         "--only",
-        choices=["explicit-models"],
+        choices=["explicit-models", "leaderboard-users"],
         default=None,
         help="explicit-models: only the explicit-lumped step with each elastic model and "
         "remedy against the linear one (1 rank), into DIR/performance-explicit.md and .json, "
-        "leaving DIR/performance.* alone",
+        "leaving DIR/performance.* alone; leaderboard-users: only `tissuebench leaderboard` "
+        "grading --users user rows on each of --ranks, into DIR/performance-leaderboard.md "
+        "and .json",
+    )
+    p.add_argument(
+        "--users",
+        type=int,
+        default=None,
+        help="with --only leaderboard-users: how many user rows (default 200; 20 with --quick)",
+    )
+    p.add_argument(
+        "--ranks",
+        default="1,2",
+        help="with --only leaderboard-users: the numbers of ranks to time (default 1,2)",
     )
     p.add_argument(
         "--out",
@@ -95,6 +113,25 @@ def explicit_models(args: argparse.Namespace) -> int:
     return 0
 
 
+def leaderboard_users(args: argparse.Namespace) -> int:
+    """`tissuebench bench --only leaderboard-users`: workflows/bench/leaderboard_users.py."""
+    from tissuebench.workflows.bench import leaderboard_users as bench
+
+    users = args.users if args.users is not None else 20 if args.quick else 200
+    if users < 1:
+        raise UserError(f"--users {users}: at least 1")
+    try:
+        ranks = bench.ranks_of(args.ranks)
+    except argparse.ArgumentTypeError as err:
+        raise UserError(f"--ranks {err}") from None
+    out = Path(args.out) if args.out is not None else quick_out() if args.quick else Path("results")
+    print(f"tissuebench bench --only leaderboard-users: {users} user rows, ranks {ranks}")
+    try:
+        return bench.run(users, ranks, out, None, lambda line: print(line, flush=True))
+    except RuntimeError as err:
+        raise UserError(" ".join(str(err).split())[:2000]) from None
+
+
 def quick_out() -> Path:
     """Where `bench --quick` writes without --out."""
     return Path(tempfile.gettempdir()) / "tissuebench-bench-quick"
@@ -114,6 +151,8 @@ def main(args: argparse.Namespace) -> int:
         raise UserError("run `tissuebench bench` without mpiexec: it starts its own 2-rank runs")
     if getattr(args, "only", None) == "explicit-models":
         return explicit_models(args)
+    if getattr(args, "only", None) == "leaderboard-users":
+        return leaderboard_users(args)
     try:
         import pyamg  # noqa: F401
         import scipy  # noqa: F401

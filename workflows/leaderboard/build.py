@@ -196,6 +196,7 @@ def main(args: argparse.Namespace) -> int:
         board.session, board.machine = session, machine()
         boards.append(board)
         rows[board.name], notes[board.name] = board_rows, []
+    graded, progress = {}, None
     if comm.rank == 0:  # against the truth: serial, on rank 0, which writes
         grade_truths(fresh + [b for b, _ in studied], rows)
         graded = {  # users' rows of the record graded against the truth of a case not rerun
@@ -207,7 +208,8 @@ def main(args: argparse.Namespace) -> int:
         }
         progress = users.Progress(out, sum(len(v) for v in found.values()))
         graded.update(progress.resumed())
-        grade_users(boards, rows, found, graded, out, on_graded=progress)
+    # the users' rows: shared out among the ranks, each recorded on rank 0 as it ends
+    grade_users(boards, rows, found, graded, out, on_graded=progress, comm=comm)
 
     def write():
         record = record_of(boards, rows, notes)
@@ -230,6 +232,7 @@ def main(args: argparse.Namespace) -> int:
 
     collective(comm, write, out)
     if comm.rank == 0:
+        assert progress is not None  # rank 0's
         progress.done()
     interrupt.will_write([])  # all written
     if comm.rank == 0:

@@ -1,10 +1,12 @@
 """Every row of a case graded against its truth (SPEC 10), loaded from the cache, with its
-error budget; the users' rows joined to their cases and graded. Rank 0, serial."""
+error budget (rank 0, serial); the users' rows joined to their cases and graded, shared out
+among the ranks."""
 
 from __future__ import annotations
 
 import re
 import time
+from collections import OrderedDict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -12,6 +14,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.solvers import interrupt
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -58,9 +61,63 @@ def summarized(curve) -> tuple[float | None, float | None]:
     return peak, mean
 
 
-def grade_row_truth(truth, row: Row) -> None:
+class Recent(OrderedDict):
+    """A dict that keeps its `most` last used entries (get and set count as uses), so that a
+    leaderboard of many users' meshes, each located and run on, does not keep them all."""
+
+    def __init__(self, most: int):
+        super().__init__()
+        self.most = most
+
+    def get(self, key, default=None):
+        if key in self:
+            self.move_to_end(key)
+            return self[key]
+        return default
+
+    def __setitem__(self, key, value):
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > self.most:
+            self.popitem(last=False)
+
+
+class Caches:
+    """What the gradings of a leaderboard run build once and share (one process): each truth's
+    candidate meshes checked and located (`located`, {truth case: {mesh key: TruthMetrics}},
+    metrics/truth.py's located_on), our implicit runs on the users' meshes and the budget
+    parts that depend on the mesh alone (`on_mesh`, user_mesh.budget_on_mesh's cache), and
+    the last series read (rows read their series once for both gradings). The numbers are
+    the same as without it. Each keeps its MESHES last used meshes: a mesh met again after
+    that is located and run on again (the same numbers)."""
+
+    MESHES = 16
+
+    def __init__(self):
+        self.located: dict[str, Recent] = {}
+        self.on_mesh = Recent(self.MESHES)
+        self._series = None
+
+    def located_for(self, truth) -> Recent | None:
+        if truth is None:
+            return None
+        return self.located.setdefault(truth.case, Recent(self.MESHES))
+
+    def series(self, path: str, field: str | None):
+        """read_series(path, field), read once for consecutive asks of the same file."""
+        from tissuebench.workflows.io.series import read_series
+
+        key = (str(path), field)
+        if self._series is None or self._series[0] != key:
+            self._series = None  # the old one is let go before the new one is read
+            self._series = (key, read_series(path, field))
+        return self._series[1]
+
+
+def grade_row_truth(truth, row: Row, caches: Caches | None = None) -> None:
     """Grade a row's own series against the truth (metrics/truth.py), into row.truth; or say in
-    row.truth_note why it is not graded. Rank 0 (serial)."""
+    row.truth_note why it is not graded. Rank 0 (serial). `caches`: shared across rows
+    (Caches), the same numbers."""
     from tissuebench.metrics.truth import grade_truth
     from tissuebench.workflows.io.series import read_series
 
@@ -71,9 +128,13 @@ def grade_row_truth(truth, row: Row) -> None:
         row.truth_note = f"its series {row.series} is not on this machine"
         return
     try:
-        cand = read_series(row.series, row.series_field)
+        if caches is None:
+            cand = read_series(row.series, row.series_field)
+        else:
+            cand = caches.series(row.series, row.series_field)
+        located = None if caches is None else caches.located_for(truth)
         # E_n and E_i only (the leaderboard's columns): E_s's boolean is most of the cost
-        g = grade_truth(truth, cand, MPI.COMM_SELF, label=row.label, surface=False)
+        g = grade_truth(truth, cand, MPI.COMM_SELF, label=row.label, surface=False, located=located)
     except Exception as exc:  # anything a file can do: this row is not graded, the rest are
         row.truth_note = f"not graded: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
         return
@@ -134,6 +195,7 @@ def error_budget(
     only: list[Row] | None = None,
     board: Board | None = None,
     truth: TruthSamples | None = None,
+    caches: Caches | None = None,
 ) -> None:
     """The error budget (SPEC 10) of every row of a case graded against the truth, in
     row.budget (time-mean E_i, m^gdim): total (the row against the truth), discretisation
@@ -142,7 +204,8 @@ def error_budget(
     model (none: the linear case's model is the truth's). A user's row on a mesh of its own,
     given the case's `board` and its `truth` (TruthSamples), gets our implicit run here on that
     mesh (workflows/user_mesh.py: all four parts, or one line on why not). Only the rows of
-    `only` when it is given (the others keep theirs). Rank 0."""
+    `only` when it is given (the others keep theirs); `caches` shared across rows (Caches),
+    the same numbers. Rank 0."""
     from tissuebench.workflows.grading import grade
 
     reference = next((r for r in rows if r.reference and r.truth), None)
@@ -175,7 +238,17 @@ def error_budget(
         elif row.source == "user" and board is not None and truth is not None and row.series:
             from tissuebench.workflows.user_mesh import budget_on_mesh
 
-            row.budget = {**b, **budget_on_mesh(board, row, truth)}  # our implicit on its mesh
+            if caches is None:
+                parts = budget_on_mesh(board, row, truth)
+            else:  # the series read once, our implicit run once per mesh
+                try:
+                    user = caches.series(row.series, row.series_field)
+                except Exception:
+                    user = None  # budget_on_mesh reads it again and says why it cannot
+                parts = budget_on_mesh(
+                    board, row, truth, user, caches.on_mesh, caches.located_for(truth)
+                )
+            row.budget = {**b, **parts}  # our implicit on its mesh
             continue
         elif row.source == "user" and board is not None and truth is None:
             how = f"the truth {board.truth} is not computed here to grade our implicit on its mesh"
@@ -212,61 +285,198 @@ def grade_users(
     graded: dict | None = None,
     out: Path = Path("results"),
     on_graded=None,
+    comm: MPI.Comm = MPI.COMM_SELF,
 ) -> None:
     """The users' rows joined to their cases, graded against each case's truth where it has one
     (its cached truth loaded once per case; a user's row graded by compare against the truth
     keeps its columns; one the record holds already graded, `graded` {user_key: Row}, keeps the
     record's), the Pareto fronts marked again and the users' error budgets. A truth that is not
     computed here is named, with the command that computes it, in the rows' notes and in one
-    line on stderr per case. Each row is graded whole (against the truth, then its budget)
-    before the next, and `on_graded(board, row, seconds)` is called as it ends. Rank 0."""
+    line on stderr per case. Each row is graded whole (against the truth, then its budget), and
+    `on_graded(board, row, seconds)` is called on rank 0 as each ends.
+
+    Collective over comm (rank 0's arguments are the ones read, the others' are not used): the
+    rows to grade are shared out, the k-th to rank k mod size, each rank grading its share with
+    its own copy of the truth (from the cache) and its own Caches (each mesh located, and our
+    implicit run on it, once per rank); rank 0 takes each row as it ends. A row's numbers are
+    the same whichever rank grades it, and so are the results for any number of ranks."""
     from tissuebench.solvers.truth.store import expected_words, load_cached
 
     truths = {}
-    for board in boards:
-        mine = list(users.get(board.name, []))
-        rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
-        kept = set()  # ids of the rows whose budget the record holds, complete
-        for row in mine:
-            before = (graded or {}).get(user_key(row))
-            if before is not None and before.truth and not row.truth:
-                row.truth, row.truth_note = dict(before.truth), before.truth_note
-            if before is not None and before.truth == row.truth and complete(before.budget):
-                row.budget = dict(before.budget)
-                kept.add(id(row))
-        pending = [r for r in mine if id(r) not in kept]
-        run_here = any(r.truth and r.series for r in pending)  # our implicit on a user's mesh
-        if board.truth is not None and (any(not r.truth for r in mine) or run_here):
-            if board.truth not in truths:
-                truths[board.truth] = load_cached(board.truth, comm=MPI.COMM_SELF)
-            truth = truths[board.truth]
-            todo = (
-                f"`tissuebench truth {board.truth}` computes it ({expected_words(board.truth)} "
-                f"on one core, once), then `tissuebench leaderboard --out {out}` grades "
-                "against it"
-            )
-            if truth is None and any(not r.truth for r in mine):
-                user_folders.warn(
-                    f"{board.name}: {sum(not r.truth for r in mine)} user row(s) not graded "
-                    f"against the truth {board.truth}, which is not computed here: " + todo
-                )
+    tasks = []  # (board, row) to grade, in the boards' order (rank 0's)
+    if comm.rank == 0:
+        for board in boards:
+            mine = list(users.get(board.name, []))
+            rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
+            kept = set()  # ids of the rows whose budget the record holds, complete
             for row in mine:
-                if truth is None and not row.truth:
-                    row.truth_note = (
-                        f"the truth {board.truth} is not computed on this machine: {todo}"
+                before = (graded or {}).get(user_key(row))
+                if before is not None and before.truth and not row.truth:
+                    row.truth, row.truth_note = dict(before.truth), before.truth_note
+                if before is not None and before.truth == row.truth and complete(before.budget):
+                    row.budget = dict(before.budget)
+                    kept.add(id(row))
+            pending = [r for r in mine if id(r) not in kept]
+            run_here = any(r.truth and r.series for r in pending)  # our implicit on its mesh
+            if board.truth is not None and (any(not r.truth for r in mine) or run_here):
+                if board.truth not in truths:
+                    truths[board.truth] = load_cached(board.truth, comm=MPI.COMM_SELF)
+                truth = truths[board.truth]
+                todo = (
+                    f"`tissuebench truth {board.truth}` computes it "
+                    f"({expected_words(board.truth)} on one core, once), then `tissuebench "
+                    f"leaderboard --out {out}` grades against it"
+                )
+                if truth is None and any(not r.truth for r in mine):
+                    user_folders.warn(
+                        f"{board.name}: {sum(not r.truth for r in mine)} user row(s) not graded "
+                        f"against the truth {board.truth}, which is not computed here: " + todo
                     )
-        truth = truths.get(board.truth) if board.truth is not None else None
-        for row in pending:  # each graded whole (truth, then budget) and said as it ends
-            start = time.perf_counter()
-            if truth is not None and not row.truth:
-                grade_row_truth(truth, row)
-            if row.truth:
-                error_budget(rows[board.name], only=[row], board=board, truth=truth)
+                for row in mine:
+                    if truth is None and not row.truth:
+                        row.truth_note = (
+                            f"the truth {board.truth} is not computed on this machine: {todo}"
+                        )
+            tasks += [(board, row) for row in pending]
+    if comm.size == 1:
+        caches = Caches()
+        for board, row in tasks:  # each graded whole (truth, then budget) and said as it ends
+            truth = truths.get(board.truth) if board.truth is not None else None
+            seconds = grade_user_row(board, rows[board.name], row, truth, caches)
             if on_graded is not None:
-                on_graded(board, row, time.perf_counter() - start)
-        mark_pareto(rows[board.name])
-        if any(truth_error(r, k) is not None for r in rows[board.name] for k in ("mean", "max")):
-            mark_truth_pareto(rows[board.name])
+                on_graded(board, row, seconds)
+    else:
+        _grade_shared(comm, tasks, rows, truths, on_graded)
+    if comm.rank == 0:
+        for board in boards:
+            mark_pareto(rows[board.name])
+            if any(
+                truth_error(r, k) is not None for r in rows[board.name] for k in ("mean", "max")
+            ):
+                mark_truth_pareto(rows[board.name])
+
+
+def grade_user_row(board: Board, board_rows: list[Row], row: Row, truth, caches: Caches) -> float:
+    """One user's row graded whole: against the truth (where it has none yet and the truth is
+    here), then its error budget; the seconds it took."""
+    start = time.perf_counter()
+    if truth is not None and not row.truth:
+        grade_row_truth(truth, row, caches)
+    if row.truth:
+        error_budget(board_rows, only=[row], board=board, truth=truth, caches=caches)
+    return time.perf_counter() - start
+
+
+GRADED_ROW = 35  # the MPI tag of a graded user row sent to rank 0
+
+
+def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_graded) -> None:
+    """grade_users' rows (rank 0's `tasks`, (board, row)) graded on every rank of comm, the k-th
+    by rank k mod size; every other rank sends each row's grades (truth columns, note, budget)
+    to rank 0 as it ends, where they are put into rank 0's row and on_graded is called. A
+    rank that cannot load a truth rank 0 has sends its rows back ungraded, and rank 0 grades
+    them; an error anywhere is raised on every rank once all rows are in. A signal (recorded,
+    under mpiexec, solvers/interrupt.py) stops each rank before its next row, and every rank
+    raises it together once the rows graded so far are in (and recorded by on_graded)."""
+    from tissuebench.solvers.truth.store import load_cached
+
+    plan = None
+    if comm.rank == 0:
+        # each case with rows to grade: the board and its rows
+        shared: dict[str, tuple[Board, list[Row]]] = {}
+        for board, _ in tasks:
+            shared.setdefault(board.name, (board, rows[board.name]))
+        listed = []
+        for board, row in tasks:
+            index = next(i for i, r in enumerate(rows[board.name]) if r is row)
+            listed.append((board.name, index, truths.get(board.truth) is not None))
+        plan = (shared, listed)
+    shared, listed = comm.bcast(plan, root=0)
+    caches, held = Caches(), (None, None)  # held: (case, truth) of this rank
+    error, sent, back, received = None, [], [], 0
+
+    def truth_of(board: Board, here: bool):
+        nonlocal held
+        if not here:
+            return None
+        if comm.rank == 0:
+            return truths[board.truth]
+        if held[0] != board.truth:
+            held = (None, None)  # the last case's let go first
+            held = (board.truth, load_cached(board.truth, comm=MPI.COMM_SELF))
+        return held[1]
+
+    def receive() -> None:
+        """One row from another rank, taken."""
+        nonlocal received
+        take(comm.recv(source=MPI.ANY_SOURCE, tag=GRADED_ROW))
+        received += 1
+
+    def take(message) -> None:
+        nonlocal error
+        k, grades, seconds, problem = message
+        board, row = tasks[k]
+        if problem == "stopped":
+            return  # not graded: a signal came (raised on every rank below)
+        if problem == "no truth":
+            back.append(k)
+        elif problem is not None:
+            error = error or RuntimeError(problem)
+        else:
+            row.truth, row.truth_note, row.budget = grades
+            if on_graded is not None:
+                on_graded(board, row, seconds)
+
+    mine = [k for k in range(len(listed)) if k % comm.size == comm.rank]
+    for k in mine:
+        name, index, here = listed[k]
+        if comm.rank == 0:  # its own rows, graded in place
+            board, row = tasks[k]
+            board_rows = rows[board.name]
+        else:
+            board, board_rows = shared[name]
+            row = board_rows[index]
+        message = (k, None, 0.0, None)
+        if interrupt.pending():  # a signal: no more rows; all ranks stop together below
+            message = (k, None, 0.0, "stopped")
+            if comm.rank != 0:
+                sent.append(comm.isend(message, dest=0, tag=GRADED_ROW))
+            continue
+        try:
+            truth = truth_of(board, here)
+            if here and truth is None:
+                message = (k, None, 0.0, "no truth")
+            else:
+                seconds = grade_user_row(board, board_rows, row, truth, caches)
+                message = (k, (row.truth, row.truth_note, row.budget), seconds, None)
+        except Exception as exc:  # said on every rank once all rows are in
+            message = (k, None, 0.0, f"rank {comm.rank}: {type(exc).__name__}: {exc}")
+        if comm.rank == 0:
+            if message[3] is None:
+                if on_graded is not None:
+                    on_graded(board, row, message[2])
+            else:
+                take(message)
+            while comm.iprobe(source=MPI.ANY_SOURCE, tag=GRADED_ROW):  # the others' rows
+                receive()
+        else:
+            sent.append(comm.isend(message, dest=0, tag=GRADED_ROW))
+    if comm.rank == 0:
+        expected = sum(1 for k in range(len(listed)) if k % comm.size != 0)
+        while received < expected:
+            receive()
+        for k in back:  # rows whose rank had no truth: graded here
+            if interrupt.pending():
+                break
+            board, row = tasks[k]
+            seconds = grade_user_row(board, rows[board.name], row, truths[board.truth], caches)
+            if on_graded is not None:
+                on_graded(board, row, seconds)
+    MPI.Request.Waitall(sent)
+    interrupt.checkpoint(comm)  # a signal on any rank: raised on every rank, the rows so far kept
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise error
 
 
 def complete(budget: dict) -> bool:
