@@ -25,6 +25,11 @@ def register(name: str, entry: Entry) -> None:
     BENCHMARKS[name] = entry
 
 
+def unregister(name: str) -> None:
+    """Take benchmark `name`, which register added, out of the registry."""
+    del BENCHMARKS[name]
+
+
 def get_entry(name: str) -> Entry:
     """The registry entry of benchmark `name` (see BENCHMARKS)."""
     if name not in BENCHMARKS:
