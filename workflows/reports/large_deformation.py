@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tissuebench.meshes import get_entry
 from tissuebench.solvers import MODELS
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.reports.common import (
@@ -36,10 +37,7 @@ def loss_text(summary: CaseSummary, label: str) -> str:
 
 def load_text(summary: CaseSummary) -> str:
     text = f"s = {summary.option('load_scale', 1):g}"
-    if summary.benchmark == "block":
-        w = summary.option("needle_width", 0) or 0
-        text += f", w = {w:g} m" if w else ", w = 0 (point needle)"
-    return text
+    return text + get_entry(summary.benchmark).options_text(summary.option)
 
 
 def times_text(a: float, b: float) -> str:
@@ -403,7 +401,7 @@ def model_case_section(out: Path, name: str, s: CaseSummary) -> list[str]:
         big = d["largest_deflection"]
         view = (
             "the boundary polygon of the deformed domain (SPEC section 6)"
-            if s.benchmark == "block"
+            if get_entry(s.benchmark).gdim == 2
             else "the side view: the deformed mesh projected on the x-y plane (the union of the "
             "projected cells)"
         )
