@@ -41,7 +41,10 @@ def load_text(summary: CaseSummary) -> str:
 
 
 def times_text(a: float, b: float) -> str:
-    """'12 times' for a / b, or '1/12 of'."""
+    """'12 times' for a / b, or '1/12 of'; a zero loss, which a run that is its case's
+    reference has, is said as such instead of dividing by it."""
+    if a == 0 or b == 0:
+        return "the same as" if a == b else ("none of" if a == 0 else "infinitely many times")
     r = a / b
     return f"{ratio_text(r)} times" if r >= 1 else f"1/{ratio_text(1 / r)} of"
 
