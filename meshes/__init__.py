@@ -1,7 +1,9 @@
 """tissuebench.meshes: gmsh scripts for the benchmarks' meshes, and the benchmarks themselves.
 
 A benchmark is one file here with a `benchmark(mesh_size, comm=..., msh_path=..., **options)`
-function and an `ENTRY` (meshes.benchmark.Entry: its defaults and options), registered below.
+function and an `ENTRY` (meshes.benchmark.Entry: everything the commands know of it: its
+defaults and options, regions, truth levels and names for reports), registered below; a
+benchmark defined elsewhere (a test's) joins with register(name, entry).
 """
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before PETSc and DOLFINx do)
@@ -14,6 +16,18 @@ BENCHMARKS = {
     "block": block.ENTRY,
     "rod": rod.ENTRY,
 }
+
+
+def register(name: str, entry: Entry) -> None:
+    """Add benchmark `name` to the registry (MeshError if the name is taken)."""
+    if name in BENCHMARKS:
+        raise MeshError(f"benchmark {name!r} is already registered")
+    BENCHMARKS[name] = entry
+
+
+def unregister(name: str) -> None:
+    """Take benchmark `name`, which register added, out of the registry."""
+    del BENCHMARKS[name]
 
 
 def get_entry(name: str) -> Entry:

@@ -1,8 +1,9 @@
 """What a benchmark is: a tagged mesh, the constrained boundary with its prescribed motion,
 the body force, and the SPEC's defaults."""
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import dolfinx.mesh
 import numpy as np
@@ -67,6 +68,31 @@ class Entry:
     refinement_options: dict = field(default_factory=dict)  # options for mesh-refinement studies
     probe: tuple[float, ...] | None = None  # a point whose displacement is reported, m
     probe_label: str = ""  # its name in tables and figures
+    # the undeformed body: the box [0, box[0]] x [0, box[1]] (x [0, box[2]]), m
+    box: tuple[float, ...] = ()
+    # its constrained regions as predicates: posing(**options) -> meshes.regions.Posing (None:
+    # the benchmark states none, so that it is neither exported with a geometry nor posed on a
+    # mesh that is not ours)
+    posing: Callable[..., Any] | None = None
+    # the truth's hierarchy (SPEC 10): mesh sizes, each twice the last, and the quick ones (CI
+    # and tests, never the truth) with about how long a quick linear case takes here, s
+    truth_levels: tuple[int, ...] = ()
+    quick_truth_levels: tuple[int, ...] = ()
+    quick_truth_seconds: float = 10.0
+    # why the truth does not pose this benchmark with these options (a sentence), or None
+    no_truth: Callable[[dict], str | None] = lambda options: None
+    # why `case`, a name that is not a truth case, has none (a sentence, the benchmark's truth
+    # cases `cases` in it), or None when the name says nothing of this benchmark
+    truth_hint: Callable[[str, str], str | None] = lambda case, cases: None
+    # names for reports: its title, the letter of its mesh size, its own options in words
+    # (from option(name, default): ", w = 0.2 m") and where a point (m) lies on it
+    # (from the point, the mesh size and option: ", beside the needle")
+    title: str = ""
+    size_name: str = "n"
+    options_text: Callable[[Callable], str] = lambda option: ""
+    place: Callable[[Sequence[float], int, Callable], str] = lambda x, size, option: ""
+    # what SPEC 7 claims of it by material, quoted in the stability report
+    claims: dict[str, str] = field(default_factory=dict)
 
 
 # SPEC 9: the cell shapes of each dimension, the default first, and the two kinds of mesh
@@ -112,13 +138,22 @@ def shape_options(gdim: int, cell: str | None, mesh: str | None) -> dict:
     return options
 
 
+# The range of E (Pa), rho (kg/m^3) and the load scale s (SPEC 8), and the upper bound of the
+# Rayleigh alpha (1/s) and beta (s). Float64 holds 2.2e-308 to 1.8e308; the assembled
+# matrices and loads are products of up to three of these values with the mesh's lengths, and
+# the solvers' residual norms sum their squares. Within 1e-40 to 1e40, a product of three and
+# its square stay within 1e-240 to 1e240: finite, with room for the mesh and the step. Real
+# materials lie far inside (soft tissue 1e2 to 1e6 Pa, diamond 1.2e12 Pa; osmium 22,590
+# kg/m^3). Larger values overflow (E = 1e308 made inf at the first solve).
+SMALLEST, LARGEST = 1e-40, 1e40
+WHY_RANGE = "products of E, rho and the load scale, and their squares, must stay finite in float64"
+
 LOAD_SCALE_HELP = "load scale s > 0: the prescribed motion and gravity times s (default 1, SPEC 8)"
 
 
 def check_load_scale(s: object) -> None:
     """Refuse a load scale that is not a finite positive number (MeshError: bad input)."""
     from tissuebench.meshes.gmshio import MeshError
-    from tissuebench.solvers.materials import LARGEST, SMALLEST, WHY_RANGE
 
     if not (isinstance(s, (int, float)) and not isinstance(s, bool) and 0 < s < float("inf")):
         raise MeshError(f"load scale must be a finite number > 0, got {s!r}")

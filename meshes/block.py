@@ -32,6 +32,7 @@ from tissuebench.meshes.gmshio import (
     start_gmsh,
     to_dolfinx,
 )
+from tissuebench.meshes.regions import Posing, Region, Term
 
 LENGTH = 1.0  # m, both sides
 NEEDLE = (1.0, 0.5)  # m
@@ -164,6 +165,76 @@ def benchmark(
     )
 
 
+def posing(needle_width: float = 0.0, load_scale: float = 1.0) -> Posing:
+    """The block's regions (SPEC 4): the needle at (1, 0.5) (its width w in m spread along
+    x = 1), pushed by needle_motion at load scale s; fixed left, bottom and top edges."""
+    if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):
+        raise MeshError(f"needle width must satisfy 0 <= w < 1 m, got {needle_width!r}")
+    check_load_scale(load_scale)
+    x, y = NEEDLE
+    needle = (Term(0, x), Term(1, y, needle_width / 2))
+    return Posing(
+        (
+            Region("needle", needle, lambda t: needle_motion(t, load_scale)),
+            Region("left", (Term(0, 0.0),), fixed(2)),
+            Region("bottom", (Term(1, 0.0),), fixed(2)),
+            Region("top", (Term(1, LENGTH),), fixed(2)),
+        ),
+        (0.0, 0.0),
+        LENGTH,
+    )
+
+
+def options_text(option) -> str:
+    """The needle's width in words, from option(name, default)."""
+    w = option("needle_width", 0) or 0
+    return f", w = {w:g} m" if w else ", w = 0 (point needle)"
+
+
+def place(x, mesh_size: int, option) -> str:
+    """Where the point x (m) lies on the block, in words: beside the needle (x = 1,
+    |y - 0.5| <= w/2) within 1.5 cells."""
+    w = option("needle_width", 0) or 0
+    d = np.hypot(NEEDLE[0] - x[0], max(abs(x[1] - NEEDLE[1]) - w / 2, 0.0))
+    return ", beside the needle" if d < 1.5 / mesh_size else ""
+
+
+def no_truth(options: dict) -> str | None:
+    """A point needle (w = 0) has no truth."""
+    if float(options.get("needle_width", 0.0)) == 0:
+        return (
+            "the needle is a point (w = 0): a prescribed point displacement has infinite "
+            "energy in 2D, so refinement converges to no solution; the block's truth cases "
+            "take w = 0.2 m"
+        )
+    return None
+
+
+def truth_hint(case: str, cases: str) -> str | None:
+    """Why a block case name that is not a truth case (`cases`: the block's) has none: a
+    neo-Hookean one (block-MP1-nh-s2-w0.2 as it was), or a point needle (w = 0)."""
+    if not case.startswith("block"):
+        return None
+    if "-nh" in case:
+        return (
+            "the block has no large-deformation truth (SPEC 10: a needle bonded to the "
+            "tissue and pushed far has no converging solution); grade it against implicit on "
+            f"its own mesh. The block's truth cases are linear: {cases}"
+        )
+    width = case.rpartition("-w")[2] if "-w" in case else "0"
+    try:
+        point_needle = float(width) == 0
+    except ValueError:
+        point_needle = False
+    if point_needle:
+        return (
+            "this case has no converged reference (SPEC 10: with a point needle, "
+            "w = 0, refinement converges to no solution); the block's truth cases have a "
+            f"needle of width w = 0.2 m: {cases}"
+        )
+    return None
+
+
 ENTRY = Entry(
     build=benchmark,
     gdim=2,
@@ -181,4 +252,20 @@ ENTRY = Entry(
     },
     # a point load is singular: refinement studies spread the needle over w = 0.2 m (SPEC 4)
     refinement_options={"needle_width": 0.2},
+    box=(LENGTH, LENGTH),
+    posing=posing,
+    truth_levels=(20, 40, 80),
+    quick_truth_levels=(10, 20, 40),
+    quick_truth_seconds=15.0,
+    no_truth=no_truth,
+    truth_hint=truth_hint,
+    title="Block and needle",
+    size_name="N",
+    options_text=options_text,
+    place=place,
+    # SPEC 7, our paraphrase of the paper
+    claims={
+        "MP2": "Block, MP2 at h = 1/30: the explicit schemes diverge; implicit and "
+        "quasi-static run."
+    },
 )

@@ -8,8 +8,7 @@ body within a tolerance (SPEC 9's τ = 1e-6 of the benchmark's extent by default
 the Benchmark with those constraints, the benchmark's gravity, load scale and needle motion,
 so that solvers.system.System assembles on that mesh as on ours.
 
-The benchmarks' own modules (meshes/rod.py, meshes/block.py) are part of the truth cache's
-key, so their regions are said here, keyed by benchmark name (POSINGS), from their constants.
+Each benchmark's module states its regions (its Entry's `posing`, with the classes here).
 """
 
 from __future__ import annotations
@@ -22,8 +21,7 @@ from mpi4py import MPI
 import dolfinx.mesh
 import numpy as np
 
-from tissuebench.meshes import block, rod
-from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry, check_load_scale, fixed
+from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry
 from tissuebench.meshes.gmshio import MeshError, TaggedMesh
 
 AXES = "xyz"
@@ -85,53 +83,16 @@ class Posing:
     extent: float
 
 
-def rod_posing(load_scale: float = 1.0) -> Posing:
-    """The rod (SPEC 5): clamped on x = 0, gravity 0.05 s m/s^2 in -y."""
-    check_load_scale(load_scale)
-    return Posing(
-        (Region("clamped", (Term(0, 0.0),), fixed(3)),),
-        tuple(load_scale * g for g in rod.GRAVITY),
-        max(rod.SIZE),
-    )
-
-
-def block_posing(needle_width: float = 0.0, load_scale: float = 1.0) -> Posing:
-    """The block (SPEC 4): the needle at (1, 0.5) (its width w in m spread along x = 1),
-    pushed by block.needle_motion at load scale s; fixed left, bottom and top edges."""
-    if not (isinstance(needle_width, (int, float)) and 0 <= needle_width < 1):
-        raise MeshError(f"needle width must satisfy 0 <= w < 1 m, got {needle_width!r}")
-    check_load_scale(load_scale)
-    x, y = block.NEEDLE
-    side = block.LENGTH
-    needle = (Term(0, x), Term(1, y, needle_width / 2))
-    return Posing(
-        (
-            Region("needle", needle, lambda t: block.needle_motion(t, load_scale)),
-            Region("left", (Term(0, 0.0),), fixed(2)),
-            Region("bottom", (Term(1, 0.0),), fixed(2)),
-            Region("top", (Term(1, side),), fixed(2)),
-        ),
-        (0.0, 0.0),
-        side,
-    )
-
-
-# benchmark name -> (its registry entry, its posing from its options)
-POSINGS: dict[str, tuple[Entry, Callable[..., Posing]]] = {
-    "rod": (rod.ENTRY, rod_posing),
-    "block": (block.ENTRY, block_posing),
-}
-
-
 def posing(benchmark: str, **options: object) -> tuple[Entry, Posing]:
     """A benchmark's entry and posing with its options (those its entry takes: load_scale,
     needle_width; others, such as our mesh's cell and mesh kind, are not the posing's)."""
-    if benchmark not in POSINGS:
-        raise MeshError(
-            f"benchmark {benchmark!r} states no regions: use one of {', '.join(POSINGS)}"
-        )
-    entry, pose = POSINGS[benchmark]
-    return entry, pose(**{k: v for k, v in options.items() if k in entry.options})
+    from tissuebench.meshes import BENCHMARKS
+
+    entry = BENCHMARKS.get(benchmark)
+    if entry is None or entry.posing is None:
+        posed = ", ".join(name for name, e in BENCHMARKS.items() if e.posing is not None)
+        raise MeshError(f"benchmark {benchmark!r} states no regions: use one of {posed}")
+    return entry, entry.posing(**{k: v for k, v in options.items() if k in entry.options})
 
 
 def on_mesh(

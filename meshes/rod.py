@@ -22,6 +22,7 @@ from tissuebench.meshes.benchmark import (
     shape_options,
 )
 from tissuebench.meshes.gmshio import TaggedMesh, check_positive_int, start_gmsh, to_dolfinx
+from tissuebench.meshes.regions import Posing, Region, Term
 
 SIZE = (0.5, 0.25, 0.25)  # m: length (x), height (y), depth (z)
 TIP = (0.5, 0.25, 0.125)  # m: middle of the top edge of the free end
@@ -111,6 +112,28 @@ def benchmark(
     )
 
 
+def posing(load_scale: float = 1.0) -> Posing:
+    """The rod's regions (SPEC 5): clamped on x = 0, gravity 0.05 s m/s^2 in -y."""
+    check_load_scale(load_scale)
+    return Posing(
+        (Region("clamped", (Term(0, 0.0),), fixed(3)),),
+        tuple(load_scale * g for g in GRAVITY),
+        max(SIZE),
+    )
+
+
+def place(x, mesh_size: int, option) -> str:
+    """Where the point x (m) lies on the rod, in words: clamped at x = 0, height 0.25 m over
+    n cells."""
+    cell = SIZE[1] / mesh_size
+    text = ""
+    if x[0] < cell:
+        text += ", in the first layer of cells at the clamped face x = 0"
+        if x[1] < cell:
+            text += ", at its lower edge (compressed as the rod bends down)"
+    return text
+
+
 ENTRY = Entry(
     build=benchmark,
     gdim=3,
@@ -125,4 +148,12 @@ ENTRY = Entry(
     options={"load_scale": LOAD_SCALE_HELP},
     probe=TIP,
     probe_label="tip (0.5, 0.25, 0.125) m",
+    box=SIZE,
+    posing=posing,
+    truth_levels=(2, 4, 8),
+    quick_truth_levels=(1, 2, 4),
+    quick_truth_seconds=5.0,
+    title="Bending rod",
+    size_name="n",
+    place=place,
 )

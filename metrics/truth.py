@@ -415,24 +415,13 @@ def truth_case(reference: str | Path, reference_field: str | None = None) -> str
         )
     if case in CASES:
         return case
-    blocks = ", ".join(c for c in CASES if CASES[c][0] == "block")
-    if case.startswith("block") and "-nh" in case:
-        raise InputError(
-            f"{text}: the block has no large-deformation truth (SPEC 10: a needle bonded to the "
-            "tissue and pushed far has no converging solution); grade it against implicit on "
-            f"its own mesh. The block's truth cases are linear: {blocks}"
-        )
-    width = case.rpartition("-w")[2] if "-w" in case else "0"
-    try:
-        point_needle = case.startswith("block") and float(width) == 0
-    except ValueError:
-        point_needle = False
-    if point_needle:
-        raise InputError(
-            f"{text}: this case has no converged reference (SPEC 10: with a point needle, "
-            f"w = 0, refinement converges to no solution); the block's truth cases have a "
-            f"needle of width w = 0.2 m: {blocks}"
-        )
+    from tissuebench.meshes import BENCHMARKS
+
+    for benchmark, entry in BENCHMARKS.items():
+        own = ", ".join(c for c in CASES if CASES[c][0] == benchmark)
+        hint = entry.truth_hint(case, own)
+        if hint is not None:
+            raise InputError(f"{text}: {hint}")
     raise InputError(f"{text}: no such truth case; the cases (SPEC 10) are {', '.join(CASES)}")
 
 

@@ -10,19 +10,12 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from tissuebench.meshes.benchmark import LARGEST, SMALLEST, WHY_RANGE
 from tissuebench.meshes.errors import UserError
 
 MAX_NAME = 64  # characters of a material name (it labels files, figures and tables)
 
-# The range of E (Pa), rho (kg/m^3) and the load scale s (SPEC 8), and the upper bound of the
-# Rayleigh alpha (1/s) and beta (s). Float64 holds 2.2e-308 to 1.8e308; the assembled
-# matrices and loads are products of up to three of these values with the mesh's lengths, and
-# the solvers' residual norms sum their squares. Within 1e-40 to 1e40, a product of three and
-# its square stay within 1e-240 to 1e240: finite, with room for the mesh and the step. Real
-# materials lie far inside (soft tissue 1e2 to 1e6 Pa, diamond 1.2e12 Pa; osmium 22,590
-# kg/m^3). Larger values overflow (E = 1e308 made inf at the first solve).
-SMALLEST, LARGEST = 1e-40, 1e40
-WHY_RANGE = "products of E, rho and the load scale, and their squares, must stay finite in float64"
+# the range of E, rho and the load scale and the bound of alpha and beta: see meshes/benchmark.py
 UNITS = {"E": "Pa", "rho": "kg/m^3", "alpha": "1/s", "beta": "s"}
 
 

@@ -428,3 +428,14 @@ def test_verdicts_on_the_committed_results_are_those_of_the_committed_readme():
         statuses["explicit"] == statuses["explicit-lumped"] == "diverged"
         and statuses["implicit"] == statuses["quasi-static"] == "ok"
     )
+
+
+def test_times_text_says_a_zero_loss_instead_of_dividing_by_it():
+    """A loss of 0 (a run that is its case's own reference) is worded, not divided by."""
+    from tissuebench.workflows.reports.large_deformation import times_text
+
+    assert times_text(12.0, 1.0) == "12 times"
+    assert times_text(1.0, 12.0) == "1/12 of"
+    assert times_text(1.0, 0.0) == "infinitely many times"
+    assert times_text(0.0, 1.0) == "none of"
+    assert times_text(0.0, 0.0) == "the same as"

@@ -149,7 +149,7 @@ def test_the_cache_is_read_back_and_keyed_by_the_inputs(cache, monkeypatch):
         if again.inputs != store.inputs("rod", quick=True) or again.own_error != first.own_error:
             failures.append("inputs or own error")
         h = again.hierarchy
-        if h["levels"] != list(store.QUICK_LEVELS["rod"]) or len(h["tip"]) != 3:
+        if h["levels"] != list(store.levels_of("rod", quick=True)) or len(h["tip"]) != 3:
             failures.append(f"hierarchy {h['levels']}")
     assert agreed(failures) == []
     monkeypatch.undo()  # compute again: a cache file cut short is computed again, not an error

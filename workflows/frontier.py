@@ -46,10 +46,9 @@ if TYPE_CHECKING:
 
 # the cases of SPEC 11, the compressible control last
 FRONTIER_CASES = ("block-MP2-w0.2", "block-MP1-w0.2", "rod-MP2", "rod")
-# four mesh sizes of each benchmark: the finest take more than 1 s per simulated s with some
-# schemes, so that the real-time budget falls inside the range tried
-SIZES = {"block": (10, 20, 40, 80), "rod": (2, 3, 6, 12)}
-QUICK_SIZES = {"block": (10,), "rod": (2,)}
+# the mesh sizes of each benchmark: its entry's study sizes (four: the finest take more than 1 s
+# per simulated s with some schemes, so that the real-time budget falls inside the range
+# tried); quick, the first of them
 # explicit-lumped at the benchmark's step ("large time-step"), and with the sub-steps that keep
 # it stable; implicit, the reference algorithm
 RUNS: tuple[tuple[str, int | Literal["auto"]], ...] = (
@@ -121,7 +120,7 @@ def configs(cases: tuple[str, ...] = FRONTIER_CASES, quick: bool = False) -> Ite
     """Every run of the study, in order."""
     for case in cases:
         benchmark = CASES[case][0]
-        sizes = (QUICK_SIZES if quick else SIZES)[benchmark]
+        sizes = get_entry(benchmark).study_sizes[: 1 if quick else None]
         gdim = get_entry(benchmark).gdim
         for cell in CELLS[gdim]:
             schemes = [name for name, s in SCHEMES.items() if cell in s.cells]
@@ -347,7 +346,7 @@ def side_by_side(case: str, repeats: int = PAIR_REPEATS) -> list[dict]:
     explicit-lumped (auto sub-steps), run in turn `repeats` times each (Q1, remedy, Q1, ...)
     so that a busy machine slows both alike: per algorithm, the median time loop of each (s)
     and their ratio. Serial."""
-    from tissuebench.workflows.reports.frontier import PAPER_SIZE
+    from tissuebench.workflows.reports.frontier import paper_size
 
     benchmark = CASES[case][0]
     cell = CELLS[get_entry(benchmark).gdim][0]
@@ -361,7 +360,7 @@ def side_by_side(case: str, repeats: int = PAIR_REPEATS) -> list[dict]:
         substeps = {}
         for _ in range(repeats):
             for scheme in loops:
-                config = Config(case, cell, scheme, algorithm, k, PAPER_SIZE[benchmark])
+                config = Config(case, cell, scheme, algorithm, k, paper_size(benchmark))
                 bench = benchmark_of(config, MPI.COMM_SELF)
                 system = System(bench, CASES[case][1], scheme=scheme)
                 integrator, substeps[scheme], _ = sub_stepped(algorithm, system, bench.dt, k)
@@ -376,7 +375,7 @@ def side_by_side(case: str, repeats: int = PAIR_REPEATS) -> list[dict]:
             {
                 "case": case,
                 "algorithm": algorithm,
-                "mesh_size": PAPER_SIZE[benchmark],
+                "mesh_size": paper_size(benchmark),
                 "substeps_q1": substeps["standard"],
                 "substeps_remedy": substeps["mean-dilatation"],
                 "cost_q1": q1,

@@ -382,6 +382,7 @@ def mesh_of(series) -> dict | None:
 
 def truth_fingerprint(case: str) -> dict:
     """What the truth case (SPEC 10) poses: benchmark, material, model, options."""
+    from tissuebench.meshes import get_entry
     from tissuebench.solvers.truth.cases import CASES
 
     benchmark, material, model, scale, width = CASES[case]
@@ -396,7 +397,7 @@ def truth_fingerprint(case: str) -> dict:
         "model": model,
         "mesh_size": None,
         "nodes": None,
-        "dimension": 2 if benchmark == "block" else 3,
+        "dimension": get_entry(benchmark).gdim,
     }
 
 

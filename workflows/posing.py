@@ -74,44 +74,23 @@ def sample_motion(motion, times: np.ndarray, dim: int) -> tuple[np.ndarray, ...]
 TOLERANCE = 1e-9  # m: a region's predicates hold within this (the meshes' nodes are exact)
 
 
-def number(value: float) -> str:
-    """A coordinate in a predicate: the shortest text that reads back as the float (0.5, 0)."""
-    text = repr(float(value))
-    return text[:-2] if text.endswith(".0") else text
-
-
 def geometry(benchmark: str, options: dict) -> dict | None:
     """The undeformed body and each constrained node set's region as a predicate on the
     coordinates (the JSON's `geometry`, schema in workflows/io/exported.py), from the
-    benchmark's own constants; None for a benchmark not described here."""
-    from tissuebench.meshes import block, rod
+    benchmark's entry (its box and posing); None for a benchmark that states no regions."""
+    from tissuebench.meshes import get_entry
+    from tissuebench.meshes.regions import posing
 
-    if benchmark == "block":
-        side = block.LENGTH
-        x, y = block.NEEDLE
-        width = float(options.get("needle_width", 0.0))
-        needle = (
-            f"x = {number(x)} and |y - {number(y)}| <= {number(width / 2)}"
-            if width > 0
-            else f"x = {number(x)} and y = {number(y)}"
-        )
-        extents = [[0.0, side], [0.0, side]]
-        regions = {
-            "needle": needle,
-            "left": "x = 0",
-            "bottom": "y = 0",
-            "top": f"y = {number(side)}",
-        }
-    elif benchmark == "rod":
-        extents = [[0.0, length] for length in rod.SIZE]
-        regions = {"clamped": "x = 0"}
-    else:
+    entry = get_entry(benchmark)
+    if entry.posing is None or not entry.box:
         return None
+    _, posed = posing(benchmark, **options)
+    extents = [[0.0, float(length)] for length in entry.box]
     return {
         "domain": "box",
         "axes": ["x", "y", "z"][: len(extents)],
         "extents": extents,
-        "regions": regions,
+        "regions": {r.name: r.predicate for r in posed.regions},
         "tolerance": TOLERANCE,
     }
 
@@ -138,13 +117,9 @@ def truth_case(
     names = ", ".join(CASES)
     if procedure != "dynamic":
         return {"case": None, "why": "the truth is dynamic; this export is quasi-static"}
-    if benchmark == "block" and width == 0:
-        return {
-            "case": None,
-            "why": "the needle is a point (w = 0): a prescribed point displacement has infinite "
-            "energy in 2D, so refinement converges to no solution; the block's truth cases "
-            "take w = 0.2 m",
-        }
+    why = entry.no_truth(options)
+    if why is not None:
+        return {"case": None, "why": why}
     for case, (bench, mat, case_model, s, w) in CASES.items():
         same_material = all(getattr(material, f) == getattr(MATERIALS[mat], f) for f in FIELDS)
         if (

@@ -37,6 +37,28 @@ CASES = {
     "block-MP1-w0.2": ("block", "MP1", "linear", 1.0, 0.2),
     "block-MP2-w0.2": ("block", "MP2", "linear", 1.0, 0.2),
 }
+
+
+def register_case(
+    case: str,
+    benchmark: str,
+    material: str,
+    model: str = "linear",
+    load_scale: float = 1.0,
+    needle_width: float | None = None,
+) -> None:
+    """Add a truth case of a registered benchmark (meshes.register) to CASES, on its uniform
+    grids at its h."""
+    if case in CASES:
+        raise ValueError(f"truth case {case!r} exists")
+    CASES[case] = (benchmark, material, model, load_scale, needle_width)
+
+
+def remove_case(case: str) -> None:
+    """Take a case that register_case added out of CASES."""
+    del CASES[case]
+
+
 GRADING = 2.0  # the power of the block grid's grading toward the needle's ends
 # the cases on graded grids: the linear blocks (toward the needle's ends) and rod-MP2 (toward
 # its clamped face's edges, where the nearly incompressible rod is singular: uniform levels
@@ -92,7 +114,7 @@ def _constraint_nodes(V: fem.FunctionSpace, dim: int, entities: np.ndarray) -> n
     tdim = mesh.topology.dim
     mesh.topology.create_connectivity(dim, tdim)
     nodes = [fem.locate_dofs_topological(V, dim, entities)]
-    if dim == 0 and len(entities):
+    if dim == 0:  # collective (connectivities, dofs): on every rank, one without entities too
         mesh.topology.create_connectivity(tdim - 1, tdim)
         mesh.topology.create_connectivity(tdim - 1, 0)
         inside = np.zeros(

@@ -51,8 +51,6 @@ from tissuebench.solvers.truth.solver import MIXED_NU, VOLUMETRIC, Truth, TruthR
 
 SAMPLING = 2  # the version of sample() and compute(): part of the inputs (the cache key)
 QUADRATURE_POINTS = 3  # Gauss-Legendre points per direction (metrics/crossmesh.py's rule)
-LEVELS = {"rod": (2, 4, 8), "block": (20, 40, 80)}  # mesh sizes, each twice the last
-QUICK_LEVELS = {"rod": (1, 2, 4), "block": (10, 20, 40)}
 QUICK_STEPS = 30  # quick: 30 steps of h = 1/30 s, T = 1 s
 # SPEC 10: the truth's own E_i max at most this fraction of its E_i against rest (u' = 0, the
 # maximum over steps): about 1.2e-5 m^3 on the linear rod, 4-5e-5 m^2 on the linear blocks
@@ -74,7 +72,6 @@ EXPECTED_SECONDS = {
     "block-MP1-w0.2": 146.0,
     "block-MP2-w0.2": 559.0,
 }
-QUICK_SECONDS = {"rod": 5.0, "block": 15.0}  # about, a linear case; neo-Hookean ~ x5
 # the code a truth comes from: its fingerprint changes when any of these files does
 SOURCES = (
     "solvers/truth/solver.py",
@@ -98,16 +95,21 @@ def check_case(case: str) -> None:
 
 
 def levels_of(case: str, quick: bool = False) -> tuple[int, ...]:
-    """The mesh sizes of a case's hierarchy."""
-    return (QUICK_LEVELS if quick else LEVELS)[CASES[case][0]]
+    """The mesh sizes of a case's hierarchy (its benchmark's entry's truth levels)."""
+    from tissuebench.meshes import get_entry
+
+    entry = get_entry(CASES[case][0])
+    return entry.quick_truth_levels if quick else entry.truth_levels
 
 
 def expected_seconds(case: str, quick: bool = False) -> float:
-    """About how long the first computation of a case takes here, s (one rank)."""
-    if quick:
-        factor = 5.0 if CASES[case][2] in VOLUMETRIC else 1.0
-        return QUICK_SECONDS[CASES[case][0]] * factor
-    return EXPECTED_SECONDS[case]
+    """About how long the first computation of a case takes here, s (one rank): a case not
+    measured (a benchmark registered from elsewhere) takes ten times its quick estimate."""
+    from tissuebench.meshes import get_entry
+
+    factor = 5.0 if CASES[case][2] in VOLUMETRIC else 1.0  # neo-Hookean: about x 5
+    quick_seconds = get_entry(CASES[case][0]).quick_truth_seconds * factor
+    return quick_seconds if quick else EXPECTED_SECONDS.get(case, 10 * quick_seconds)
 
 
 def _versions() -> dict:

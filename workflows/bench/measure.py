@@ -52,6 +52,10 @@ THREAD_VARS = (
     "VECLIB_MAXIMUM_THREADS",
     "NUMEXPR_NUM_THREADS",
 )
+# the sweep's benchmarks: the first sets the sizes (ROD_SIZES), the second takes the sizes whose
+# dofs come closest; the real-time capacity search bisects the first's size
+SWEPT = ("rod", "block")
+CAPACITY_BENCHMARK = SWEPT[0]
 ROD_SIZES = {"quick": [2, 6, 10], "full": [2, 4, 8, 12, 16, 24, 32, 48]}
 # Budgets (s) of one case (predicted setup + steps on one rank; "main" cases are the targets',
 # "iterative" the implicit step's CG cases, whose target is at 7e5 dofs) and of the peer's
@@ -568,7 +572,10 @@ class Budget:
         last_dofs, setup, step = self.last[k]
         r = dofs / last_dofs
         if case[1] in DIRECT:
-            p_setup, p_step = (2.0, 1.4) if benchmark == "rod" else (1.5, 1.2)
+            from tissuebench.meshes import get_entry
+
+            # a direct solve's growth with the dofs: steeper in 3D (more fill-in) than in 2D
+            p_setup, p_step = {3: (2.0, 1.4), 2: (1.5, 1.2)}[get_entry(benchmark).gdim]
         else:
             p_setup, p_step = (1.2, 1.5) if case[1] in ITERATIVE else (1.2, 1.1)
         if case[1] in ITERATIVE:
@@ -631,8 +638,9 @@ def compare_displacements(
 def sweep_sizes(mode: str) -> list[tuple[str, int, int]]:
     """(benchmark, size, dofs) of the sweep: the rod at ROD_SIZES, then the block at the sizes
     whose dofs come closest to the rod's."""
-    sizes = [("rod", n, rod_dofs(n)) for n in ROD_SIZES[mode]]
-    sizes += [("block", block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
+    rod, block = SWEPT
+    sizes = [(rod, n, rod_dofs(n)) for n in ROD_SIZES[mode]]
+    sizes += [(block, block_size_for(d), 2 * (block_size_for(d) + 1) ** 2) for _, _, d in sizes]
     return sizes
 
 
@@ -859,7 +867,7 @@ def rod_points(
     ranks = 1 if side == "ours1" else 2
     points = {}
     for rec in records:
-        if rec["benchmark"] == "rod" and get(rec, side, case, "step_s") is not None:
+        if rec["benchmark"] == CAPACITY_BENCHMARK and get(rec, side, case, "step_s") is not None:
             points[rec["size"]] = (
                 rec["size"],
                 rec["dofs"],
@@ -883,14 +891,14 @@ def refine_capacity(
         for ranks, side in ((1, "ours1"), (2, "ours2")):
             points = rod_points(records, [], case, side)
             passing = [n for n, _, step, h in points if step <= h]
-            sizes = sorted(r["size"] for r in records if r["benchmark"] == "rod")
+            sizes = sorted(r["size"] for r in records if r["benchmark"] == CAPACITY_BENCHMARK)
             if not passing or max(passing) == sizes[-1]:
                 continue
             lo = max(passing)
             hi = min(n for n in sizes if n > lo)
             while hi - lo > 1:
                 n = (lo + hi) // 2
-                spec = {"benchmark": "rod", "size": n, "cases": [(*case, SHORT)]}
+                spec = {"benchmark": CAPACITY_BENCHMARK, "size": n, "cases": [(*case, SHORT)]}
                 result = run_worker("ours", ranks, spec, tmp, f"capacity-{n}-{ranks}", timeout)
                 r = result.get("cases", {}).get(key(case), {})
                 probes.append(

@@ -22,6 +22,7 @@ from tissuebench.workflows.bench.measure import (
     SAFETY,
     SHORT,
     STEPS,
+    SWEPT,
     THREAD_VARS,
     WARMUP,
     get,
@@ -99,7 +100,7 @@ def plot(records: list[dict], path: Path) -> None:
         ("implicit", "superlu"): "C7",
         ("implicit", "pyamg"): "C2",
     }
-    for ax, bench in zip(axes, ("rod", "block"), strict=True):
+    for ax, bench in zip(axes, SWEPT, strict=True):
         recs = [r for r in records if r["benchmark"] == bench]
         for side, dash, marker, label in OURS_LINES:
             for case, color in styles.items():
@@ -198,7 +199,7 @@ def write_report(
     newton: Sequence[dict] = (),
 ) -> None:
     """Write out/performance.md (it shows performance.png beside it)."""
-    sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in ("rod", "block")}
+    sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in SWEPT}
     ran = sizes_ran(records)
     probe_text = ", ".join(
         f"{p['case']} {p['ranks']}r n={p['n']}: "
@@ -330,7 +331,7 @@ def write_report(
 def write_explicit_report(records: list[dict], mode: str, wall: float, out: Path) -> None:
     """Write out/performance-explicit.md: `tissuebench bench --only explicit-models`, the
     explicit-lumped step with each model or remedy against the linear one, 1 rank."""
-    sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in ("rod", "block")}
+    sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in SWEPT}
     header = ["target", "sizes", "measured (worst)", "target", "status"]
     parts = [
         "# Explicit steps with a model or a remedy",

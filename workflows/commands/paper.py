@@ -26,6 +26,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.meshes import get_entry
 from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import paper_truth
@@ -147,7 +148,7 @@ def model_cases(solver: str = "direct", petsc: str = "") -> list[Case]:
         if width is not None:
             options["needle_width"] = width
             load += f", needle width w = {width:g} m" if width else ", point needle (w = 0)"
-        what = "Block and needle" if benchmark == "block" else "Bending rod"
+        what = get_entry(benchmark).title
         result.append(
             model_case(
                 name,

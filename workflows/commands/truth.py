@@ -38,9 +38,7 @@ from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, GRADED, GRADING, STEP_DIVISOR
 from tissuebench.solvers.truth.estimate import estimate_error
 from tissuebench.solvers.truth.store import (
-    LEVELS,
     MEASURED_STEP_SECONDS,
-    QUICK_LEVELS,
     QUICK_STEPS,
     TARGET_FRACTION,
     cache_dir,
@@ -48,6 +46,7 @@ from tissuebench.solvers.truth.store import (
     check_case,
     expected_seconds,
     is_cached,
+    levels_of,
     load_cached,
     truth_samples,
 )
@@ -82,8 +81,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--quick",
         action="store_true",
-        help=f"rod n = {', '.join(map(str, QUICK_LEVELS['rod']))}, block N = "
-        f"{', '.join(map(str, QUICK_LEVELS['block']))}, {QUICK_STEPS} steps (T = 1 s): checks "
+        help=f"{quick_levels()}, {QUICK_STEPS} steps (T = 1 s): checks "
         "the workflow; never replaces a full truth.md",
     )
     p.add_argument("--force", action="store_true", help="let a --quick run replace a full truth.md")
@@ -205,6 +203,18 @@ def jacobian_lines(case: str, h: dict, diffs: list) -> list[str]:
     ]
 
 
+def quick_levels() -> str:
+    """The quick levels of each benchmark with truth cases, in words: "rod n = 1, 2, 4, ..."."""
+    from tissuebench.meshes import get_entry
+
+    words = []
+    for benchmark in dict.fromkeys(c[0] for c in CASES.values()):
+        entry = get_entry(benchmark)
+        sizes = ", ".join(map(str, entry.quick_truth_levels))
+        words.append(f"{benchmark} {entry.size_name} = {sizes}")
+    return ", ".join(words)
+
+
 def grid(case: str) -> str:
     """The levels' grids in words."""
     if case not in GRADED:
@@ -246,7 +256,7 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
     if s is None:
         if quick:
             return lines + ["Not computed in this quick check.", ""]
-        sizes = LEVELS[CASES[case][0]]
+        sizes = levels_of(case)
         per = MEASURED_STEP_SECONDS.get(case)
         measured = ""
         if per:

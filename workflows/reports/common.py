@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from tissuebench.meshes import get_entry
 from tissuebench.metrics.table import METRICS as TABLE
 from tissuebench.solvers.models import run_label, split_label
 from tissuebench.workflows.reports.figures import crossings, static_label
@@ -212,15 +213,5 @@ def place(summary: CaseSummary, centre: Sequence[float]) -> str:
     5)."""
     x = centre
     text = "(" + ", ".join(f"{c:.3g}" for c in x) + ") m"
-    if summary.benchmark == "block":  # the needle: x = 1, |y - 0.5| <= w/2
-        w = summary.option("needle_width", 0) or 0
-        d = np.hypot(1 - x[0], max(abs(x[1] - 0.5) - w / 2, 0.0))
-        if d < 1.5 / summary.mesh_size:
-            text += ", beside the needle"
-    elif summary.benchmark == "rod":  # clamped at x = 0; height 0.25 m over n cells
-        cell = 0.25 / summary.mesh_size
-        if x[0] < cell:
-            text += ", in the first layer of cells at the clamped face x = 0"
-            if x[1] < cell:
-                text += ", at its lower edge (compressed as the rod bends down)"
+    text += get_entry(summary.benchmark).place(x, summary.mesh_size, summary.option)
     return text

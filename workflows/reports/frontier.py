@@ -15,10 +15,18 @@ from tissuebench.meshes import get_entry
 from tissuebench.solvers.truth.cases import CASES
 
 MARKER = "# The real-time frontier"
-PAPER_SIZE = {"block": 20, "rod": 3}  # the paper's grids
-UNITS = {"block": "m^2", "rod": "m^3"}
 PLAIN = {"quadrilateral": "Q1", "hexahedron": "Q1", "triangle": "P1", "tetrahedron": "P1"}
 REAL_TIME = 1.0
+
+
+def paper_size(benchmark: str) -> int:
+    """The paper's grid of a benchmark: its default mesh size."""
+    return get_entry(benchmark).mesh_size
+
+
+def units_of(benchmark: str) -> str:
+    """The units of E_i on a benchmark: m^gdim."""
+    return f"m^{get_entry(benchmark).gdim}"
 
 
 def scheme_name(row: dict) -> str:
@@ -90,11 +98,11 @@ def case_section(
     """The markdown of one case; `timing`: its rows of frontier.side_by_side."""
     benchmark, material, model, scale, width = CASES[case]
     entry = get_entry(benchmark)
-    units = UNITS[benchmark]
+    units = units_of(benchmark)
     own = rows[0]["truth_own_error"] if rows else math.nan
     hex_cell = {2: "quadrilateral", 3: "hexahedron"}[entry.gdim]
     tet_cell = {2: "triangle", 3: "tetrahedron"}[entry.gdim]
-    paper = PAPER_SIZE[benchmark]
+    paper = paper_size(benchmark)
     where = f", needle width {width} m" if width else ""
     out = [f"## {case}", ""]
     out.append(
@@ -265,7 +273,7 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("cost: wall s per simulated s (time loop, one core)")
-    ax.set_ylabel(f"E_i time-mean against the truth ({UNITS[benchmark]})")
+    ax.set_ylabel(f"E_i time-mean against the truth ({units_of(benchmark)})")
     ax.set_title(f"{case}: error against cost (size of marker: mesh size)")
     for family, colour in COLOURS.items():
         ax.scatter([], [], c=colour, marker="o", label=family)
@@ -353,10 +361,10 @@ def answer(rows: list[dict], link: str = "frontier/frontier.md") -> list[str]:
     for case in cases:
         mine = [r for r in rows if r["case"] == case]
         benchmark, material = CASES[case][0], CASES[case][1]
-        units = UNITS[benchmark]
+        units = units_of(benchmark)
         gdim = get_entry(benchmark).gdim
         hexes, tets = {2: ("quadrilateral", "triangle"), 3: ("hexahedron", "tetrahedron")}[gdim]
-        paper = PAPER_SIZE[benchmark]
+        paper = paper_size(benchmark)
         best = frontier(mine)
         lines = [f"**{case}** ({material}):"]
         if best:

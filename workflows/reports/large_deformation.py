@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from tissuebench.meshes import get_entry
 from tissuebench.solvers import MODELS
 from tissuebench.solvers.models import run_label
 from tissuebench.workflows.reports.common import (
@@ -37,14 +38,14 @@ def loss_text(summary: CaseSummary, label: str) -> str:
 
 def load_text(summary: CaseSummary) -> str:
     text = f"s = {summary.option('load_scale', 1):g}"
-    if summary.benchmark == "block":
-        w = summary.option("needle_width", 0) or 0
-        text += f", w = {w:g} m" if w else ", w = 0 (point needle)"
-    return text
+    return text + get_entry(summary.benchmark).options_text(summary.option)
 
 
 def times_text(a: float, b: float) -> str:
-    """'12 times' for a / b, or '1/12 of'."""
+    """'12 times' for a / b, or '1/12 of'; a zero loss, which a run that is its case's
+    reference has, is said as such instead of dividing by it."""
+    if a == 0 or b == 0:
+        return "the same as" if a == b else ("none of" if a == 0 else "infinitely many times")
     r = a / b
     return f"{ratio_text(r)} times" if r >= 1 else f"1/{ratio_text(1 / r)} of"
 
@@ -404,7 +405,7 @@ def model_case_section(out: Path, name: str, s: CaseSummary) -> list[str]:
         big = d["largest_deflection"]
         view = (
             "the boundary polygon of the deformed domain (SPEC section 6)"
-            if s.benchmark == "block"
+            if get_entry(s.benchmark).gdim == 2
             else "the side view: the deformed mesh projected on the x-y plane (the union of the "
             "projected cells)"
         )

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tissuebench.meshes import get_entry
 from tissuebench.metrics.table import METRICS as TABLE
 from tissuebench.workflows.io.tables import read_curves, read_tips
 from tissuebench.workflows.paper_truth import PaperTruth
@@ -110,7 +111,7 @@ def caption_deformed(out: Path, name: str, s: CaseSummary) -> str:
     view = (
         "seen from its long side (+z), a little from above and from the free end, the side to "
         "which it bends"
-        if s.benchmark == "rod"
+        if get_entry(s.benchmark).gdim == 3
         else "seen from +z"
     )
     which = " and ".join(f"{r} ({runs[r].material})" for r in rows)
