@@ -10,7 +10,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 
 MAX_NAME = 64  # characters of a material name (it labels files, figures and tables)
 

@@ -14,8 +14,8 @@ import pytest
 from dolfinx import fem
 from helpers import run_script
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes import get_benchmark
-from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.convergence import (
     METRICS,

@@ -10,7 +10,7 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import pytest
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.metrics.table import METRICS
 from tissuebench.workflows import paper_truth
 from tissuebench.workflows.commands.paper import LARGE, cases, model_cases

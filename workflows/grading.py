@@ -29,15 +29,16 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, load_truth, truth_case
-from tissuebench.solvers import interrupt
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
-from tissuebench.workflows.output import RunFolder, collective, file_hash, fingerprint
+from tissuebench.workflows.output import RunFolder, collective, file_hash
 
 MAX_LABEL = 64  # characters of a candidate's label (it names rows, figures and tables)
 SUMMARY = "summary.json"
@@ -281,7 +282,7 @@ def write_grading(out: Path, g: Grading, summary: dict) -> None:
             tmp.unlink(missing_ok=True)
 
 
-@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
+@interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
 def plot(path, title, times, curves):
     """One panel per metric against time (E_n, E_s, E_i; a variant such as E_i's nodal form
     dashed in its metric's panel)."""

@@ -21,11 +21,13 @@ from mpi4py import MPI
 import numpy as np
 from dolfinx import fem
 
+from tissuebench.core import interrupt
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, CrossMetrics, Mesh
-from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
+from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator
 from tissuebench.solvers.simulate import Run, simulate
 from tissuebench.solvers.system import System
 from tissuebench.workflows.io.xdmf import gather_mesh, gather_series, write_series
@@ -33,7 +35,6 @@ from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, finit
 from tissuebench.workflows.output import (
     OutputError,
     collective,
-    fingerprint,
     write_owned,
 )
 
@@ -528,7 +529,7 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 LINES = ("-", "--", ":")  # the shapes' line styles, in the order of shapes()
 
 
-@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
+@interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
 def plot(path: Path, study: Study, rows: list[dict]) -> None:
     """E_i max and time-mean against spacing (colour: algorithm; line: mesh shape; diverged
     runs left out), and E_i max against cost; the reference's own error as a grey line."""

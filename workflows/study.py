@@ -17,13 +17,15 @@ from mpi4py import MPI
 import numpy as np
 from tqdm import tqdm
 
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.meshes import get_benchmark, get_entry
-from tissuebench.meshes.errors import UserError
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.table import METRICS
-from tissuebench.solvers import REFERENCE, interrupt
+from tissuebench.solvers import REFERENCE
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.schemes import STANDARD, scheme_label
@@ -34,7 +36,7 @@ from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.io.xdmf import gather_series, write_series
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate, step_count
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint
+from tissuebench.workflows.output import SUMMARY, RunFolder, collective
 from tissuebench.workflows.summary import (
     CaseSummary,
     RunSummary,

@@ -28,8 +28,8 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes import BENCHMARKS, get_benchmark
-from tissuebench.meshes.errors import UserError
 from tissuebench.metrics import METRICS as ALL_METRICS
 from tissuebench.solvers.convergence import (
     LEVELS,

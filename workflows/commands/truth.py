@@ -32,8 +32,8 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, GRADED, GRADING, STEP_DIVISOR
 from tissuebench.solvers.truth.estimate import estimate_error

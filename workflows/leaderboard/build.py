@@ -11,7 +11,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.workflows.commands.arguments import check_common
 from tissuebench.workflows.leaderboard import document, page, users
 from tissuebench.workflows.leaderboard.figures import machine, plot_case, unit_of

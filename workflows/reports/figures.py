@@ -11,9 +11,9 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
+from tissuebench.core import interrupt
 from tissuebench.meshes import BENCHMARKS
 from tissuebench.metrics.table import METRICS, panels
-from tissuebench.solvers import interrupt
 from tissuebench.workflows.io.tables import spans_decades
 from tissuebench.workflows.reports import model_figures
 from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, CaseView, plot_curve
@@ -30,7 +30,7 @@ def case_figures(
 ) -> list[str]:
     """Write the case's figures into out; return their file names. A case with elastic models
     other than linear (SPEC section 8) has its own figures (workflows/reports/model_figures.py).
-    Drawn in a critical section (solvers/interrupt.py)."""
+    Drawn in a critical section (core/interrupt.py)."""
     if model_figures.is_model_case(case):
         return model_figures.case_figures(out, case, summary, times, curves, tips)
     files = [error_curves(out / "errors.png", case, summary, times, curves)]

@@ -20,11 +20,12 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.io.exported import Exported
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint
+from tissuebench.workflows.output import SUMMARY, RunFolder, collective
 from tissuebench.workflows.posing import REFERENCE_FIELD, build, run_reference
 from tissuebench.workflows.simulators import ExternalRun, get_simulator
 from tissuebench.workflows.study import versions
