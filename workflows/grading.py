@@ -34,7 +34,7 @@ from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
 from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize
 from tissuebench.metrics.table import METRICS, panels
-from tissuebench.metrics.truth import TruthGrading, grade_truth, load_truth, truth_case
+from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
@@ -42,6 +42,19 @@ from tissuebench.workflows.output import RunFolder, collective, file_hash
 
 MAX_LABEL = 64  # characters of a candidate's label (it names rows, figures and tables)
 SUMMARY = "summary.json"
+
+
+def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | None:
+    """The truth of a case, computed or loaded from its cache (solvers/truth/store.py;
+    collective); rank 0 prints its progress. Rank 0's TruthSamples is the one used: it is
+    handed to metrics/truth.py, which grades and computes nothing else."""
+    from tissuebench.solvers.truth.store import truth_samples
+
+    def log(*args, **kwargs):
+        if comm.rank == 0:
+            print(*args, **kwargs)
+
+    return truth_samples(case, comm=comm, log=log)
 
 
 class GradingError(UserError):
