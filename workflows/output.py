@@ -45,8 +45,8 @@ from mpi4py import MPI
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
+from tissuebench.workflows.summary import read_summary
 
-SUMMARY = "summary.json"
 MANIFEST = ".tissuebench.json"  # what we wrote, with hashes
 MARK = ".tissuebench-temporary"  # inside our temporary and backup folders
 PREFIX = ".tissuebench-"  # of our temporary, backup and lock names beside a target
@@ -60,15 +60,6 @@ class OutputError(UserError):
 
 class WriteFailure(RuntimeError):
     """The environment failed while writing (disk full, permission lost): one line, exit 1."""
-
-
-def read_summary(folder: Path) -> dict | None:
-    """The folder's summary.json as a dict, or None if absent or unreadable."""
-    try:
-        summary = json.loads((Path(folder) / SUMMARY).read_text())
-    except (OSError, ValueError, RecursionError):
-        return None
-    return summary if isinstance(summary, dict) else None
 
 
 # --- manifests --------------------------------------------------------------------------------

@@ -36,8 +36,9 @@ from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
 from tissuebench.workflows.io.xdmf import gather_series, write_series
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate, step_count
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective
+from tissuebench.workflows.output import RunFolder, collective
 from tissuebench.workflows.summary import (
+    SUMMARY,
     CaseSummary,
     RunSummary,
     read_case_summary,

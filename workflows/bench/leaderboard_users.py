@@ -16,7 +16,6 @@ they come) and the machine's load average.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import re
 import shutil
@@ -37,6 +36,7 @@ def sh(*argv, cwd: Path) -> str:
 
 def main() -> int:
     from tissuebench.workflows.output import seal
+    from tissuebench.workflows.summary import read_compare_summary, write_summary
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--users", type=int, default=200)
@@ -63,10 +63,10 @@ def main() -> int:
     for k in range(1, args.users):
         folder = users / f"u{k:04d}"
         shutil.copytree(first, folder)
-        summary = json.loads((folder / "summary.json").read_text())
+        summary = read_compare_summary(folder)
         (run,) = summary["runs"].values()
         summary["runs"] = {f"user-{k:04d}": {**run, "wall_time_s": 1.0 + k / 1000}}
-        (folder / "summary.json").write_text(json.dumps(summary))
+        write_summary(folder, summary)
         seal(folder)
     start = time.perf_counter()
     log = work / "leaderboard.log"  # its lines as they come (a row per line as it is graded)

@@ -50,9 +50,9 @@ from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here a
     Board,
 )
 from tissuebench.workflows.limits import step_count
-from tissuebench.workflows.output import MANIFEST, changes, read_summary
+from tissuebench.workflows.output import MANIFEST, changes
 from tissuebench.workflows.simulators import SIMULATORS
-from tissuebench.workflows.summary import CaseSummary
+from tissuebench.workflows.summary import CaseSummary, read_summary
 
 if TYPE_CHECKING:
     from tissuebench.solvers.materials import Material
