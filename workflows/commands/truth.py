@@ -21,7 +21,6 @@ it never replaces a full truth.md (--force does).
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import os
 import time
@@ -51,6 +50,7 @@ from tissuebench.solvers.truth.store import (
     load_cached,
     truth_samples,
 )
+from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 from tissuebench.workflows.truth_jobs import compute_in_parallel
 
@@ -451,10 +451,8 @@ def csv_rows(summaries: dict) -> list[list]:
 
 
 def write_csv(path: Path, rows: list[list]) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(COLUMNS)
-        w.writerows(rows)
+    """truth.csv: COLUMNS, then the rows (io/tables.py)."""
+    write_table(path, COLUMNS, rows)
 
 
 def main(args: argparse.Namespace) -> int:
