@@ -398,14 +398,22 @@ def version_of(data: dict[str, Any]) -> int:
     return version if _integer(version) else 0
 
 
+_ABSENT = object()  # what _load gives for a summary.json that is absent or not JSON
+
+
+def _load(folder: Path) -> object:
+    """`folder`/summary.json's JSON value; _ABSENT if it is absent or not JSON."""
+    try:
+        return json.loads((Path(folder) / SUMMARY).read_text())
+    except (OSError, ValueError, RecursionError):
+        return _ABSENT
+
+
 def read_summary(folder: Path) -> dict[str, Any] | None:
     """`folder`/summary.json as a dict, of any kind and unchecked (the keys every kind shares,
     `files`, `inputs` and `fingerprint`, are what workflows/output.py reads); None if it is
     absent, unreadable or not a JSON object."""
-    try:
-        data = json.loads((Path(folder) / SUMMARY).read_text())
-    except (OSError, ValueError, RecursionError):
-        return None
+    data = _load(folder)
     return data if isinstance(data, dict) else None
 
 
@@ -427,9 +435,8 @@ def read_case_summary(folder: Path) -> CaseSummary | None:
     """The study case summary.json of `folder`; None if it is absent or not JSON; UserError (one
     line) if it is JSON but not a study case's summary."""
     path = Path(folder) / SUMMARY
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError, RecursionError):
+    data = _load(folder)
+    if data is _ABSENT:
         return None
     if isinstance(data, dict) and version_of(data) != 1:  # the case schema has one version
         raise UserError(
