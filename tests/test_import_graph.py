@@ -83,6 +83,21 @@ def test_every_folder_is_listed_in_the_order():
     assert folders == set(ORDER)
 
 
+def test_every_package_is_installed():
+    """Every folder with an __init__.py below the code folders is a package of pyproject.toml
+    (a wheel holds only those listed: solvers/schemes/ was missing from it)."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    listed = set(config["tool"]["setuptools"]["packages"])
+    found = {
+        ".".join([PACKAGE, *init.parent.relative_to(ROOT).parts])
+        for folder in ORDER
+        for init in (ROOT / folder).rglob("__init__.py")
+    }
+    assert found == listed
+
+
 def test_no_folder_imports_one_above_it():
     modules = package_modules()
     assert len(modules) > 100  # the package was found
