@@ -454,7 +454,10 @@ def folder_fingerprint(path: Path) -> dict:
     folder = path.parent
     found = read_summary(folder)
     if found is not None and kind_of(found) == "case":
-        summary = read_case_summary(folder)
+        try:
+            summary = read_case_summary(folder)
+        except UserError:  # not a case summary of this tissuebench: the folder says nothing
+            summary = None
         run = summary.runs.get(path.stem) if summary is not None else None
         if summary is not None and run is not None:
             material = next(
