@@ -12,8 +12,9 @@ Three commands write a folder with a summary.json, each of its own kind:
 - "external": `tissuebench external` and the leaderboard's simulator folders
   (workflows/simulators/runner.py builds it), typed as `ExternalSummary` and its
   `VariantRun`s.
-Every kind carries `files`, `inputs` and their `fingerprint` (core/fingerprint.py), from which
-workflows/output.py decides whether a folder holds the results of the same inputs.
+Every kind carries `files` and, in a folder of its own (not an external variant's), the `inputs`
+and their `fingerprint` (core/fingerprint.py), from which workflows/output.py decides whether a
+folder holds the results of the same inputs.
 
 Schema version: `SCHEMA_VERSION`, the key `schema_version`. A summary without it is version 1
 (every summary written before the key existed, and the committed case summaries in results/).
