@@ -134,6 +134,7 @@ def test_run_without_probe_writes_no_tip_and_a_diverged_step_0_writes_none():
     assert RunSummary.from_json(entry) == RunSummary(**base, has_probe=True)
 
 
+@pytest.mark.serial  # rewrites one file in turn: ranks sharing tmp_path would race
 def test_every_kind_has_its_reader_and_one_writer(tmp_path):
     """A case summary (no `kind`, no version: version 1), a compare and an external one: the
     writer gives the text that json.dumps(indent=2) and a newline give, each typed reader reads
