@@ -16,7 +16,7 @@ import dolfinx.io.gmsh
 import gmsh
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 
 
 class MeshError(UserError):

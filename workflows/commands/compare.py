@@ -9,7 +9,7 @@ from mpi4py import MPI
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
-from tissuebench.workflows.output import read_summary
+from tissuebench.workflows.summary import read_compare_summary
 
 REFERENCE_DIVERGED = 3  # exit status: the reference diverged (results written, one line said)
 
@@ -127,7 +127,7 @@ def reference_divergence(summaries: dict[str, str], out: Path) -> str | None:
     None when it did not."""
     if "skipped" not in summaries:
         return summaries.get("reference")
-    summary = read_summary(out) or {}
+    summary = read_compare_summary(out) or {}
     step, reason, h = (
         summary.get(k) for k in ("reference_diverged_step", "reference_diverged_reason", "h")
     )

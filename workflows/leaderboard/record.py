@@ -8,7 +8,7 @@ import math
 from dataclasses import asdict, fields
 from pathlib import Path
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
 
 FOLDER = "leaderboard"

@@ -34,7 +34,6 @@ cost or error never ranks.
 
 from __future__ import annotations
 
-import csv
 import math
 import numbers
 from dataclasses import dataclass, field
@@ -49,10 +48,11 @@ from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here a
     N12_VARIANTS,
     Board,
 )
+from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.limits import step_count
-from tissuebench.workflows.output import MANIFEST, changes, read_summary
+from tissuebench.workflows.output import MANIFEST, changes
 from tissuebench.workflows.simulators import SIMULATORS
-from tissuebench.workflows.summary import CaseSummary
+from tissuebench.workflows.summary import CaseSummary, read_summary
 
 if TYPE_CHECKING:
     from tissuebench.solvers.materials import Material
@@ -686,15 +686,16 @@ def write_csv(path: Path, rows: list[Row]) -> None:
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
     names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
-    with open(path, "w", newline="") as f:
-        out = csv.writer(f)
-        out.writerow(names)
-        for r in rows:
-            out.writerow(
-                [r.case, r.label, r.source, r.description, r.mesh, r.dofs, r.status, r.reason or ""]
-                + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
-                + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
-                + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
-                + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
-                + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
-            )
+    write_table(
+        path,
+        names,
+        (
+            [r.case, r.label, r.source, r.description, r.mesh, r.dofs, r.status, r.reason or ""]
+            + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
+            + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
+            + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
+            + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
+            + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
+            for r in rows
+        ),
+    )
