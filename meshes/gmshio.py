@@ -17,7 +17,7 @@ import dolfinx.mesh
 import gmsh
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 
 
 class MeshError(UserError):

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.metrics.cells import DIM, FACETS, NAMES
 
 # file cell names (XDMF topology types lower-cased, meshio's names) -> (our cell type, nodes

@@ -423,15 +423,3 @@ def truth_case(reference: str | Path, reference_field: str | None = None) -> str
         if hint is not None:
             raise InputError(f"{text}: {hint}")
     raise InputError(f"{text}: no such truth case; the cases (SPEC 10) are {', '.join(CASES)}")
-
-
-def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | None:
-    """The truth of a case, computed or loaded from its cache (solvers/truth/store.py;
-    collective); rank 0 prints its progress. Rank 0's TruthSamples is the one used."""
-    from tissuebench.solvers.truth.store import truth_samples
-
-    def log(*args, **kwargs):
-        if comm.rank == 0:
-            print(*args, **kwargs)
-
-    return truth_samples(case, comm=comm, log=log)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 
 if TYPE_CHECKING:
     from tissuebench.solvers.system import System

@@ -10,8 +10,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes.benchmark import LARGEST, SMALLEST, WHY_RANGE
-from tissuebench.meshes.errors import UserError
 
 MAX_NAME = 64  # characters of a material name (it labels files, figures and tables)
 

@@ -11,7 +11,7 @@ from petsc4py import PETSc
 
 import numpy as np
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.solvers.algorithm import Integrator, State
 from tissuebench.solvers.linear import SolveError
 

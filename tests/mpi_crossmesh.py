@@ -14,10 +14,10 @@ from mpi4py import MPI
 
 def load_metrics(folder: Path):
     """The package in `folder` as tissuebench.metrics (its submodules load from there too)."""
-    import tissuebench.meshes.errors
+    import tissuebench.core.errors
 
     # that commit's metrics imported UserError from its old place, workflows/errors.py
-    sys.modules.setdefault("tissuebench.workflows.errors", tissuebench.meshes.errors)
+    sys.modules.setdefault("tissuebench.workflows.errors", tissuebench.core.errors)
 
     spec = importlib.util.spec_from_file_location(
         "tissuebench.metrics", folder / "__init__.py", submodule_search_locations=[str(folder)]

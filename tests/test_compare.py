@@ -16,7 +16,7 @@ from dolfinx import mesh as dmesh
 from dolfinx.io.utils import cell_perm_vtk
 from helpers import run_script, tissuebench
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.metrics import NAMES, InputError, Metrics
 from tissuebench.metrics.compare import COLUMNS
 from tissuebench.workflows.grading import compare

@@ -14,8 +14,8 @@ import pytest
 from helpers import tissuebench
 from recipe_solver import region_mask as predicate
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes.block import needle_motion
-from tissuebench.meshes.errors import UserError
 from tissuebench.metrics.compare import COLUMNS
 from tissuebench.metrics.series import InputError
 from tissuebench.solvers.materials import get_material

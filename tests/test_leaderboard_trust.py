@@ -16,7 +16,7 @@ from mpi4py import MPI
 import pytest
 from test_newcomer_leaderboard import compare_summary
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.workflows import output
 from tissuebench.workflows.leaderboard import build, record
 from tissuebench.workflows.leaderboard import rows as ranking

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 from helpers import tissuebench
 
-from tissuebench.metrics.truth import load_truth
 from tissuebench.solvers.truth import store
 from tissuebench.solvers.truth.samples import TruthSamples
+from tissuebench.workflows.grading import load_truth
 
 COMM = MPI.COMM_WORLD
 

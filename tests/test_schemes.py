@@ -15,7 +15,7 @@ from dolfinx import fem
 from helpers import run_script
 from test_truth import locking_solution
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.solvers.schemes import SCHEMES, parse_scheme, scheme_label
 from tissuebench.solvers.schemes import penalty as penalty_scheme
 from tissuebench.solvers.schemes.scheme import bulk_modulus, projected_product

@@ -5,7 +5,7 @@ what was not written named), never exit 0; and a fault of the file system is one
 The moments are hit from outside, as a user would: after a delay from the start (start-up),
 a delay after a run's line is printed (the figures are drawn then), when FFCx starts a
 compile (a NAME.c appears in a fresh cache), when the outside simulator's process (ccx)
-appears. The first tests check solvers/interrupt.py's parts in this process.
+appears. The first tests check core/interrupt.py's parts in this process.
 """
 
 import os
@@ -27,13 +27,13 @@ SAID = {signal.SIGINT: "interrupted (SIGINT)", signal.SIGTERM: "terminated (SIGT
 SHORT_RUN = ("run", "block", "--mesh-size", 4, "--end-time", 0.1, "--algorithms", "implicit")
 
 
-# --- solvers/interrupt.py in this process -----------------------------------------------------
+# --- core/interrupt.py in this process -----------------------------------------------------
 
 
 @pytest.fixture
 def handlers():
     """The interrupt module with its handlers installed for a serial job, restored after."""
-    from tissuebench.solvers import interrupt
+    from tissuebench.core import interrupt
 
     restore = interrupt.install(SimpleNamespace(size=1, rank=0))
     yield interrupt
@@ -89,7 +89,7 @@ def test_a_signal_dropped_in_a_finalizer_prints_nothing_and_is_raised_again():
 import os, signal, time
 from mpi4py import MPI  # noqa: F401 (before PETSc, which the package imports)
 from types import SimpleNamespace
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 interrupt.install(SimpleNamespace(size=1, rank=0))
 class Finalized:
     def __del__(self):

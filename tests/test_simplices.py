@@ -14,9 +14,9 @@ from helpers import tissuebench
 
 from tissuebench.meshes import get_benchmark
 from tissuebench.meshes.gmshio import MeshError
-from tissuebench.solvers.convergence import difference_orders, space_study
 from tissuebench.solvers.stability import explicit_schemes, run_check, stability_limits
 from tissuebench.solvers.system import System
+from tissuebench.workflows.convergence import difference_orders, space_study
 
 SHAPES = [
     ("block", 10, "triangle", "structured"),

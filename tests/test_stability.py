@@ -14,16 +14,9 @@ import pytest
 from dolfinx import fem
 from helpers import run_script
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes import get_benchmark
-from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import get_integrator
-from tissuebench.solvers.convergence import (
-    METRICS,
-    difference_orders,
-    interpolate,
-    orders,
-    time_study,
-)
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.stability import (
     critical_dt,
@@ -36,6 +29,13 @@ from tissuebench.solvers.stability import (
 )
 from tissuebench.solvers.system import System
 from tissuebench.workflows.commands import convergence, stability
+from tissuebench.workflows.convergence import (
+    METRICS,
+    difference_orders,
+    interpolate,
+    orders,
+    time_study,
+)
 
 serial_only = pytest.mark.skipif(
     MPI.COMM_WORLD.size > 1, reason="dense matrices and timings: serial"

@@ -1,6 +1,7 @@
-"""workflows/summary.py: the typed summary.json of a study case. Read and written back, every
-committed results/ summary of a study case is reproduced byte for byte (the file as study wrote
-it, json.dumps(indent=2) and a newline); a malformed file is refused in one line."""
+"""workflows/summary.py: summary.json, every kind. Read and written back, every committed
+results/ summary of a study case is reproduced byte for byte (the file as study wrote it,
+json.dumps(indent=2) and a newline); a malformed file is refused in one line; each kind is read
+by its reader only, a missing schema version is version 1 and a newer one is refused."""
 
 import copy
 import json
@@ -10,11 +11,23 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import pytest
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.metrics.table import METRICS
 from tissuebench.workflows import paper_truth
 from tissuebench.workflows.commands.paper import LARGE, cases, model_cases
-from tissuebench.workflows.summary import CaseSummary, RunSummary, read_case_summary
+from tissuebench.workflows.summary import (
+    SCHEMA_VERSION,
+    CaseSummary,
+    RunSummary,
+    dumps,
+    kind_of,
+    read_case_summary,
+    read_compare_summary,
+    read_external_summary,
+    read_summary,
+    version_of,
+    write_summary,
+)
 
 RESULTS = Path(__file__).parents[1] / "results"
 # every study case that `tissuebench paper` commits: part 1, part 2 and the truth's runs
@@ -119,3 +132,33 @@ def test_run_without_probe_writes_no_tip_and_a_diverged_step_0_writes_none():
     entry = RunSummary(**base, has_probe=True).to_json()
     assert entry["tip_displacement_final"] is None
     assert RunSummary.from_json(entry) == RunSummary(**base, has_probe=True)
+
+
+@pytest.mark.serial  # rewrites one file in turn: ranks sharing tmp_path would race
+def test_every_kind_has_its_reader_and_one_writer(tmp_path):
+    """A case summary (no `kind`, no version: version 1), a compare and an external one: the
+    writer gives the text that json.dumps(indent=2) and a newline give, each typed reader reads
+    its kind and None for another."""
+    text, doc = committed(RESULTS / "rod-MP3")
+    assert (kind_of(doc), version_of(doc)) == ("case", 1)
+    write_summary(tmp_path, read_case_summary(RESULTS / "rod-MP3"))
+    assert (tmp_path / "summary.json").read_text() == text  # the committed bytes
+    assert read_compare_summary(tmp_path) is None and read_external_summary(tmp_path) is None
+    for kind, reader in (("compare", read_compare_summary), ("external", read_external_summary)):
+        data = {"kind": kind, "schema_version": SCHEMA_VERSION, "runs": {}, "files": []}
+        write_summary(tmp_path, data)
+        assert (tmp_path / "summary.json").read_text() == json.dumps(data, indent=2) + "\n"
+        assert dumps(data) == json.dumps(data, indent=2) + "\n"
+        assert reader(tmp_path) == data == read_summary(tmp_path)
+        assert kind_of(data) == kind and version_of(data) == SCHEMA_VERSION
+        with pytest.raises(UserError, match="not a study case's summary"):
+            read_case_summary(tmp_path)
+        older = {k: v for k, v in data.items() if k != "schema_version"}
+        write_summary(tmp_path, older)
+        assert reader(tmp_path) == older and version_of(older) == 1
+        write_summary(tmp_path, {**data, "schema_version": SCHEMA_VERSION + 1})
+        with pytest.raises(UserError, match="schema version"):
+            reader(tmp_path)
+    write_summary(tmp_path, {**doc, "schema_version": 2})
+    with pytest.raises(UserError, match="schema version 2"):
+        read_case_summary(tmp_path)

@@ -3,10 +3,10 @@
 Every subcommand is one module in workflows/ with `add_parser(subparsers)`, which registers its
 arguments and sets `func(args)`; it is listed once in COMMANDS below.
 
-Exit status: 0 done; 2 bad input (UserError, meshes/errors.py; one line on stderr); 1 the
+Exit status: 0 done; 2 bad input (UserError, core/errors.py; one line on stderr); 1 the
 environment failed (disk full, file system read-only, permission lost; one line); 130
 interrupted (SIGINT) and 143 terminated (SIGTERM), one line each, at any moment from start-up
-on (solvers/interrupt.py). In every case the partial output is removed and nothing else is
+on (core/interrupt.py). In every case the partial output is removed and nothing else is
 touched; what a command had still to write is named in the line.
 """
 
@@ -18,7 +18,7 @@ from pathlib import Path
 
 def _record(signum, frame):
     """The command line's first handler, before the heavy imports: records a signal, which
-    main() raises once MPI is up (solvers/interrupt.py), instead of a traceback (SIGINT) or
+    main() raises once MPI is up (core/interrupt.py), instead of a traceback (SIGINT) or
     a silent death (SIGTERM). In force again once main() has returned, while the process
     ends (`end`): a command that succeeded ends at once with the signal's status (rank 0's,
     under mpiexec) and says that its output is complete."""
@@ -141,8 +141,8 @@ def command_line(argv: list[str] | None = None) -> int:
 
     # after petsc4py.init: tissuebench.meshes imports DOLFINx, which would start PETSc with its
     # own signal handlers
-    from tissuebench.meshes.errors import UserError
-    from tissuebench.solvers import interrupt
+    from tissuebench.core import interrupt
+    from tissuebench.core.errors import UserError
     from tissuebench.workflows.output import WriteFailure
 
     signalled = (KeyboardInterrupt, interrupt.Terminated, interrupt.Interrupted)

@@ -30,13 +30,14 @@ from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.series import series_of
-from tissuebench.metrics.truth import grade_truth, load_truth, own_error
+from tissuebench.metrics.truth import grade_truth, own_error
 from tissuebench.solvers.schemes import SCHEMES, scheme_label
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.substeps import sub_stepped
 from tissuebench.solvers.system import System
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.store import size_of
+from tissuebench.workflows.grading import load_truth
 from tissuebench.workflows.io.tables import append_row, write_rows
 from tissuebench.workflows.io.tables import read_rows as read_csv
 from tissuebench.workflows.io.xdmf import gather_series

@@ -20,7 +20,6 @@ was graded against.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from pathlib import Path
@@ -29,18 +28,40 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize
 from tissuebench.metrics.table import METRICS, panels
-from tissuebench.metrics.truth import TruthGrading, grade_truth, load_truth, truth_case
-from tissuebench.solvers import interrupt
+from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
-from tissuebench.workflows.output import RunFolder, collective, file_hash, fingerprint
+from tissuebench.workflows.output import RunFolder, collective, file_hash
+from tissuebench.workflows.summary import (
+    SCHEMA_VERSION,
+    SUMMARY,
+    CompareSummary,
+    dumps,
+    kind_of,
+    read_case_summary,
+    read_summary,
+)
 
 MAX_LABEL = 64  # characters of a candidate's label (it names rows, figures and tables)
-SUMMARY = "summary.json"
+
+
+def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | None:
+    """The truth of a case, computed or loaded from its cache (solvers/truth/store.py;
+    collective); rank 0 prints its progress. Rank 0's TruthSamples is the one used: it is
+    handed to metrics/truth.py, which grades and computes nothing else."""
+    from tissuebench.solvers.truth.store import truth_samples
+
+    def log(*args, **kwargs):
+        if comm.rank == 0:
+            print(*args, **kwargs)
+
+    return truth_samples(case, comm=comm, log=log)
 
 
 class GradingError(UserError):
@@ -185,7 +206,7 @@ def compare_inputs(
     }
 
 
-def candidate_file(summary: dict, folder: str | Path) -> str | None:
+def candidate_file(summary: CompareSummary, folder: str | Path) -> str | None:
     """The candidate series file that the compare summary.json in `folder` records, as a path
     found from any working folder: as recorded when absolute (summary_of records it so); for
     a summary of an older compare, which recorded it as typed, the absolute path of its
@@ -209,7 +230,7 @@ def none_if_nan(x):
     return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
 
 
-def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dict:
+def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> CompareSummary:
     """compare's summary.json (see the module docstring)."""
     from importlib.metadata import version
 
@@ -235,6 +256,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
     truth = {"truth": g.summary()} if isinstance(g, TruthGrading) else {}
     return {
         "kind": "compare",
+        "schema_version": SCHEMA_VERSION,
         "reference": {
             "file": str(reference),
             "field": g.fields[0],
@@ -260,11 +282,11 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> dic
         "runs": {g.label: entry},
         "versions": {"tissuebench": version("tissuebench")},
         "files": ["metrics.csv", "metrics.png", SUMMARY],
-        **truth,
+        **truth,  # type: ignore[typeddict-item]
     }
 
 
-def write_grading(out: Path, g: Grading, summary: dict) -> None:
+def write_grading(out: Path, g: Grading, summary: CompareSummary) -> None:
     """metrics.csv, metrics.png and summary.json in out, each renamed into place once
     complete."""
     out.mkdir(parents=True, exist_ok=True)
@@ -273,7 +295,7 @@ def write_grading(out: Path, g: Grading, summary: dict) -> None:
     try:
         write_metrics_csv(temporary[0], g.times, {g.label: g.curves}, {g.label: g.status})
         plot(temporary[1], g.title, g.times, g.curves)
-        temporary[2].write_text(json.dumps(summary, indent=2) + "\n")
+        temporary[2].write_text(dumps(summary))
         for tmp, path in zip(temporary, final, strict=True):
             os.replace(tmp, path)
     finally:
@@ -281,7 +303,7 @@ def write_grading(out: Path, g: Grading, summary: dict) -> None:
             tmp.unlink(missing_ok=True)
 
 
-@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
+@interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
 def plot(path, title, times, curves):
     """One panel per metric against time (E_n, E_s, E_i; a variant such as E_i's nodal form
     dashed in its metric's panel)."""
@@ -426,41 +448,48 @@ def reference_fingerprint(reference: str | Path, series) -> dict:
 
 
 def folder_fingerprint(path: Path) -> dict:
-    """reference_fingerprint's fields that the reference's folder states ({} when none)."""
-    summary = path.parent / SUMMARY
-    if summary.is_file():
-        s = json.loads(summary.read_text())
-        run = (s.get("runs") or {}).get(path.stem)
-        if s.get("kind") != "compare" and isinstance(run, dict) and s.get("benchmark"):
+    """reference_fingerprint's fields that the reference's folder states ({} when none): a
+    study case's summary.json with a run of the file's name, else the export STEM.json beside
+    STEM.reference.xdmf (read by io/exported.py)."""
+    from tissuebench.workflows.io.exported import read_json
+
+    folder = path.parent
+    found = read_summary(folder)
+    if found is not None and kind_of(found) == "case":
+        try:
+            summary = read_case_summary(folder)
+        except UserError:  # not a case summary of this tissuebench: the folder says nothing
+            summary = None
+        run = summary.runs.get(path.stem) if summary is not None else None
+        if summary is not None and run is not None:
             material = next(
                 (
                     r["material"]["name"]
-                    for r in (s.get("inputs") or {}).get("runs", [])
+                    for r in summary.inputs.get("runs", [])
                     if r.get("label") == path.stem
                 ),
                 None,
             )
             return {
                 "source": "run folder",
-                "benchmark": s["benchmark"],
-                "case": s.get("case"),
-                "options": dict((s.get("inputs") or {}).get("options") or {}),
+                "benchmark": summary.benchmark,
+                "case": summary.case,
+                "options": dict(summary.inputs.get("options") or {}),
                 "material": material,
-                "model": run.get("model"),
-                "mesh_size": s.get("mesh_size"),
+                "model": run.model,
+                "mesh_size": summary.mesh_size,
             }
     stem = path.name.split(".")[0]
-    export = path.parent / f"{stem}.json"
+    export = folder / f"{stem}.json"
     if path.name.startswith(f"{stem}.reference.") and export.is_file():
-        d = json.loads(export.read_text())
-        if d.get("schema") == "tissuebench.benchmark":
-            return {
-                "source": "export",
-                "benchmark": d["benchmark"],
-                "case": stem,
-                "options": dict(d.get("options") or {}),
-                "material": (d.get("material") or {}).get("name"),
-                "model": d.get("model"),
-                "mesh_size": d.get("mesh_size"),
-            }
+        data = read_json(export)
+        return {
+            "source": "export",
+            "benchmark": data.benchmark,
+            "case": stem,
+            "options": dict(data.options),
+            "material": data.material.name,
+            "model": data.model,
+            "mesh_size": data.mesh_size,
+        }
     return {}

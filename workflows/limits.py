@@ -16,7 +16,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 
 BASE_MEMORY = 400e6  # bytes per process: Python with DOLFINx, PETSc, gmsh, matplotlib, pyvista
 # bytes per dof for K, M, M_L, the step matrices and their MUMPS factors, five algorithms:

@@ -7,7 +7,6 @@ meshes, timing and files are described where users read them, in the command's d
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import re
@@ -21,19 +20,21 @@ from mpi4py import MPI
 import numpy as np
 from dolfinx import fem
 
+from tissuebench.core import interrupt
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.meshes import get_benchmark, get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.crossmesh import BODY_TOLERANCE, CrossMetrics, Mesh
-from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator, interrupt
+from tissuebench.solvers import ALGORITHMS, REFERENCE, get_integrator
 from tissuebench.solvers.simulate import Run, simulate
 from tissuebench.solvers.system import System
+from tissuebench.workflows.io.tables import CSVError, read_rows, write_rows
 from tissuebench.workflows.io.xdmf import gather_mesh, gather_series, write_series
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, finite, fmt, real
 from tissuebench.workflows.output import (
     OutputError,
     collective,
-    fingerprint,
     write_owned,
 )
 
@@ -518,17 +519,14 @@ def markdown(studies: list[Study], results: dict, quick: bool, ranks: int) -> st
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
-    keys = list(rows[0])
-    with open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, keys)
-        writer.writeheader()
-        writer.writerows(rows)
+    """mesh-sensitivity.csv: the rows' keys as its header (io/tables.py)."""
+    write_rows(path, rows, empty_nan=False)
 
 
 LINES = ("-", "--", ":")  # the shapes' line styles, in the order of shapes()
 
 
-@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
+@interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
 def plot(path: Path, study: Study, rows: list[dict]) -> None:
     """E_i max and time-mean against spacing (colour: algorithm; line: mesh shape; diverged
     runs left out), and E_i max against cost; the reference's own error as a grey line."""
@@ -620,9 +618,8 @@ def leaderboard_boards(out: Path, log: Callable[[str], None] = lambda line: None
     try:
         first = md.read_text(errors="replace").split("\n", 1)[0]
         if first == MARKER:
-            with open(table, newline="", errors="replace") as f:
-                every = list(csv.DictReader(f))
-    except (OSError, csv.Error) as exc:
+            every = read_rows(table, errors="replace")
+    except (OSError, CSVError) as exc:
         log(f"{md.parent / NAME}.md and .csv: cannot be read ({type(exc).__name__}); left out")
         return []
     if first != MARKER:
@@ -632,11 +629,11 @@ def leaderboard_boards(out: Path, log: Callable[[str], None] = lambda line: None
     boards = []
     for study in STUDIES:
         mine = []
-        for number, r in enumerate(every, start=1):
-            if r.get("case") != study.name:
+        for number, raw in enumerate(every, start=1):
+            if raw.get("case") != study.name:
                 continue
             try:
-                mine.append(study_row(study, r))
+                mine.append(study_row(study, raw))
             except (TypeError, ValueError) as exc:
                 log(f"{table}, row {number}: not a run of the study ({exc}); left out")
         if not mine:

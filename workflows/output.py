@@ -42,10 +42,11 @@ from typing import TypeVar
 
 from mpi4py import MPI
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
+from tissuebench.workflows.summary import read_summary
 
-SUMMARY = "summary.json"
 MANIFEST = ".tissuebench.json"  # what we wrote, with hashes
 MARK = ".tissuebench-temporary"  # inside our temporary and backup folders
 PREFIX = ".tissuebench-"  # of our temporary, backup and lock names beside a target
@@ -59,21 +60,6 @@ class OutputError(UserError):
 
 class WriteFailure(RuntimeError):
     """The environment failed while writing (disk full, permission lost): one line, exit 1."""
-
-
-def fingerprint(inputs: dict) -> str:
-    """The SHA-256 of the inputs as canonical JSON."""
-    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"), allow_nan=True)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def read_summary(folder: Path) -> dict | None:
-    """The folder's summary.json as a dict, or None if absent or unreadable."""
-    try:
-        summary = json.loads((Path(folder) / SUMMARY).read_text())
-    except (OSError, ValueError, RecursionError):
-        return None
-    return summary if isinstance(summary, dict) else None
 
 
 # --- manifests --------------------------------------------------------------------------------
@@ -367,7 +353,7 @@ class Lock:
 def collective(comm: MPI.Comm, action: Callable[[], T], where: Path | None = None) -> T:
     """Run action() on rank 0 and broadcast its result. An exception on rank 0 is raised on
     every rank (an OSError as a WriteFailure naming `where`), so that none is left waiting.
-    A signal that any rank received is raised on every rank first (solvers/interrupt.py)."""
+    A signal that any rank received is raised on every rank first (core/interrupt.py)."""
     interrupt.checkpoint(comm)  # a signal received before: nothing more is written
     result = error = None
     if comm.rank == 0:
@@ -564,7 +550,7 @@ def write_set(files: dict[Path, Callable[[Path], None]], staged_hook=None) -> No
     """Several loose files written as one set (rank 0): each write(tmp) staged into a
     temporary beside its target; then, every folder's manifest lock held and every target
     checked as ours (check_owned), all renamed into place and listed in their folders'
-    manifests with signals deferred (solvers/interrupt.py), so that a signal or an error
+    manifests with signals deferred (core/interrupt.py), so that a signal or an error
     before the renames leaves the old set whole, and one during them is raised once the whole
     new set is in place. What interrupt.will_write named is said written when the renames are
     done. `staged_hook()`, if given, runs once everything is staged (tests send a signal there).

@@ -17,13 +17,16 @@ from mpi4py import MPI
 import numpy as np
 from tqdm import tqdm
 
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.meshes import get_benchmark, get_entry
-from tissuebench.meshes.errors import UserError
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
+from tissuebench.metrics.series import InputError
 from tissuebench.metrics.table import METRICS
-from tissuebench.solvers import REFERENCE, interrupt
+from tissuebench.solvers import REFERENCE
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.schemes import STANDARD, scheme_label
@@ -31,11 +34,12 @@ from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.substeps import sub_stepped
 from tissuebench.solvers.system import System, probe
 from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
-from tissuebench.workflows.io.xdmf import gather_series, write_series
+from tissuebench.workflows.io.xdmf import as_series, gather_series, write_series
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate, step_count
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint
+from tissuebench.workflows.output import RunFolder, collective
 from tissuebench.workflows.summary import (
+    SUMMARY,
     CaseSummary,
     RunSummary,
     read_case_summary,
@@ -245,7 +249,7 @@ def compute_case(
     system_s = (time.perf_counter() - start) / len(systems)  # M, K, f of one material
     metrics = Metrics(next(iter(systems.values())).V)
 
-    results, tips = {}, {}
+    results, tips, shapes = {}, {}, {}  # shapes: the runs' displacement Series (rank 0)
     for label, algorithm, material, model in case.runs:
         system = systems[material]
         start = time.perf_counter()
@@ -274,11 +278,14 @@ def compute_case(
         finally:
             bar.close()  # also when interrupted: the last line is then the error's
         series = gather_series(system.V, {"displacement": run.u, "velocity": run.v})
-        collective(
-            comm,
-            lambda: write_series(tmp / f"{label}.xdmf", series, np.arange(run.steps + 1) * h),
-            target,
-        )
+        stamps = np.arange(run.steps + 1) * h
+        collective(comm, lambda: write_series(tmp / f"{label}.xdmf", series, stamps), target)
+        if rank0:  # for the figures, as reading the file back would give it
+            assert series is not None  # gathered on rank 0
+            try:
+                shapes[label] = as_series(tmp / f"{label}.xdmf", series, stamps)
+            except InputError:  # no step kept (diverged at step 0): the figures read nothing
+                pass
         results[label] = (run, material, algorithm, model, setup_s, k, critical)
         integrator.destroy()
         if bench.probe is not None:
@@ -364,7 +371,7 @@ def compute_case(
             files.append("tip.csv")
         from tissuebench.workflows.reports import figures
 
-        files += figures.case_figures(tmp, case, summary, times, curves, tips)
+        files += figures.case_figures(tmp, case, summary, times, curves, tips, shapes)
         summary.files = ["metrics.csv", *files, SUMMARY]
         summary.inputs, summary.fingerprint = inputs, fingerprint(inputs)
         write_case_summary(tmp, summary)  # last: it marks the folder ours

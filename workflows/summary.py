@@ -1,23 +1,42 @@
-"""A study case's summary.json, typed: `CaseSummary` (the case) and its `RunSummary`s (one a
-run), read and written here only (workflows/study.py writes it, `read_case_summary` reads it).
+"""summary.json, every kind of it, read and written here only.
 
-`CaseSummary.to_json()` gives the file's dict exactly as study has always written it (same keys,
-same order, same values; the case's benchmark options as top-level keys between `plane` and
-`solver`), so `write_case_summary` reproduces a committed summary.json byte for byte;
-`from_json` refuses anything else in one line (ValueError). Other summaries (compare's,
-external's, the leaderboard's user folders, output.RunFolder's fingerprint check) are other
-schemas and are not read here."""
+Three commands write a folder with a summary.json, each of its own kind:
+- "case": a study case (`tissuebench run`, the paper's cases; workflows/study.py), typed as
+  `CaseSummary` and its `RunSummary`s. `CaseSummary.to_json()` gives the file's dict exactly as
+  study has always written it (same keys, same order, same values; the case's benchmark options
+  as top-level keys between `plane` and `solver`), so that `write_summary` reproduces a
+  committed summary.json byte for byte; `from_json` refuses anything else in one line
+  (ValueError). Its file has no `kind` key.
+- "compare": `tissuebench compare` (workflows/grading.py builds it), typed as `CompareSummary`
+  and its `CompareRun`s.
+- "external": `tissuebench external` and the leaderboard's simulator folders
+  (workflows/simulators/runner.py builds it), typed as `ExternalSummary` and its
+  `VariantRun`s.
+Every kind carries `files` and, in a folder of its own (not an external variant's), the `inputs`
+and their `fingerprint` (core/fingerprint.py), from which workflows/output.py decides whether a
+folder holds the results of the same inputs.
+
+Schema version: `SCHEMA_VERSION`, the key `schema_version`. A summary without it is version 1
+(every summary written before the key existed, and the committed case summaries in results/).
+Compare and external summaries are written with it; a case summary is written without it, so
+that the committed results stay byte-identical, until its schema changes (version 2 is then
+written). A summary of a version newer than this module's is refused in one line.
+
+`read_summary` is the one reader of the file (a JSON object, or None), `read_case_summary`,
+`read_compare_summary` and `read_external_summary` its typed readers, `dumps` and
+`write_summary` the one writer (JSON indented by 2, a newline at the end)."""
 
 import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, NotRequired, TypedDict
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.metrics.table import METRICS
-from tissuebench.workflows.output import SUMMARY
+from tissuebench.core.errors import UserError
 
+SUMMARY = "summary.json"  # the file's name in every folder that has one
+SCHEMA_VERSION = 1  # of every kind; a summary without `schema_version` is version 1
+VERSION_KEY = "schema_version"
 READINGS = ("max", "mean")  # the two readings of a metric's history (metrics.compare.summarize)
 
 _RUN_HEAD = (
@@ -139,6 +158,8 @@ class RunSummary:
             f"{where}: diverged_time is not a number",
         )
         _check(data["reason"] is None or isinstance(data["reason"], str), f"{where}: reason")
+        from tissuebench.metrics.table import METRICS  # DOLFINx: only when a summary is read
+
         readings: dict[str, float | None] = {}
         known = {f"{m}_{kind}" for m in METRICS for kind in READINGS}
         for k, v in data.items():
@@ -265,20 +286,195 @@ class CaseSummary:
         )
 
 
+class CompareRun(TypedDict):
+    """A run of a compare summary (the candidate's, keyed by its label): its status ("ok",
+    "diverged", "missing", "reference diverged": the worst of its steps), the step it diverged
+    at and its time (s) and the reason, None when it did not, its steps after t = 0, the steps
+    graded, its wall time (s, as --wall-time gave it; None without), and for every metric of
+    METRICS "<metric>_max" and "<metric>_mean" (None where no step was graded; keys that a
+    TypedDict cannot name)."""
+
+    status: str
+    diverged_step: int | None
+    diverged_time: float | None
+    reason: str | None
+    steps: int
+    graded_steps: int
+    wall_time_s: float | None
+
+
+class CompareSummary(TypedDict):
+    """compare's summary.json (workflows/grading.py, its module docstring says each entry):
+    the reference and candidate files with their fields, the reference's `fingerprint` (what
+    it poses) and the candidate's `mesh`, the notes on how the series were read, h (s; None
+    for one step), steps and end_time (s), the metrics' symbols and units, the reference's
+    divergence, the `runs` (one), the versions, the files and, against the truth, `truth`
+    (case, own error, timings). `inputs` and `fingerprint` are absent in a folder that an
+    external simulator's variant was graded into."""
+
+    kind: Literal["compare"]
+    schema_version: NotRequired[int]
+    reference: dict[str, Any]
+    candidate: dict[str, Any]
+    notes: list[str]
+    h: float | None
+    steps: int
+    end_time: float
+    metrics: dict[str, dict[str, str]]
+    reference_diverged_step: int | None
+    reference_diverged_reason: str | None
+    runs: dict[str, CompareRun]
+    versions: dict[str, Any]
+    files: list[str]
+    truth: NotRequired[dict[str, Any]]
+    inputs: NotRequired[dict[str, Any]]
+    fingerprint: NotRequired[str]
+
+
+class VariantRun(TypedDict, total=False):
+    """A variant's run in an external summary, keyed SIMULATOR:VARIANT: the simulator, its
+    title and version, the variant and its description, its mesh, dofs and timing, its status
+    ("ok", "diverged", "failed") with the reason, its wall time (s), and, once graded, the
+    compare run's entries (steps, graded_steps, diverged_step, diverged_time, the metrics'
+    readings)."""
+
+    simulator: str
+    title: str
+    version: str | None
+    variant: str
+    description: str
+    mesh: Any
+    dofs: int | None
+    timing: Any
+    status: str
+    reason: str | None
+    wall_time_s: float | None
+    diverged_step: int | None
+    diverged_time: float | None
+    steps: int
+    graded_steps: int
+
+
+class ExternalSummary(TypedDict):
+    """An external simulator folder's summary.json (workflows/simulators/runner.py): the
+    simulator and its title, what it poses (benchmark, mesh size, options, the material's
+    fields, model, h in s, steps, plane), our reference's dofs and end time (s) and its run
+    (`reference`), the variants the simulator skipped with why, the `runs`, the files, and the
+    inputs with their fingerprint."""
+
+    kind: Literal["external"]
+    schema_version: NotRequired[int]
+    simulator: str
+    title: str
+    benchmark: str
+    mesh_size: int
+    options: dict[str, Any]
+    material: dict[str, Any]
+    model: str
+    h: float
+    steps: int
+    plane: str
+    num_dofs: int | None
+    end_time: float
+    reference: dict[str, Any]
+    skipped_variants: dict[str, str] | None
+    runs: dict[str, VariantRun]
+    files: list[str]
+    inputs: dict[str, Any]
+    fingerprint: str
+
+
+Summary = CaseSummary | CompareSummary | ExternalSummary
+
+
+def kind_of(data: dict[str, Any]) -> str:
+    """The kind of a summary.json's dict: its `kind` ("compare", "external"), else "case"."""
+    kind = data.get("kind")
+    return kind if isinstance(kind, str) else "case"
+
+
+def version_of(data: dict[str, Any]) -> int:
+    """The schema version of a summary.json's dict: its `schema_version`, 1 when absent."""
+    version = data.get(VERSION_KEY, 1)
+    return version if _integer(version) else 0
+
+
+_ABSENT = object()  # what _load gives for a summary.json that is absent or not JSON
+
+
+def _load(folder: Path) -> object:
+    """`folder`/summary.json's JSON value; _ABSENT if it is absent or not JSON."""
+    try:
+        return json.loads((Path(folder) / SUMMARY).read_text())
+    except (OSError, ValueError, RecursionError):
+        return _ABSENT
+
+
+def read_summary(folder: Path) -> dict[str, Any] | None:
+    """`folder`/summary.json as a dict, of any kind and unchecked (the keys every kind shares,
+    `files`, `inputs` and `fingerprint`, are what workflows/output.py reads); None if it is
+    absent, unreadable or not a JSON object."""
+    data = _load(folder)
+    return data if isinstance(data, dict) else None
+
+
+def _of_kind(folder: Path, kind: str) -> dict[str, Any] | None:
+    """read_summary's dict when it is of `kind` (None otherwise); UserError (one line) for a
+    schema version that this tissuebench does not know."""
+    data = read_summary(folder)
+    if data is None or kind_of(data) != kind:
+        return None
+    if not 1 <= version_of(data) <= SCHEMA_VERSION:
+        raise UserError(
+            f"{Path(folder) / SUMMARY}: schema version {data.get(VERSION_KEY)!r}, which this "
+            f"tissuebench (version {SCHEMA_VERSION}) cannot read; write it again, or update"
+        )
+    return data
+
+
 def read_case_summary(folder: Path) -> CaseSummary | None:
     """The study case summary.json of `folder`; None if it is absent or not JSON; UserError (one
     line) if it is JSON but not a study case's summary."""
     path = Path(folder) / SUMMARY
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError, RecursionError):
+    data = _load(folder)
+    if data is _ABSENT:
         return None
+    if isinstance(data, dict) and version_of(data) != 1:  # the case schema has one version
+        raise UserError(
+            f"{path}: schema version {data.get(VERSION_KEY)!r}, which this tissuebench "
+            "cannot read; write it again, or update"
+        )
     try:
         return CaseSummary.from_json(data)
     except ValueError as e:
         raise UserError(f"{path}: not a study case's summary: {e}") from None
 
 
+def read_compare_summary(folder: Path) -> CompareSummary | None:
+    """The compare summary.json of `folder`; None if it is absent, not JSON or of another
+    kind."""
+    return _of_kind(folder, "compare")  # type: ignore[return-value]
+
+
+def read_external_summary(folder: Path) -> ExternalSummary | None:
+    """The external simulator folder's summary.json of `folder`; None if it is absent, not
+    JSON or of another kind."""
+    return _of_kind(folder, "external")  # type: ignore[return-value]
+
+
+def dumps(summary: Summary | dict[str, Any]) -> str:
+    """summary.json's text: a CaseSummary as study has always written it, a compare or
+    external summary as its dict, indented by 2, with a newline at the end."""
+    if isinstance(summary, CaseSummary):
+        return summary.dumps()
+    return json.dumps(summary, indent=2) + "\n"
+
+
+def write_summary(folder: Path, summary: Summary | dict[str, Any]) -> None:
+    """Write `summary` as `folder`/summary.json (dumps)."""
+    (Path(folder) / SUMMARY).write_text(dumps(summary))
+
+
 def write_case_summary(folder: Path, summary: CaseSummary) -> None:
     """Write `summary` as `folder`/summary.json (the text study has always written)."""
-    (Path(folder) / SUMMARY).write_text(summary.dumps())
+    write_summary(folder, summary)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 from mpi4py import MPI
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.solvers.truth.store import expected_seconds
 
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")

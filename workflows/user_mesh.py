@@ -26,7 +26,7 @@ import numpy as np
 import ufl
 from dolfinx.io.utils import cell_perm_vtk
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.meshes.regions import on_mesh
 from tissuebench.metrics.series import CELLS, Series
 

@@ -21,7 +21,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 
 
 class SchemeError(UserError):

@@ -41,8 +41,9 @@ import numpy as np
 from dolfinx import fem
 from dolfinx.io.utils import cell_perm_vtk
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, STEP_DIVISOR, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
@@ -207,9 +208,8 @@ def inputs(case: str, quick: bool = False) -> dict:
 
 
 def fingerprint_of(case: str, quick: bool = False) -> str:
-    """The SHA-256 of the case's inputs as canonical JSON (as every run's fingerprint)."""
-    text = json.dumps(inputs(case, quick), sort_keys=True, separators=(",", ":"), allow_nan=True)
-    return hashlib.sha256(text.encode()).hexdigest()
+    """The fingerprint of the case's inputs (core/fingerprint.py, as every run's)."""
+    return fingerprint(inputs(case, quick))
 
 
 def cache_dir() -> Path:

@@ -58,6 +58,7 @@ def prepare(users: int, template: Path, log=print) -> None:
     folder of rod-MP3, none graded yet; template/rod.json, mine/ and rod.reference.xdmf, how
     the user made it."""
     from tissuebench.workflows.output import seal
+    from tissuebench.workflows.summary import read_compare_summary, write_summary
 
     tb, _ = tools()
     listed = subprocess.run(
@@ -78,10 +79,11 @@ def prepare(users: int, template: Path, log=print) -> None:
     for k in range(1, users):
         target = folder / f"u{k:04d}"
         shutil.copytree(first, target)
-        summary = json.loads((target / "summary.json").read_text())
+        summary = read_compare_summary(target)
+        assert summary is not None, f"{target}: compare wrote no summary"
         (run,) = summary["runs"].values()
         summary["runs"] = {f"user-{k:04d}": {**run, "wall_time_s": 1.0 + k / 1000}}
-        (target / "summary.json").write_text(json.dumps(summary))
+        write_summary(target, summary)
         seal(target)
 
 

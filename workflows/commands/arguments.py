@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, NamedTuple
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes.benchmark import CELLS, MESHES, Entry, shape_options
-from tissuebench.meshes.errors import UserError
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS
 from tissuebench.solvers.models import LINEAR

@@ -37,7 +37,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.workflows.bench.measure import measure, measure_explicit
 from tissuebench.workflows.bench.report import plot, write_explicit_report, write_report
 from tissuebench.workflows.bench.tables import model_step_rows, summary_tables, text_table

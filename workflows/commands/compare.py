@@ -3,13 +3,14 @@
 import argparse
 import sys
 from pathlib import Path
+from typing import Any, cast
 
 from mpi4py import MPI
 
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
-from tissuebench.workflows.output import read_summary
+from tissuebench.workflows.summary import read_compare_summary
 
 REFERENCE_DIVERGED = 3  # exit status: the reference diverged (results written, one line said)
 
@@ -127,7 +128,7 @@ def reference_divergence(summaries: dict[str, str], out: Path) -> str | None:
     None when it did not."""
     if "skipped" not in summaries:
         return summaries.get("reference")
-    summary = read_summary(out) or {}
+    summary = cast(dict[str, Any], read_compare_summary(out) or {})  # its keys read with get
     step, reason, h = (
         summary.get(k) for k in ("reference_diverged_step", "reference_diverged_reason", "h")
     )

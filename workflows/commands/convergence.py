@@ -28,10 +28,12 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.core.errors import UserError
 from tissuebench.meshes import BENCHMARKS, get_benchmark
-from tissuebench.meshes.errors import UserError
 from tissuebench.metrics import METRICS as ALL_METRICS
-from tissuebench.solvers.convergence import (
+from tissuebench.solvers.stability import explicit_schemes, stability_limits
+from tissuebench.solvers.system import System
+from tissuebench.workflows.convergence import (
     LEVELS,
     METRICS,
     REFINEMENT,
@@ -41,8 +43,6 @@ from tissuebench.solvers.convergence import (
     space_study,
     time_study,
 )
-from tissuebench.solvers.stability import explicit_schemes, stability_limits
-from tissuebench.solvers.system import System
 from tissuebench.workflows.output import check_writable, collective, write_owned
 
 # every benchmark at its defaults (time), and on its study meshes with its refinement options

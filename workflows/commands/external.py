@@ -40,7 +40,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from tissuebench.meshes.errors import UserError
+    from tissuebench.core.errors import UserError
     from tissuebench.workflows.simulators import get_simulator
 
     comm = MPI.COMM_WORLD

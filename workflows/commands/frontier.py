@@ -18,7 +18,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.workflows.frontier import (
     FRONTIER_CASES,

@@ -26,8 +26,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.core import interrupt
 from tissuebench.meshes import get_entry
-from tissuebench.solvers import ALGORITHMS, MODELS, interrupt
+from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import paper_truth
 from tissuebench.workflows.commands.arguments import add_common, check_common

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.workflows.commands.arguments import add_common, check_common
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,

@@ -252,7 +252,7 @@ def write(
 
 
 def main(args: argparse.Namespace) -> int:
-    from tissuebench.meshes.errors import UserError
+    from tissuebench.core.errors import UserError
 
     comm = MPI.COMM_WORLD
     if not 0 < args.margin < 1:

@@ -21,7 +21,6 @@ it never replaces a full truth.md (--force does).
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import os
 import time
@@ -32,8 +31,8 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, GRADED, GRADING, STEP_DIVISOR
 from tissuebench.solvers.truth.estimate import estimate_error
@@ -50,6 +49,7 @@ from tissuebench.solvers.truth.store import (
     load_cached,
     truth_samples,
 )
+from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 from tissuebench.workflows.truth_jobs import compute_in_parallel
 
@@ -461,10 +461,8 @@ def csv_rows(summaries: dict) -> list[list]:
 
 
 def write_csv(path: Path, rows: list[list]) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(COLUMNS)
-        w.writerows(rows)
+    """truth.csv: COLUMNS, then the rows (io/tables.py)."""
+    write_table(path, COLUMNS, rows)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -75,7 +75,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.metrics.series import InputError
 from tissuebench.solvers.materials import Material
 

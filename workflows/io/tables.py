@@ -1,10 +1,13 @@
-"""The CSV files of a run or a comparison, written and read here: metrics.csv (one row per run
-and step: the time in s, every metric of METRICS, the step's status), tip.csv (the probe
-point's displacement in m) and the rows of a study (write_rows, append_row)."""
+"""Every CSV file of tissuebench, written and read here: metrics.csv (one row per run and
+step: the time in s, every metric of METRICS, the step's status), tip.csv (the probe point's
+displacement in m), and any table of rows: a study's (frontier.csv, mesh-sensitivity.csv;
+write_rows, append_row), truth.csv and leaderboard.csv (write_table), read back by read_rows.
+`CSVError` is the error of a file that is not CSV."""
 
 from __future__ import annotations
 
 import csv
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,8 @@ from numpy.typing import ArrayLike
 
 from tissuebench.metrics.compare import columns
 from tissuebench.metrics.table import METRICS
+
+CSVError = csv.Error  # a file that the csv module cannot read as CSV
 
 
 def write_metrics_csv(
@@ -54,15 +59,30 @@ def _cell(x: object) -> object:
     return "" if x is None or (isinstance(x, float) and x != x) else x
 
 
-def write_rows(path: Path, rows: list[dict], columns: tuple[str, ...] | None = None) -> None:
+def write_rows(
+    path: Path,
+    rows: list[dict],
+    columns: tuple[str, ...] | None = None,
+    *,
+    empty_nan: bool = True,
+) -> None:
     """Rows as a CSV file: a header of `columns` (default: the first row's keys), then one
-    line a row, None and NaN as empty cells."""
+    line a row, None as an empty cell, and NaN too unless not `empty_nan` (then "nan")."""
     columns = tuple(columns or (rows[0] if rows else ()))
     with open(path, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=columns)
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: _cell(row[k]) for k in columns})
+            writer.writerow({k: _cell(row[k]) if empty_nan else row[k] for k in columns})
+
+
+def write_table(path: Path, columns: Sequence[str], rows: Iterable[Sequence[object]]) -> None:
+    """A CSV file of a header, `columns`, and one line for each row of cells (each cell as
+    str() writes it, None as an empty cell)."""
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        writer.writerows(rows)
 
 
 def append_row(path: Path, row: dict, columns: tuple[str, ...]) -> None:
@@ -76,9 +96,11 @@ def append_row(path: Path, row: dict, columns: tuple[str, ...]) -> None:
         writer.writerow({k: _cell(row[k]) for k in columns})
 
 
-def read_rows(path: Path) -> list[dict[str, str]]:
-    """A CSV file's rows as {column: text}, keyed by its header."""
-    with open(path, newline="") as f:
+def read_rows(path: Path, errors: str = "strict") -> list[dict[str, str]]:
+    """A CSV file's rows as {column: text}, keyed by its header; `errors` as open() takes it
+    ("replace": undecodable bytes become U+FFFD). OSError, CSVError or UnicodeDecodeError for
+    a file that cannot be read."""
+    with open(path, newline="", errors=errors) as f:
         return list(csv.DictReader(f))
 
 

@@ -24,7 +24,7 @@ import h5py
 import numpy as np
 from dolfinx.io.utils import cell_perm_vtk
 
-from tissuebench.metrics.series import InputError, check_same_mesh
+from tissuebench.metrics.series import InputError, Series, check_same_mesh, series_of
 from tissuebench.workflows.io.fields import FieldData, missing_field
 
 if TYPE_CHECKING:
@@ -158,6 +158,23 @@ def write_series(
         lines.append("      </Grid>")
     lines += ["    </Grid>", "  </Domain>", "</Xdmf>", ""]
     path.write_text("\n".join(lines))
+
+
+def as_series(
+    path: str | Path,
+    gathered: tuple[MeshData, dict[str, np.ndarray]],
+    times: Sequence[float] | np.ndarray,
+    field: str = "displacement",
+) -> Series:
+    """The Series of `field` that read_series(path) gives of the file that write_series(path,
+    gathered, times) writes, made from the gathered arrays in memory (rank 0): the same
+    points, cells, times and values, checked alike (InputError, e.g. for a run that kept no
+    step)."""
+    (points, cells, cell_type), data = gathered
+    n_steps = min(len(v) for v in data.values())
+    values = [data[field][i] for i in range(n_steps)]
+    stamps = [float(t) for t in times[:n_steps]]  # as the file's Time values
+    return series_of(Path(path), field, points, cells, cell_type, stamps, values)
 
 
 # --- reading -----------------------------------------------------------------------------------

@@ -4,15 +4,15 @@ checked, everything graded, then every output written as one set (write_set)."""
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 from pathlib import Path
 
 from mpi4py import MPI
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.workflows.commands.arguments import check_common
+from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard import document, page, users
 from tissuebench.workflows.leaderboard.figures import machine, plot_case, unit_of
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
@@ -82,15 +82,14 @@ def check_target(
             if r.source not in ("user", "tissuebench")
         ]
     elif old.is_file():
-        with open(old, newline="", errors="replace") as f:
-            try:  # a simulator's rows only: a user's label or ours never names a simulator
-                labels = [
-                    row.get("label") or ""
-                    for row in csv.DictReader(f)
-                    if row.get("source") not in ("user", "tissuebench")
-                ]
-            except csv.Error:
-                labels = []  # not a leaderboard's table: nothing in it to keep
+        try:  # a simulator's rows only: a user's label or ours never names a simulator
+            labels = [
+                row.get("label") or ""
+                for row in read_rows(old, errors="replace")
+                if row.get("source") not in ("user", "tissuebench")
+            ]
+        except CSVError:
+            labels = []  # not a leaderboard's table: nothing in it to keep
     else:
         return
     lost = sorted({lab.split(":")[0] for lab in labels if ":" in lab} - available)

@@ -14,8 +14,8 @@ import textwrap
 from pathlib import Path
 from typing import Any, cast
 
+from tissuebench.core import interrupt
 from tissuebench.meshes import get_entry
-from tissuebench.solvers import interrupt
 from tissuebench.workflows.leaderboard.budget import budget_rows
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -34,7 +34,7 @@ LABELLED = 24  # a case with more runs shown labels its Pareto front only
 DECADES = 6  # the E_i axis spans at most this many decades below the largest error
 
 
-@interrupt.drawing  # a signal while drawing: raised once drawn (solvers/interrupt.py)
+@interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
 def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     """Two panels, time-mean and maximum E_i against wall time per simulated second (log-log),
     one marker per source, the Pareto front as a dashed staircase, the reference's cost as a

@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -376,7 +376,7 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
     to rank 0 as it ends, where they are put into rank 0's row and on_graded is called. A
     rank that cannot load a truth rank 0 has sends its rows back ungraded, and rank 0 grades
     them; an error anywhere is raised on every rank once all rows are in. A signal (recorded,
-    under mpiexec, solvers/interrupt.py) stops each rank before its next row, and every rank
+    under mpiexec, core/interrupt.py) stops each rank before its next row, and every rank
     raises it together once the rows graded so far are in (and recorded by on_graded)."""
     from tissuebench.solvers.truth.store import load_cached
 

@@ -17,13 +17,13 @@ every text that was read is escaped (html.escape) and the tooltips are set as te
 
 from __future__ import annotations
 
-import csv
 import html
 import json
 import math
 from pathlib import Path
 from typing import Any, cast
 
+from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard.figures import sessions_line
 from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
 
@@ -174,9 +174,8 @@ def read_frontier(path: Path) -> dict[str, list[dict]]:
     """results/frontier/frontier.csv by truth case: each finished run's scheme, algorithm,
     cell, mesh size, dofs, sub-steps, E_i mean and max and cost (s/s); {} without the file."""
     try:
-        with open(path, newline="") as f:
-            raw = list(csv.DictReader(f))
-    except (OSError, csv.Error, UnicodeDecodeError):
+        raw = read_rows(path)
+    except (OSError, CSVError, UnicodeDecodeError):
         return {}
     out: dict[str, list[dict]] = {}
     for r in raw:

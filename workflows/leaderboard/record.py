@@ -9,7 +9,7 @@ from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
-from tissuebench.meshes.errors import UserError
+from tissuebench.core.errors import UserError
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
 
 FOLDER = "leaderboard"

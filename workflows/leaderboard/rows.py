@@ -34,9 +34,9 @@ cost or error never ranks.
 
 from __future__ import annotations
 
-import csv
 import math
 import numbers
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeGuard, cast
@@ -49,13 +49,15 @@ from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here a
     N12_VARIANTS,
     Board,
 )
+from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.limits import step_count
-from tissuebench.workflows.output import MANIFEST, changes, read_summary
+from tissuebench.workflows.output import MANIFEST, changes
 from tissuebench.workflows.simulators import SIMULATORS
-from tissuebench.workflows.summary import CaseSummary
+from tissuebench.workflows.summary import CaseSummary, read_summary
 
 if TYPE_CHECKING:
     from tissuebench.solvers.materials import Material
+    from tissuebench.workflows.summary import CompareSummary
 
 E_I = "interior_error"
 E_N = "relative_error"
@@ -126,7 +128,7 @@ def our_rows(case: str, summary: CaseSummary) -> list[Row]:
     return rows
 
 
-def external_rows(case: str, summary: dict) -> list[Row]:
+def external_rows(case: str, summary: Mapping[str, Any]) -> list[Row]:
     """Rows of a simulator folder's summary.json (workflows/simulators/runner.py)."""
     rows = []
     for label, run in summary["runs"].items():
@@ -604,7 +606,7 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
     if folder is not None:
         from tissuebench.workflows.grading import candidate_file
 
-        file = candidate_file(summary, folder) or file
+        file = candidate_file(cast("CompareSummary", summary), folder) or file
     assert isinstance(cand, dict)  # file came from it
     field = cand.get("field")
     return {"series": file, "series_field": field if isinstance(field, str) else None}
@@ -692,15 +694,16 @@ def write_csv(path: Path, rows: list[Row]) -> None:
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
     names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
-    with open(path, "w", newline="") as f:
-        out = csv.writer(f)
-        out.writerow(names)
-        for r in rows:
-            out.writerow(
-                [r.case, r.label, r.source, r.description, r.mesh, r.dofs, r.status, r.reason or ""]
-                + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
-                + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
-                + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
-                + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
-                + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
-            )
+    write_table(
+        path,
+        names,
+        (
+            [r.case, r.label, r.source, r.description, r.mesh, r.dofs, r.status, r.reason or ""]
+            + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
+            + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
+            + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
+            + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
+            + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
+            for r in rows
+        ),
+    )

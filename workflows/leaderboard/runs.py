@@ -18,13 +18,10 @@ from tissuebench.workflows.leaderboard.rows import (
     mark_pareto,
     our_rows,
 )
-from tissuebench.workflows.output import (
-    read_summary,
-)
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
 from tissuebench.workflows.study import model_case, run_case
-from tissuebench.workflows.summary import CaseSummary
+from tissuebench.workflows.summary import CaseSummary, read_summary
 
 if TYPE_CHECKING:
     pass

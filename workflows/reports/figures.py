@@ -12,10 +12,10 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatter, NullFormatter
 
+from tissuebench.core import interrupt
 from tissuebench.meshes import BENCHMARKS
 from tissuebench.metrics.series import Series
 from tissuebench.metrics.table import METRICS, panels
-from tissuebench.solvers import interrupt
 from tissuebench.workflows.io.tables import spans_decades
 from tissuebench.workflows.reports import model_figures
 from tissuebench.workflows.reports.style import CMAP, OUTLINE, STYLES, CaseView, plot_curve
@@ -28,19 +28,27 @@ LONG_RUN = 10.0  # s: deformed.png shows (0, 1, 2, 10) s within the run, and its
 
 @interrupt.drawing
 def case_figures(
-    out: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict, tips: dict
+    out: Path,
+    case: CaseView,
+    summary: CaseSummary,
+    times: np.ndarray,
+    curves: dict,
+    tips: dict,
+    series: dict | None = None,
 ) -> list[str]:
     """Write the case's figures into out; return their file names. A case with elastic models
     other than linear (SPEC section 8) has its own figures (workflows/reports/model_figures.py).
-    Drawn in a critical section (solvers/interrupt.py)."""
+    `series` ({label: Series}) holds the runs' displacement series that the caller has in
+    memory (study, which has just computed them); a run not in it is read from its XDMF file
+    in out. Drawn in a critical section (core/interrupt.py)."""
     if model_figures.is_model_case(case):
-        return model_figures.case_figures(out, case, summary, times, curves, tips)
+        return model_figures.case_figures(out, case, summary, times, curves, tips, series)
     files = [error_curves(out / "errors.png", case, summary, times, curves)]
     if tips:
         files.append(tip_history(out / "tip.png", case, summary, times, tips))
     reference = summary.runs[case.reference]
     if reference.status == "ok" or reference.diverged_step:  # a shape to draw
-        files += deformed_shapes(out, case, summary)
+        files += deformed_shapes(out, case, summary, series=series)
     return files
 
 
@@ -530,16 +538,22 @@ def _rgba(fig, dpi):
     return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
 
-def deformed_shapes(out: Path, case: CaseView, summary: CaseSummary, frames: int = 30) -> list[str]:
+def deformed_shapes(
+    out: Path, case: CaseView, summary: CaseSummary, frames: int = 30, series: dict | None = None
+) -> list[str]:
     """deformed.png (the reference, and its counterparts on other materials, at a few times)
-    and reference.gif (their animation), read back from the runs' XDMF output."""
+    and reference.gif (their animation), from the runs' series in `series` ({label: Series})
+    or else read from their XDMF output."""
     from PIL import Image
 
     from tissuebench.workflows.io.series import read_series
 
     runs = summary.runs
     labels = shape_rows(case, summary)
-    series = [read_series(out / f"{label}.xdmf") for label in labels]
+    given = series or {}
+    series = [
+        given[label] if label in given else read_series(out / f"{label}.xdmf") for label in labels
+    ]
     row_labels = [
         f"{label} ({runs[label].material}{', reference' if label == case.reference else ''})"
         for label in labels

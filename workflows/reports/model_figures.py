@@ -60,10 +60,17 @@ def is_model_case(case: CaseView) -> bool:
 
 
 def case_figures(
-    out: Path, case: CaseView, summary: CaseSummary, times: np.ndarray, curves: dict, tips: dict
+    out: Path,
+    case: CaseView,
+    summary: CaseSummary,
+    times: np.ndarray,
+    curves: dict,
+    tips: dict,
+    series: dict | None = None,
 ) -> list[str]:
-    """Write the figures of a case with models into out; return their file names."""
-    cache: dict[str, Any] = {}
+    """Write the figures of a case with models into out; return their file names. `series`
+    ({label: Series}): the runs' series in memory; the others are read from out."""
+    cache = dict(series or {})
     deformation = deformation_data(out, summary, cache)
     (out / DEFORMATION).write_text(json.dumps(deformation, indent=2) + "\n")
     files = [
@@ -393,8 +400,8 @@ def jacobians(points: np.ndarray, cells: np.ndarray, displacements: np.ndarray) 
 
 
 def deformation_data(folder: Path, summary: CaseSummary, cache: dict | None = None) -> dict:
-    """deformation.json's content from the runs' XDMF series in folder (read into `cache`,
-    {label: Series}, for the figures that follow)."""
+    """deformation.json's content from the runs' series: those in `cache` ({label: Series}),
+    the others read from their XDMF files in folder into it, for the figures that follow."""
     from tissuebench.metrics.series import InputError
     from tissuebench.workflows.io.series import read_series
 
@@ -403,9 +410,10 @@ def deformation_data(folder: Path, summary: CaseSummary, cache: dict | None = No
     result: dict[str, Any] = {"largest_deflection": None, "smallest_J": {}}
     for label, run in summary.runs.items():
         try:
-            series = cache[label] = read_series(folder / f"{label}.xdmf")
+            series = cache[label] if label in cache else read_series(folder / f"{label}.xdmf")
         except InputError:  # a run that diverged at step 0 keeps no step
             continue
+        cache[label] = series
         u = np.asarray(series.displacements)
         if label == ref:
             norms = np.linalg.norm(u, axis=2).max(axis=1)

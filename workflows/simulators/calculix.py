@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
 from tissuebench.workflows.io.calculix import ELEMENTS, SECOND_ORDER, quadratic_hexahedra
 from tissuebench.workflows.simulators import ExternalRun, given
 
@@ -147,7 +147,7 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
     # the unknowns ccx solves for: a 20-node element's midside nodes included
     dofs = (quadratic_hexahedra(data) if element in SECOND_ORDER else data).nodes.size
     start = time.perf_counter()
-    # stopped at once by a signal, which then ends the job (solvers/interrupt.py)
+    # stopped at once by a signal, which then ends the job (core/interrupt.py)
     done = interrupt.run_child(["ccx", "-i", JOB], TIMEOUT, cwd=workdir, env=env)
     if done is None:
         return ExternalRun(None, None, dofs, status="failed", reason=f"ccx ran over {TIMEOUT:g} s")

@@ -471,7 +471,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     """Run one variant serially in a child process (OMP_NUM_THREADS=1) in workdir and write
     kratos.xdmf there: the displacement (m) on the variant's cells at every t_i = i h, NaN
     from a divergence on (status "failed")."""
-    from tissuebench.solvers import interrupt
+    from tissuebench.core import interrupt
     from tissuebench.workflows.io.xdmf import write_series
 
     workdir = Path(workdir)

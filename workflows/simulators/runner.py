@@ -15,19 +15,30 @@ A simulator folder (one per `external` run; one per simulator and case in the le
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+from typing import cast
 
 from mpi4py import MPI
 
-from tissuebench.meshes.errors import UserError
-from tissuebench.solvers import interrupt
+from tissuebench.core import interrupt
+from tissuebench.core.errors import UserError
+from tissuebench.core.fingerprint import fingerprint
 from tissuebench.workflows.grading import compare
 from tissuebench.workflows.io.exported import Exported
-from tissuebench.workflows.output import SUMMARY, RunFolder, collective, fingerprint
+from tissuebench.workflows.output import RunFolder, collective
 from tissuebench.workflows.posing import REFERENCE_FIELD, build, run_reference
 from tissuebench.workflows.simulators import ExternalRun, get_simulator
 from tissuebench.workflows.study import versions
+from tissuebench.workflows.summary import (
+    SCHEMA_VERSION,
+    SUMMARY,
+    CompareSummary,
+    ExternalSummary,
+    VariantRun,
+    read_compare_summary,
+    read_external_summary,
+    write_summary,
+)
 
 
 class SimulatorError(UserError):
@@ -66,7 +77,7 @@ def run_variant(
     folder: Path,
     comm: MPI.Comm = MPI.COMM_WORLD,
     log=print,
-) -> dict:
+) -> VariantRun:
     """Run one variant in folder/work (rank 0; outside simulators run serially), grade its
     output against reference into folder, and return its entry (see the module docstring).
     A failed run or an output that compare refuses is an entry with status "failed"."""
@@ -89,7 +100,7 @@ def run_variant(
     result = collective(comm, run, folder)  # rank 0; a fault of ours is raised on every rank
     interrupt.checkpoint(comm)  # a signal stopped the simulator: the job ends, not the variant
     label = label_of(simulator, variant)
-    entry = {
+    entry: VariantRun = {
         "simulator": simulator,
         "title": sim.TITLE,
         "version": result.version,
@@ -102,7 +113,7 @@ def run_variant(
         "reason": result.reason,
         "wall_time_s": result.wall_time_s,
     }
-    graded = None
+    graded: CompareSummary | None = None
     if result.series is not None:
         try:
             compare(
@@ -116,14 +127,14 @@ def run_variant(
                 wall_time=result.wall_time_s,
                 folder_of_ours=True,
             )
-            graded = json.loads((folder / SUMMARY).read_text()) if comm.rank == 0 else None
-            graded = comm.bcast(graded, root=0)
+            graded = comm.bcast(read_compare_summary(folder) if comm.rank == 0 else None, root=0)
         except UserError as exc:
             entry["status"] = "failed"
             entry["reason"] = entry["reason"] or f"not graded: {exc}"
     if graded is not None:
         graded_run = graded["runs"][label]
-        entry.update({k: v for k, v in graded_run.items() if k not in ("status", "wall_time_s")})
+        kept = {k: v for k, v in graded_run.items() if k not in ("status", "wall_time_s")}
+        entry.update(kept)  # type: ignore[typeddict-item]
         # the simulator's own words on why it failed ("diverged at step 3 (t = 0.1 s): 12
         # tetrahedra inverted") say more than compare's reading of its series
         entry["reason"] = result.reason or graded_run.get("reason")
@@ -166,7 +177,7 @@ def run_external(
     force: bool = False,
     comm: MPI.Comm = MPI.COMM_WORLD,
     log=print,
-) -> dict:
+) -> ExternalSummary:
     """Export the benchmark, run our reference and every chosen variant of the simulator, grade
     them, and write the simulator folder `out` (see the module docstring; the output-folder
     rules of workflows/output.py). Collective; returns the folder's summary. Complete
@@ -208,10 +219,10 @@ def run_external(
         if folder.prepare(inputs, force) == "complete":
             if comm.rank == 0:
                 log(f"{out}: complete results for the same inputs exist, skipped (--force reruns)")
-            summary = comm.bcast(
-                json.loads((folder.path / SUMMARY).read_text()) if comm.rank == 0 else None, root=0
+            summary: ExternalSummary = comm.bcast(
+                read_external_summary(folder.path) if comm.rank == 0 else None, root=0
             )
-            return {**summary, "skipped": True}
+            return {**summary, "skipped": True}  # type: ignore[typeddict-unknown-key]
         with folder.writing() as tmp:
             reference = tmp / "reference.xdmf"
             info = run_reference(data, bench, material, reference, solver, comm, log)
@@ -225,23 +236,24 @@ def run_external(
                 runs[label_of(simulator, variant)] = run_variant(
                     simulator, data, variant, description, reference, tmp / variant, comm, log
                 )
-            summary = {
-                "kind": "external",
-                "simulator": simulator,
-                "title": sim.TITLE,
-                **posed,
-                "num_dofs": int(data.nodes.size) if comm.rank == 0 else None,
-                "end_time": steps * h,
-                "reference": {**info, "file": "reference.xdmf"},
-                "skipped_variants": sim.skipped(data) if comm.rank == 0 else None,
-                "runs": runs,
-                "files": ["benchmark.json", "reference.xdmf", "reference.h5", SUMMARY],
-                "inputs": inputs,
-                "fingerprint": fingerprint(inputs),
-            }
+            summary = cast(  # with posed's keys, which mypy cannot count from a plain dict
+                ExternalSummary,
+                {
+                    "kind": "external",
+                    "schema_version": SCHEMA_VERSION,
+                    "simulator": simulator,
+                    "title": sim.TITLE,
+                    **posed,
+                    "num_dofs": int(data.nodes.size) if comm.rank == 0 else None,
+                    "end_time": steps * h,
+                    "reference": {**info, "file": "reference.xdmf"},
+                    "skipped_variants": sim.skipped(data) if comm.rank == 0 else None,
+                    "runs": runs,
+                    "files": ["benchmark.json", "reference.xdmf", "reference.h5", SUMMARY],
+                    "inputs": inputs,
+                    "fingerprint": fingerprint(inputs),
+                },
+            )
 
-            def write():
-                (tmp / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
-
-            collective(comm, write, folder.path)
+            collective(comm, lambda: write_summary(tmp, summary), folder.path)
     return comm.bcast(summary if comm.rank == 0 else None, root=0)

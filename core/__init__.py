@@ -1,0 +1,3 @@
+"""tissuebench.core: the bottom floor, which every other folder may import and which imports
+none of them: the one bad-input exception (`errors.py`), the signal handling
+(`interrupt.py`) and the fingerprint of a set of inputs (`fingerprint.py`)."""
