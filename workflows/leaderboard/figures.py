@@ -12,7 +12,7 @@ import os
 import platform
 import textwrap
 from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
 from tissuebench.core import interrupt
 from tissuebench.meshes import get_entry
@@ -29,6 +29,7 @@ from tissuebench.workflows.leaderboard.rows import (
     ranked_error,
     truth_error,
 )
+from tissuebench.workflows.reports.style import place_labels
 
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
 DECADES = 6  # the E_i axis spans at most this many decades below the largest error
@@ -37,23 +38,31 @@ DECADES = 6  # the E_i axis spans at most this many decades below the largest er
 @interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
 def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     """Two panels, time-mean and maximum E_i against wall time per simulated second (log-log),
-    one marker per source, the Pareto front as a dashed staircase, the reference's cost as a
-    dotted line (in the legend); labels on every point, or on the front's when more than
-    LABELLED are shown (a user's always, by its label); a group of rows (our runs on
-    simplices) has its own marker, and labels on the front only. When rows were graded against
-    the truth (SPEC 10), a second row of two panels: the same against the truth, with the
-    truth's own error band as a dotted line."""
+    one marker and colour per source (the same in every panel, in one legend below the
+    panels, where it covers no point), the Pareto front as a dashed staircase, the reference's
+    cost as a dotted line; labels on every point, or on the front's when more
+    than LABELLED are shown (a user's always, by its label), each moved clear of the labels
+    before it; a group of rows (our runs on simplices) has its own marker, and labels on the
+    front only. When rows were graded against the truth (SPEC 10), a second row of two panels:
+    the same against the truth, with the truth's own error as a dotted line."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     against_truth = any(truth_error(r, k) for r in rows for k in ("mean", "max"))
-    fig = Figure(figsize=(12, 10.4 if against_truth else 5.2), layout="constrained")
+    fig = Figure(figsize=(12, 10.6 if against_truth else 5.6), layout="constrained")
+    FigureCanvasAgg(fig)  # a renderer, to place the labels
     axes = fig.subplots(2 if against_truth else 1, 2, squeeze=False)
     reference = next((r for r in rows if r.reference), None)
     not_shown = [r for r in rows if not r.reference and (r.status != "ok" or r.cost is None)]
+    colours = {
+        s: f"C{k % 10}" for k, s in enumerate(dict.fromkeys(r.group or r.source for r in rows))
+    }
+    labels: dict = {}  # each panel's point labels, placed last
     for ax, kind in zip(axes[0], ("mean", "max"), strict=True):
-        _panel(
+        labels[ax] = _panel(
             ax,
             rows,
+            colours,
             lambda r, kind=kind: ranked_error(r, kind),
             lambda r, kind=kind: r.pareto.get(kind),
             f"{'time-mean' if kind == 'mean' else 'maximum'} interior error E_i, same mesh "
@@ -67,13 +76,13 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 lw=1,
                 label=f"cost of the reference {plain(reference.label)} (E = 0)",
             )
-        ax.legend(fontsize=8, loc="best")
     if against_truth:
         band = board.truth_band
         for ax, kind in zip(axes[1], ("mean", "max"), strict=True):
-            _panel(
+            labels[ax] = _panel(
                 ax,
                 rows,
+                colours,
                 lambda r, kind=kind: truth_error(r, kind),
                 lambda r, kind=kind: r.truth_pareto.get(kind),
                 f"{'time-mean' if kind == 'mean' else 'maximum'} E_i against the truth "
@@ -84,7 +93,17 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 ax.axhline(
                     band, ls=":", color="0.5", lw=1, label=f"the truth's own E_i max {band:.2g}"
                 )
-            ax.legend(fontsize=8, loc="best")
+    legend: dict = {}  # one entry per label, from every panel
+    for ax in axes.flat:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    fig.legend(
+        list(legend.values()),
+        list(legend),
+        loc="outside lower center",
+        ncols=min(len(legend), 6),
+        fontsize=8,
+    )
     title = textwrap.wrap(f"{board.name}: {board.description}", 150)
     if not_shown:
         title += textwrap.wrap(
@@ -92,13 +111,18 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
             150,
         )
     fig.suptitle("\n".join(title), fontsize=10)
+    for ax, placed in labels.items():  # once the layout (legend, title) is settled
+        place_labels(fig, ax, placed)
     fig.savefig(path, format="png", dpi=110)
 
 
-def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=False) -> None:
+def _panel(
+    ax, rows: list[Row], colours: dict[str, str], error_of, on_front, ylabel: str, front_only=False
+) -> list[tuple[str, tuple[float, float]]]:
     """One log-log panel of plot_case: error_of(row) (None: not shown) against cost, one marker
-    per source or group, the front (on_front(row)) as a dashed staircase, labels (the front's
-    only when front_only: against the truth, runs of one mesh crowd one error)."""
+    per source or group in its colour, the front (on_front(row)) as a dashed staircase; the
+    labels to place (the front's only when front_only: against the truth, runs of one mesh
+    crowd one error) are returned, (text, (x, y)) each, to be placed once the layout is done."""
     markers = {"tissuebench": "o", "CalculiX": "s", "SfePy": "^", "Newton": "D", "Drake": "h",
                "MuJoCo": "X", "Kratos": "p", "user": "*"}  # fmt: skip
     shown = [r for r in rows if (error_of(r) or 0) > 0 and r.cost is not None and r.cost > 0]
@@ -109,8 +133,13 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
     if errors and min(errors) < floor:
         raw = error_of
         error_of = lambda r: max(raw(r), floor)  # noqa: E731
-        ax.axhline(floor, color="0.75", lw=0.8, label=f"at {floor:.0e}: E_i below it (round-off)")
-    placed: list[tuple[float, Any]] = []
+        ax.axhline(
+            floor,
+            color="0.75",
+            lw=0.8,
+            label=f"E_i more than {DECADES} decades below the largest: drawn on this line",
+        )
+    labels: list[tuple[str, tuple[float, float]]] = []
     crowded = front_only or sum(r.group is None for r in shown) > LABELLED
     for source in dict.fromkeys(r.group or r.source for r in shown):
         group = [r for r in shown if (r.group or r.source) == source]
@@ -120,25 +149,16 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
             [error_of(r) for r in group],
             marker=marker,
             s=46,
+            color=colours[source],
             label=plain(source),
             zorder=3,
         )
         for r in group:
             if (crowded or r.group) and not on_front(r) and r.source != "user":
                 continue  # a crowd, or a group: only its front is labelled (the table has all)
-            xy = (cast(float, r.cost), error_of(r))  # shown: rows with a cost
-            near = sum(  # labels already placed next to this point go above it
-                abs(math.log(xy[0] / p[0])) < 0.25 and abs(math.log(xy[1] / p[1])) < 0.25
-                for p in placed
-            )
-            placed.append(xy)
-            ax.annotate(  # a simulator's variant without the simulator's name
-                plain(r.label if r.source == "user" else r.label.split(":", 1)[-1]),
-                xy,
-                textcoords="offset points",
-                xytext=(4, 3 + 9 * near),
-                fontsize=7,
-            )
+            # a simulator's variant without the simulator's name
+            text = plain(r.label if r.source == "user" else r.label.split(":", 1)[-1])
+            labels.append((text, (cast(float, r.cost), error_of(r))))  # shown: with a cost
     front = sorted((r for r in shown if on_front(r)), key=lambda r: cast(float, r.cost))
     if front:
         ax.step(
@@ -156,6 +176,7 @@ def _panel(ax, rows: list[Row], error_of, on_front, ylabel: str, front_only=Fals
     ax.set_xlabel("wall time per simulated second (s/s), this machine")
     ax.set_ylabel(ylabel, fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
+    return labels
 
 
 def table(rows: list[Row]) -> list[str]:

@@ -9,10 +9,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from tissuebench.meshes import get_entry
 from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.reports.style import place_labels
 
 MARKER = "# The real-time frontier"
 PLAIN = {"quadrilateral": "Q1", "hexahedron": "Q1", "triangle": "P1", "tetrahedron": "P1"}
@@ -285,39 +285,6 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
     place_labels(fig, ax, labels)
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-LABEL_STEP = 9  # points: how far a label moves down (then up) from one that it would cover
-
-
-def place_labels(fig, ax, labels: list[tuple[str, tuple[float, float]]]) -> None:
-    """Annotate each point (text, (x, y)) beside it, moving a label that would cover one
-    placed before it down or up by LABEL_STEP points until it is clear (at most 6 tries each
-    way; then it stays where it covers least). The axes' layout is settled first."""
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
-    placed: list[Any] = []  # the placed labels' boxes
-    for text, xy in labels:
-        offsets = [4 + k * LABEL_STEP * sign for k in range(7) for sign in (-1, 1)][1:]
-        best = None
-        for dy in offsets:
-            note = ax.annotate(text, xy, textcoords="offset points", xytext=(4, dy), fontsize=7)
-            box = note.get_window_extent(renderer)
-            cover = sum(
-                max(0.0, min(box.x1, b.x1) - max(box.x0, b.x0))
-                * max(0.0, min(box.y1, b.y1) - max(box.y0, b.y0))
-                for b in placed
-            )
-            if best is None or cover < best[0]:
-                if best is not None:
-                    best[1].remove()
-                best = (cover, note, box)
-            else:
-                note.remove()
-            if cover == 0:
-                break
-        assert best is not None  # offsets is not empty
-        placed.append(best[2])
 
 
 def markdown(
