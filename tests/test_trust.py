@@ -410,3 +410,28 @@ def test_figure_takes_labels_as_plain_text(tmp_path):
     path = tmp_path / f"figure-{COMM.rank}.png"
     document.plot_case(path, Board("c", "rod", "MP3", "linear", description="d"), rows)
     assert all_ranks(path.stat().st_size > 10_000)
+
+
+def test_a_figure_is_stamped_with_the_code_that_drew_it(tmp_path):
+    """Each case's PNG carries the hash of the code that drew it; one drawn by other code (or
+    by none that says) is not taken as drawn, so the leaderboard draws it again."""
+    from tissuebench.workflows.leaderboard.build import as_drawn_now
+    from tissuebench.workflows.leaderboard.figures import STAMP, drawing_code, stamp_of
+    from tissuebench.workflows.output import write_owned
+
+    rows = [row("a", 1.0, 1e-3), row("b", 2.0, 1e-4)]
+    mark_pareto(rows)
+    folder = tmp_path / f"rank-{COMM.rank}"
+    folder.mkdir()
+    path = folder / "c.png"
+    board = Board("c", "rod", "MP3", "linear", description="d")
+    write_owned(path, lambda tmp: document.plot_case(tmp, board, rows))
+    assert stamp_of(path) == drawing_code() and as_drawn_now(path)
+    import matplotlib.pyplot as plt
+
+    for stamp in ("0" * 64, None):  # drawn by other code, or by one that did not stamp it
+        fig = plt.figure()
+        meta = {STAMP: stamp} if stamp else {}
+        write_owned(path, lambda tmp, meta=meta: fig.savefig(tmp, format="png", metadata=meta))
+        plt.close(fig)
+        assert stamp_of(path) == stamp and not as_drawn_now(path)

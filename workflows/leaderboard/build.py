@@ -14,7 +14,13 @@ from tissuebench.core import interrupt
 from tissuebench.workflows.commands.arguments import check_common
 from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard import document, page, users
-from tissuebench.workflows.leaderboard.figures import machine, plot_case, unit_of
+from tissuebench.workflows.leaderboard.figures import (
+    drawing_code,
+    machine,
+    plot_case,
+    stamp_of,
+    unit_of,
+)
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
@@ -117,6 +123,11 @@ def unchanged(path: Path) -> bool:
     return path.is_file() and listed.get(path.name) == file_hash(path)
 
 
+def as_drawn_now(png: Path) -> bool:
+    """Whether a case's figure is in place as we wrote it and drawn by today's code."""
+    return unchanged(png) and stamp_of(png) == drawing_code()
+
+
 def check_rerun(names: list[str] | None) -> list[str] | None:
     """The cases to rerun (None: none; all of BOARDS when --rerun names none); an unknown name
     is refused in one line that lists the cases."""
@@ -216,7 +227,7 @@ def main(args: argparse.Namespace) -> int:
         for board, case in zip(boards, record["cases"], strict=True):
             same = drawn.get(board.name) == json.dumps(case)  # drawn of the same rows
             png = out / FOLDER / f"{board.name}.png"
-            if not (same and unchanged(png)):  # else still as drawn: seconds saved per case
+            if not (same and as_drawn_now(png)):  # else still as drawn: seconds saved per case
                 files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
         every = [r for board in boards for r in rows[board.name]]
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")

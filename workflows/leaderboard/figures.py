@@ -7,6 +7,7 @@ escaped (rows.md, rows.plain).
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import platform
@@ -29,9 +30,11 @@ from tissuebench.workflows.leaderboard.rows import (
     ranked_error,
     truth_error,
 )
+from tissuebench.workflows.reports import style
 from tissuebench.workflows.reports.style import place_labels
 
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
+STAMP = "tissuebench-figure"  # the PNG text key that holds the hash of the code that drew it
 DECADES = 6  # the E_i axis spans at most this many decades below the largest error
 
 
@@ -113,7 +116,31 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     fig.suptitle("\n".join(title), fontsize=10)
     for ax, placed in labels.items():  # once the layout (legend, title) is settled
         place_labels(fig, ax, placed)
-    fig.savefig(path, format="png", dpi=110)
+    fig.savefig(path, format="png", dpi=110, metadata={STAMP: drawing_code()})
+
+
+def drawing_code() -> str:
+    """The SHA-256 of the code that draws a case's figure (this module and reports/style.py),
+    stamped into each PNG, so that a figure drawn by other code is drawn again."""
+    digest = hashlib.sha256()
+    for module in (__file__, style.__file__):
+        digest.update(Path(module).read_bytes())
+    return digest.hexdigest()
+
+
+def stamp_of(path: Path) -> str | None:
+    """The drawing code's hash stamped into a PNG (its tEXt chunk STAMP), None without one."""
+    data = path.read_bytes()
+    at = 8  # the signature, then chunks: length, type, data, CRC
+    while at + 8 <= len(data):
+        length = int.from_bytes(data[at : at + 4], "big")
+        kind, body = data[at + 4 : at + 8], data[at + 8 : at + 8 + length]
+        if kind == b"tEXt" and body.startswith(STAMP.encode() + b"\0"):
+            return body[len(STAMP) + 1 :].decode("latin-1")
+        if kind == b"IDAT":
+            return None  # text chunks before the image only
+        at += 12 + length
+    return None
 
 
 def _panel(
