@@ -32,6 +32,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 NAMES = ("performance-leaderboard.json", "performance-leaderboard.md")
+TRUTH = (
+    "rod"  # the truth case that rod-MP3's rows, the copied user's among them, are graded against
+)
 
 
 def sh(*argv, cwd: Path) -> str:
@@ -159,8 +162,10 @@ def measure_users(users: int, ranks: list[int], work: Path, log=print) -> dict:
 
     from tissuebench.solvers.truth.store import is_cached
 
-    if not is_cached("rod", comm=MPI.COMM_SELF):
-        raise RuntimeError("the truth rod is not computed here: `tissuebench truth rod` first")
+    if not is_cached(TRUTH, comm=MPI.COMM_SELF):
+        raise RuntimeError(
+            f"the truth {TRUTH} is not computed here: `tissuebench truth {TRUTH}` first"
+        )
     template = work / "template"
     prepare(users, template, log)
     records = []
