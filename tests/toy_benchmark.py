@@ -14,14 +14,12 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import dolfinx.mesh
 import gmsh
 
 from tissuebench.meshes import register, unregister
 from tissuebench.meshes.benchmark import (
     LOAD_SCALE_HELP,
     Benchmark,
-    Constraint,
     Entry,
     check_load_scale,
     check_shape,
@@ -29,7 +27,7 @@ from tissuebench.meshes.benchmark import (
     shape_options,
 )
 from tissuebench.meshes.gmshio import check_positive_int, start_gmsh, to_dolfinx
-from tissuebench.meshes.regions import Posing, Region, Term
+from tissuebench.meshes.regions import Posing, Region, Term, on_mesh
 from tissuebench.solvers.truth.cases import register_case, remove_case
 
 NAME = "plate"
@@ -86,22 +84,17 @@ def benchmark(
     """The plate: its mesh from gmsh, its constrained nodes found by its regions' predicates."""
     check_positive_int("mesh size n", mesh_size)
     check_shape(2, cell, mesh)
-    posed = posing(load_scale)
+    check_load_scale(load_scale)
     if comm.rank == 0:
         start_gmsh()
         gmsh.model.add(f"{NAME}-{mesh_size}")
         gmsh_plate(mesh_size, cell, mesh)
     tagged = to_dolfinx(comm, gdim=2, msh_path=msh_path)
-    constraints = []
-    for region in posed.regions:
-        vertices = dolfinx.mesh.locate_entities_boundary(
-            tagged.mesh, 0, lambda x, r=region: r.mask(x[:2].T, 1e-9)
-        )
-        constraints.append(Constraint(region.name, 0, vertices, region.motion))
+    posed = on_mesh(NAME, tagged.mesh, load_scale=load_scale)  # its regions' nodes, found
     return Benchmark(
         name=NAME,
         tagged=tagged,
-        constraints=constraints,
+        constraints=posed.constraints,
         gravity=posed.gravity,
         material=ENTRY.material,
         dt=ENTRY.dt,
