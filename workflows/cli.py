@@ -63,6 +63,7 @@ COMMANDS = [
     "tissuebench.workflows.commands.bench",
     "tissuebench.workflows.commands.truth",
     "tissuebench.workflows.commands.frontier",
+    "tissuebench.workflows.commands.hertz",
 ]
 
 

@@ -1,0 +1,112 @@
+"""The needle as contact (SPEC section 12): the rigid half-stadium needle and the block's mesh
+graded toward the part of its right edge that the needle touches.
+
+The needle S(t) is the disc of radius R = 0.1 m centred at c(t), with the strip
+{x >= c_x(t), |y - 0.5| <= R} to its right; c(0) = (1 + R, 0.5) m, so that it touches the
+block's right edge at (1, 0.5) at rest, and c(t) = c(0) + s g(t) with g the needle motion of
+SPEC 4 (block.needle_motion) and s the load scale. Its signed distance is the distance to the
+ray {c + (r, 0), r >= 0} minus R (negative inside), smooth except on that ray.
+"""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import gmsh
+import numpy as np
+
+from tissuebench.meshes.block import LENGTH, NEEDLE, needle_motion
+from tissuebench.meshes.gmshio import MeshError, TaggedMesh, start_gmsh, to_dolfinx
+
+RADIUS = 0.1  # m, R of SPEC 12 (w = 2R = 0.2 m)
+# the band of the right edge |y - 0.5| <= SWEPT that the truth's grids are graded toward (SPEC
+# 12: 1.5 R, m)
+SWEPT = 1.5 * RADIUS
+
+SHAPE = (
+    "the half-stadium S(t): the disc of radius R centred at c(t), with the strip "
+    "{x >= c_x(t), |y - 0.5| <= R} to its right"
+)
+LAW = (
+    "frictionless contact on the right edge x = 1 (free otherwise): the gap g_n, the signed "
+    "distance (m, negative inside) from the deformed point x = X + u to S(t), satisfies "
+    "g_n >= 0, the contact pressure p >= 0 (Pa) acts along the outward normal of S at the "
+    "closest point, p g_n = 0, and there is no tangential traction"
+)
+
+
+def centre(t: float, scale: float = 1.0) -> np.ndarray:
+    """The needle's centre c(t) = (1 + R, 0.5) + s g(t) (m) at time t (s), load scale s."""
+    return np.array([NEEDLE[0] + RADIUS, NEEDLE[1]]) + scale * needle_motion(t)[0]
+
+
+def signed_distance(points: np.ndarray, c: np.ndarray, radius: float = RADIUS) -> np.ndarray:
+    """The signed distance (m, negative inside) from each point (n, 2), m, to the
+    half-stadium of radius `radius` (m) centred at c (m)."""
+    dx = points[:, 0] - c[0]
+    dy = points[:, 1] - c[1]
+    return np.where(dx >= 0, np.abs(dy), np.hypot(dx, dy)) - radius
+
+
+def outward_normal(points: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """The unit outward normal (n, 2) of the half-stadium centred at c (m) at the point of its
+    boundary closest to each point (n, 2), m (the gradient of signed_distance)."""
+    dx = points[:, 0] - c[0]
+    dy = points[:, 1] - c[1]
+    r = np.maximum(np.hypot(dx, dy), 1e-300)
+    flank = dx >= 0
+    return np.stack([np.where(flank, 0.0, dx / r), np.where(flank, np.sign(dy), dy / r)], axis=1)
+
+
+def graded_block(
+    h_near: float,
+    h_far: float = 0.05,
+    band: float = SWEPT,
+    grow: float = 0.3,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> TaggedMesh:
+    """The block [0, 1] x [0, 1] m in gmsh's Frontal-Delaunay triangles, of size h_near (m)
+    on the right edge's band |y - 0.5| <= band (m), growing linearly with the distance from
+    it to h_far (m) at `grow` (m). Physical groups "left", "right", "bottom", "top" (edges)."""
+    if not (0 < h_near <= h_far <= LENGTH and 0 < band < LENGTH / 2 and grow > 0):
+        raise MeshError(
+            f"a graded block needs 0 < h_near <= h_far <= 1 m and 0 < band < 0.5 m, got "
+            f"h_near {h_near!r}, h_far {h_far!r}, band {band!r}"
+        )
+    if comm.rank == 0:
+        start_gmsh()
+        gmsh.model.add("contact-block")
+        geo = gmsh.model.geo
+        y0, y1 = NEEDLE[1] - band, NEEDLE[1] + band
+        p = [
+            geo.addPoint(x, y, 0.0, h_far)
+            for x, y in [(0, 0), (1, 0), (1, y0), (1, y1), (1, 1), (0, 1)]
+        ]
+        bottom = geo.addLine(p[0], p[1])
+        right_low, contact, right_high = (geo.addLine(p[i], p[i + 1]) for i in (1, 2, 3))
+        top = geo.addLine(p[4], p[5])
+        left = geo.addLine(p[5], p[0])
+        loop = geo.addCurveLoop([bottom, right_low, contact, right_high, top, left])
+        surface = geo.addPlaneSurface([loop])
+        geo.synchronize()
+        field = gmsh.model.mesh.field
+        distance = field.add("Distance")
+        field.setNumbers(distance, "CurvesList", [contact])
+        field.setNumber(distance, "Sampling", max(200, int(2 * band / h_near)))
+        threshold = field.add("Threshold")
+        field.setNumber(threshold, "InField", distance)
+        field.setNumber(threshold, "SizeMin", h_near)
+        field.setNumber(threshold, "SizeMax", h_far)
+        field.setNumber(threshold, "DistMin", 0.0)
+        field.setNumber(threshold, "DistMax", grow)
+        field.setAsBackgroundMesh(threshold)
+        for name in ("MeshSizeFromPoints", "MeshSizeFromCurvature", "MeshSizeExtendFromBoundary"):
+            gmsh.option.setNumber(f"Mesh.{name}", 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
+        gmsh.model.addPhysicalGroup(2, [surface], 1, name="block")
+        gmsh.model.addPhysicalGroup(1, [left], 1, name="left")
+        gmsh.model.addPhysicalGroup(1, [right_low, contact, right_high], 2, name="right")
+        gmsh.model.addPhysicalGroup(1, [bottom], 3, name="bottom")
+        gmsh.model.addPhysicalGroup(1, [top], 4, name="top")
+        gmsh.model.mesh.generate(2)
+    return to_dolfinx(comm, gdim=2)
