@@ -8,13 +8,14 @@ benchmark defined elsewhere (a test's) joins with register(name, entry).
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before PETSc and DOLFINx do)
 
-from tissuebench.meshes import block, rod
+from tissuebench.meshes import block, contact, rod
 from tissuebench.meshes.benchmark import Benchmark, Entry
 from tissuebench.meshes.gmshio import MeshError
 
 BENCHMARKS = {
     "block": block.ENTRY,
     "rod": rod.ENTRY,
+    "contact": contact.ENTRY,
 }
 
 

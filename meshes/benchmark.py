@@ -23,6 +23,20 @@ class Constraint:
 
 
 @dataclass
+class Contact:
+    """A rigid tool in frictionless penalty contact with the body (SPEC 12): the boundary
+    facets `facets` (local indices, dimension gdim - 1) may touch the half-stadium of radius
+    `radius` (m) centred at `centre(t)` (m); the penalty is k = kappa E / edge_size (Pa/m),
+    edge_size the smallest cell size along those facets (m)."""
+
+    facets: np.ndarray
+    centre: Callable[[float], np.ndarray]
+    radius: float
+    kappa: float
+    edge_size: float
+
+
+@dataclass
 class Benchmark:
     name: str
     tagged: TaggedMesh
@@ -35,6 +49,7 @@ class Benchmark:
     mesh_size: int
     probe: tuple | None = None  # a point whose displacement is reported (the rod's tip), m
     options: dict = field(default_factory=dict)
+    contact: Contact | None = None  # a rigid tool in contact (SPEC 12), or none
 
     @property
     def mesh(self) -> dolfinx.mesh.Mesh:
@@ -93,6 +108,8 @@ class Entry:
     place: Callable[[Sequence[float], int, Callable], str] = lambda x, size, option: ""
     # what SPEC 7 claims of it by material, quoted in the stability report
     claims: dict[str, str] = field(default_factory=dict)
+    # whether the stability sweep and the convergence studies take it (the paper's benchmarks)
+    studied: bool = True
 
 
 # SPEC 9: the cell shapes of each dimension, the default first, and the two kinds of mesh

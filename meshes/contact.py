@@ -10,15 +10,28 @@ ray {c + (r, 0), r >= 0} minus R (negative inside), smooth except on that ray.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from mpi4py import MPI
 
 import gmsh
 import numpy as np
 
-from tissuebench.meshes.block import LENGTH, NEEDLE, needle_motion
+from tissuebench.meshes.benchmark import (
+    LOAD_SCALE_HELP,
+    Benchmark,
+    Constraint,
+    Contact,
+    Entry,
+    check_load_scale,
+    fixed,
+    shape_options,
+)
+from tissuebench.meshes.block import LENGTH, NEEDLE, block_mesh, needle_motion
 from tissuebench.meshes.gmshio import MeshError, TaggedMesh, start_gmsh, to_dolfinx
 
 RADIUS = 0.1  # m, R of SPEC 12 (w = 2R = 0.2 m)
+KAPPA = 10.0  # SPEC 12: the penalty k = kappa E / h_e of our algorithms, by default
 # the band of the right edge |y - 0.5| <= SWEPT that the truth's grids are graded toward (SPEC
 # 12: 1.5 R, m)
 SWEPT = 1.5 * RADIUS
@@ -110,3 +123,75 @@ def graded_block(
         gmsh.model.addPhysicalGroup(1, [top], 4, name="top")
         gmsh.model.mesh.generate(2)
     return to_dolfinx(comm, gdim=2)
+
+
+def benchmark(
+    mesh_size: int = 20,
+    load_scale: float = 1.0,
+    kappa: float = KAPPA,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    msh_path: str | Path | None = None,
+    cell: str = "quadrilateral",
+    mesh: str = "structured",
+) -> Benchmark:
+    """The block of SPEC 4 (N x N cells, fixed left, bottom and top edges) with the needle as
+    contact (SPEC 12): nothing is attached to the needle, whose half-stadium moves by s g(t)
+    and pushes the right edge through the penalty k = kappa E / h_e, h_e = 1/N m the right
+    edge's cell size."""
+    check_load_scale(load_scale)
+    if not (isinstance(kappa, (int, float)) and not isinstance(kappa, bool) and 0 < kappa < 1e12):
+        raise MeshError(f"the penalty kappa must be a number > 0 (and below 1e12), got {kappa!r}")
+    tagged = block_mesh(mesh_size, comm, msh_path, cell, mesh)
+    options = {"load_scale": load_scale, "kappa": float(kappa)}
+    options.update(shape_options(2, cell, mesh))
+    constraints = [
+        Constraint(edge, *tagged.entities(edge), fixed(2)) for edge in ("left", "bottom", "top")
+    ]
+    return Benchmark(
+        name="contact",
+        tagged=tagged,
+        constraints=constraints,
+        gravity=(0.0, 0.0),
+        material=ENTRY.material,
+        dt=ENTRY.dt,
+        end_time=ENTRY.end_time,
+        extent=LENGTH,
+        mesh_size=mesh_size,
+        options=options,
+        contact=Contact(
+            facets=tagged.entities("right")[1],
+            centre=lambda t: centre(t, load_scale),
+            radius=RADIUS,
+            kappa=float(kappa),
+            edge_size=LENGTH / mesh_size,
+        ),
+    )
+
+
+def options_text(option) -> str:
+    """The penalty's kappa in words, from option(name, default)."""
+    return f", rigid needle R = {RADIUS:g} m, kappa = {option('kappa', KAPPA):g}"
+
+
+ENTRY = Entry(
+    build=benchmark,
+    gdim=2,
+    material="MP1",
+    mesh_size=20,
+    dt=1 / 30,
+    end_time=10.0,
+    nodes=lambda N: (N + 1) ** 2,
+    cell_size=lambda N: LENGTH / N,
+    materials=("MP1", "MP2"),
+    study_sizes=(10, 20, 40, 80),
+    options={
+        "load_scale": LOAD_SCALE_HELP,
+        "kappa": f"the contact penalty k = kappa E / h_e, h_e = 1/N m (default {KAPPA:g}, SPEC 12)",
+    },
+    box=(LENGTH, LENGTH),
+    title="Block and rigid needle (contact)",
+    size_name="N",
+    options_text=options_text,
+    no_truth=lambda options: "the contact cases' truth is not computed yet (SPEC 12)",
+    studied=False,
+)

@@ -35,15 +35,22 @@ def get_integrator(
     name: str, system: System, h: float, solver: str = "direct", model: str = "linear"
 ) -> Integrator:
     """The integrator `name` (see ALGORITHMS) for `system` with time step h (s) and the
-    elastic model `model` (see MODELS; `linear` is the assembled K of SPEC sections 1-7)."""
+    elastic model `model` (see MODELS; `linear` is the assembled K of SPEC sections 1-7). A
+    benchmark with contact (SPEC 12) runs every model, linear included, through the nonlinear
+    integrators, with the penalty's force beside f_int."""
     if name not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {name!r}: use one of {', '.join(ALGORITHMS)}")
     if not (isinstance(h, (int, float)) and h > 0):
         raise ValueError(f"time step h must be > 0 s, got {h!r}")
     elastic = get_model(model)
-    if elastic.linear:
+    contact = system.benchmark.contact is not None
+    if elastic.linear and not contact:
         return ALGORITHMS[name].build(system, h, solver=solver)
     scheme = getattr(system, "scheme", "standard").partition(":")[0]
+    if contact and scheme != "standard":
+        from tissuebench.solvers.schemes import SchemeError
+
+        raise SchemeError(f"scheme {scheme} with contact: contact takes the standard element")
     if scheme != "standard" and not (scheme == "mean-dilatation" and ALGORITHMS[name].explicit):
         from tissuebench.solvers.schemes import SchemeError
 

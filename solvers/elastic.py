@@ -18,6 +18,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
+from tissuebench.solvers import contact as penalty
 from tissuebench.solvers.models.model import Model
 from tissuebench.solvers.system import System, epsilon, sigma
 
@@ -141,7 +142,12 @@ class ElasticForces:
         self.compiled = None
         from tissuebench.solvers import compiled_forces
 
-        if compiled and compiled_forces.available(model, mesh.topology.cell_name()):
+        contact = system.benchmark.contact
+        if (
+            compiled
+            and contact is None
+            and compiled_forces.available(model, mesh.topology.cell_name())
+        ):
             self.compiled = compiled_forces.CompiledForces(
                 V, model, float(system.mu.value), float(system.lmbda.value), fbar
             )
@@ -153,6 +159,15 @@ class ElasticForces:
         else:
             P = model.first_piola(F, system.mu, system.lmbda, self.R)
         f_int = ufl.inner(P, ufl.grad(w)) * dx
+        # SPEC 12: a rigid tool's penalty contact, its force beside f_int (and so its tangent
+        # in K_T), the tool placed at its centre of the time set_time gave
+        self.needle: fem.Constant | None = None
+        if contact is not None:
+            self.needle = fem.Constant(mesh, np.asarray(contact.centre(0.0), dtype=float))
+            ds = penalty.edge_measure(mesh, contact.facets)
+            k = penalty.penalty_stiffness(system)
+            energy = penalty.energy(self.u, self.needle, contact.radius, k, ds)
+            f_int = f_int + ufl.derivative(energy, self.u, w)
         self.f_form = fem.form(f_int)
         # the Jacobian of a step: c_T K_T(u) + c_K K_0 (+ c_M M, consistent mass)
         self.c_T = fem.Constant(mesh, PETSc.ScalarType(1.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
@@ -196,6 +211,12 @@ class ElasticForces:
         volumes.destroy()
         scale = (self.Jbar / J) ** (1.0 / system.gdim)
         return scale * model.first_piola(scale * F, system.mu, system.lmbda, None)
+
+    def set_time(self, t: float) -> None:
+        """Place the contact tool (if any) where it is at time t (s)."""
+        contact = self.system.benchmark.contact
+        if self.needle is not None and contact is not None:
+            self.needle.value[:] = contact.centre(t)
 
     def set_u(self, u: PETSc.Vec) -> None:
         """Take the owned values of u (m), update the ghosts and, for a rotated model, R; for

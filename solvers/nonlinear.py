@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
+import numpy as np
+
 from tissuebench.solvers import compiled_forces
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
@@ -99,7 +101,13 @@ class ModelForces(_Mixed):
         r.array[self.system.constrained] = 0.0
         return r
 
+    def start(self) -> State:
+        self.forces.set_time(0.0)  # a contact tool at rest
+        return super().start()
+
     def check_inversion(self, t: float) -> None:
+        if self.forces.model.linear:  # small strain (with contact): J is not the model's
+            return
         smallest = self.forces.min_det()
         if not smallest > 0:
             raise SolveError(f"inverted element: J = {smallest:.3g} <= 0 at t = {t:.4g} s")
@@ -130,6 +138,7 @@ class ExplicitModel(ModelForces, Newmark):
         super().__init__(system, h, scheme, prefix, solver)
 
     def step(self, state: State) -> State:
+        self.forces.set_time((state.i + 1) * self.h)  # f_int(u_{i+1}) at t_{i+1}
         state = super().step(state)
         self.check_inversion(state.t)
         return state
@@ -232,6 +241,7 @@ class NewtonModel(ModelForces, Newmark):
         delta = self._delta
         delta.set(0.0)
         t = (state.i + 1) * self.h
+        self.forces.set_time(t)
         try:
             self.snes.solve(None, delta)
         except PETSc.Error as err:
@@ -315,6 +325,7 @@ class QuasiStaticModel:
             theta = min(1.0, done + increment)
             u.array[c] = start_uc + theta * (end_uc - start_uc)
             self._theta = start_load + theta * (end_load - start_load)
+            self.forces.set_time(state.t + theta * self.h)  # a contact tool moves with the load
             if self._newton(u):
                 done = theta
                 u.copy(self._good)
@@ -329,7 +340,7 @@ class QuasiStaticModel:
                 )
             increment /= 2
         self._load = end_load
-        smallest = self.forces.min_det(u)
+        smallest = np.inf if self.forces.model.linear else self.forces.min_det(u)
         if not smallest > 0:
             raise SolveError(f"inverted element: J = {smallest:.3g} <= 0 at t = {t:.4g} s")
         state.i, state.t = i, t
@@ -349,7 +360,7 @@ def integrator(
         return QuasiStaticModel(system, h, model, prefix, solver)
     if scheme.explicit:
         cell = system.mesh.topology.cell_name()
-        fused = scheme.lumped and not scheme.stiffness_damping
+        fused = scheme.lumped and not scheme.stiffness_damping and system.benchmark.contact is None
         if fused and compiled_forces.available(model, cell):
             return ExplicitLumpedModel(system, h, scheme, model, prefix, solver)
         return ExplicitModel(system, h, scheme, model, prefix, solver)

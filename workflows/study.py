@@ -27,13 +27,16 @@ from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.series import InputError
 from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import REFERENCE
+from tissuebench.solvers.contact import Measures
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.schemes import STANDARD, scheme_label
 from tissuebench.solvers.simulate import simulate
 from tissuebench.solvers.substeps import sub_stepped
 from tissuebench.solvers.system import System, probe
-from tissuebench.workflows.io.tables import write_metrics_csv, write_tip_csv
+from tissuebench.workflows.contact.figures import plot_contact
+from tissuebench.workflows.contact.readings import contact_readings
+from tissuebench.workflows.io.tables import write_contact_csv, write_metrics_csv, write_tip_csv
 from tissuebench.workflows.io.xdmf import as_series, gather_series, write_series
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate, step_count
@@ -250,6 +253,7 @@ def compute_case(
     metrics = Metrics(next(iter(systems.values())).V)
 
     results, tips, shapes = {}, {}, {}  # shapes: the runs' displacement Series (rank 0)
+    contacts = {}  # SPEC 12: each run's (F_x, F_y, interpenetration) at every step kept
     for label, algorithm, material, model in case.runs:
         system = systems[material]
         start = time.perf_counter()
@@ -291,6 +295,11 @@ def compute_case(
         if bench.probe is not None:
             tips[label] = np.reshape(  # (steps kept, gdim): none if step 0 diverged
                 [probe(system.V, u, bench.probe) for u in run.u], (len(run.u), system.gdim)
+            )
+        if bench.contact is not None:
+            measure = Measures(system)
+            contacts[label] = np.reshape(
+                [measure(u, i * h) for i, u in enumerate(run.u)], (len(run.u), 3)
             )
         if rank0:
             said = (
@@ -361,6 +370,7 @@ def compute_case(
             scheme=scheme_label(case.scheme),
             substeps=k,
             critical_dt_s=critical,
+            contact=contact_readings(contacts[label]) if label in contacts else None,
         )
 
     def write():
@@ -369,6 +379,10 @@ def compute_case(
         if tips:
             write_tip_csv(tmp / "tip.csv", times, tips)
             files.append("tip.csv")
+        if contacts:
+            write_contact_csv(tmp / "contact.csv", times, contacts)
+            plot_contact(tmp / "contact.png", case.name, times, contacts)
+            files += ["contact.csv", "contact.png"]
         from tissuebench.workflows.reports import figures
 
         files += figures.case_figures(tmp, case, summary, times, curves, tips, shapes)

@@ -52,6 +52,10 @@ _RUN_HEAD = (
     "setup_time_s",
 )
 _TIP = "tip_displacement_final"
+# SPEC 12, written only for a benchmark with contact: the run's largest needle force |F| (N/m)
+# and interpenetration (m)
+_CONTACT = "contact"
+CONTACT_READINGS = ("needle_force_max", "interpenetration_max")
 # SPEC 11, written only where they differ from the paper's: the element's scheme, the explicit
 # sub-steps per step h, and the critical step (s) that `auto` measured
 _SCHEME_KEYS = {"scheme": "standard", "substeps": 1, "critical_dt_s": None}
@@ -111,6 +115,8 @@ class RunSummary:
     scheme: str = "standard"
     substeps: int = 1
     critical_dt_s: float | None = None
+    # SPEC 12, a benchmark with contact: {"needle_force_max": N/m, "interpenetration_max": m}
+    contact: dict[str, float | None] | None = None
 
     @property
     def ok(self) -> bool:
@@ -135,6 +141,8 @@ class RunSummary:
         for k, default in _SCHEME_KEYS.items():
             if getattr(self, k) != default:
                 entry[k] = getattr(self, k)
+        if self.contact is not None:
+            entry[_CONTACT] = self.contact
         return entry
 
     @classmethod
@@ -163,7 +171,7 @@ class RunSummary:
         readings: dict[str, float | None] = {}
         known = {f"{m}_{kind}" for m in METRICS for kind in READINGS}
         for k, v in data.items():
-            if k in _RUN_HEAD or k == _TIP or k in _SCHEME_KEYS:
+            if k in _RUN_HEAD or k == _TIP or k in _SCHEME_KEYS or k == _CONTACT:
                 continue
             _check(k in known, f"{where}: unknown key {k!r}")
             _check(v is None or _number(v), f"{where}: {k} is not a number")
@@ -177,12 +185,23 @@ class RunSummary:
         _check(_integer(data.get("substeps", 1)), f"{where}: substeps is not an integer")
         critical = data.get("critical_dt_s")
         _check(critical is None or _number(critical), f"{where}: critical_dt_s")
+        contact = data.get(_CONTACT)
+        _check(
+            contact is None
+            or (
+                isinstance(contact, dict)
+                and set(contact) == set(CONTACT_READINGS)
+                and all(v is None or _number(v) for v in contact.values())
+            ),
+            f"{where}: {_CONTACT} is not an object of {', '.join(CONTACT_READINGS)}",
+        )
         return cls(
             **{k: data[k] for k in _RUN_HEAD},
             **{k: data[k] for k in _SCHEME_KEYS if k in data},
             readings=readings,
             has_probe=_TIP in data,
             tip_displacement_final=tip,
+            contact=contact,
         )
 
 

@@ -47,9 +47,11 @@ from tissuebench.workflows.output import check_writable, collective, write_owned
 
 # every benchmark at its defaults (time), and on its study meshes with its refinement options
 # (space)
-TIME_CASES = [(name, e.material, e.mesh_size) for name, e in BENCHMARKS.items()]
+TIME_CASES = [(name, e.material, e.mesh_size) for name, e in BENCHMARKS.items() if e.studied]
 SPACE_CASES = [
-    (name, e.material, e.study_sizes, e.refinement_options) for name, e in BENCHMARKS.items()
+    (name, e.material, e.study_sizes, e.refinement_options)
+    for name, e in BENCHMARKS.items()
+    if e.studied
 ]
 
 

@@ -54,6 +54,17 @@ def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) ->
                 writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in tip[i])])
 
 
+def write_contact_csv(path: Path, times: np.ndarray, contacts: dict[str, np.ndarray]) -> None:
+    """contact.csv (SPEC 12): for each run label, the needle's force per unit thickness (N/m,
+    x and y) and the interpenetration (m) at every step it has."""
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["algorithm", "step", "time", "force_x", "force_y", "interpenetration"])
+        for label, rows in contacts.items():
+            for i, t in enumerate(times[: len(rows)]):
+                writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in rows[i])])
+
+
 def _cell(x: object) -> object:
     """A CSV cell: empty for None or NaN."""
     return "" if x is None or (isinstance(x, float) and x != x) else x

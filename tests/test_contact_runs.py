@@ -1,0 +1,104 @@
+"""Our algorithms with the needle as penalty contact (SPEC 12): equilibrium, the penalty's
+limit, the explicit schemes' critical step, and serial against mpiexec -n 2."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from tissuebench.meshes import get_benchmark
+from tissuebench.solvers import get_integrator
+from tissuebench.solvers.contact import Measures
+from tissuebench.solvers.stability import stability_limits
+from tissuebench.solvers.system import System
+from tissuebench.workflows.io.tables import read_rows
+
+
+def push(kappa: float, algorithm: str = "quasi-static", steps: int = 15):
+    """The contact block (N = 10, MP1) pushed to t = 2 s (the needle 0.16 m in) in `steps`
+    steps: the system, its last state and (F_x, F_y, interpenetration) there."""
+    system = System(get_benchmark("contact", mesh_size=10, kappa=kappa), "MP1")
+    integrator = get_integrator(algorithm, system, 2.0 / steps)
+    state = integrator.start()
+    for _ in range(steps):
+        state = integrator.step(state)
+    measured = Measures(system)(state.u.array_r.copy(), state.t)
+    integrator.destroy()
+    return system, state, measured
+
+
+def test_the_needle_force_balances_the_reactions():
+    """Quasi-static equilibrium (no body force): the force the tissue exerts on the needle
+    equals the x-reactions of the fixed edges, sum over the constrained dofs of (K u)_x, since
+    K annihilates translations; the needle pushes on the tip only along x."""
+    system, state, (Fx, Fy, depth) = push(10.0)
+    assert state.t == pytest.approx(2.0)
+    Ku = system.K.createVecLeft()
+    system.K.mult(state.u, Ku)
+    x_rows = system.constrained[system.component == 0]
+    reaction = system.comm.allreduce(float(Ku.array_r[x_rows].sum()), op=MPI.SUM)
+    assert Fx > 10.0  # N/m: the tissue pushes back
+    assert Fx == pytest.approx(reaction, rel=1e-9)
+    assert abs(Fy) < 1e-8 * Fx  # the block is symmetric about y = 0.5
+    assert 0 < depth < 0.05
+
+
+def test_the_needle_force_converges_with_the_penalty():
+    """As kappa grows tenfold twice, the needle force converges (each change at most a third
+    of the last) and the tissue passes less far into the needle."""
+    forces, depths = [], []
+    for kappa in (10.0, 100.0, 1000.0):
+        _, _, (Fx, _, depth) = push(kappa)
+        forces.append(Fx)
+        depths.append(depth)
+    assert abs(forces[2] - forces[1]) < abs(forces[1] - forces[0]) / 3
+    assert depths[0] > depths[1] > depths[2]
+
+
+def test_the_critical_step_counts_the_penalty():
+    """SPEC 12: the explicit schemes' critical step (measured: SLEPc on K + the penalty's bound)
+    falls as kappa grows, below the block's without contact."""
+    limits = {}
+    for name, options in (("block", {"needle_width": 0.2}), ("contact", {"kappa": 10.0})):
+        system = System(get_benchmark(name, mesh_size=10, **options), "MP1")
+        limits[name] = stability_limits(system, ["explicit-lumped"])["explicit-lumped"]
+    stiff = System(get_benchmark("contact", mesh_size=10, kappa=100.0), "MP1")
+    limits["stiff"] = stability_limits(stiff, ["explicit-lumped"])["explicit-lumped"]
+    assert limits["stiff"].critical_dt < limits["contact"].critical_dt < limits["block"].critical_dt
+
+
+def test_explicit_with_contact_follows_implicit():
+    """explicit (consistent mass, beta K_0 damping) stepped below its critical step tracks
+    implicit's needle force at t = 2 s within 2 %."""
+    system = System(get_benchmark("contact", mesh_size=10), "MP1")
+    critical = stability_limits(system, ["explicit"])["explicit"].critical_dt
+    steps = int(np.ceil(2.0 / (0.9 * critical)))
+    _, _, (explicit, _, _) = push(10.0, "explicit", steps)
+    _, _, (implicit, _, _) = push(10.0, "implicit", 60)
+    assert explicit == pytest.approx(implicit, rel=0.02)
+
+
+@pytest.mark.serial
+def test_contact_run_serial_equals_parallel(tmp_path: Path):
+    """`tissuebench run contact` gives the same needle force, interpenetration and metrics in
+    serial and on 2 ranks."""
+    exe = Path(sys.executable).parent
+    args = ["run", "contact", "--mesh-size", "10", "--end-time", "1"]
+    args += ["--algorithms", "implicit,quasi-static,explicit-lumped"]
+    tables = {}
+    for ranks in (1, 2):
+        out = tmp_path / f"n{ranks}"
+        command = [str(exe / "tissuebench"), *args, "--out", str(out)]
+        if ranks > 1:
+            command = [str(exe / "mpiexec"), "-n", str(ranks), *command]
+        subprocess.run(command, check=True, capture_output=True, text=True, timeout=600)
+        tables[ranks] = read_rows(out / "contact.csv")
+    assert len(tables[1]) == len(tables[2]) == 3 * 31
+    for a, b in zip(tables[1], tables[2], strict=True):
+        assert a["algorithm"] == b["algorithm"]
+        for key in ("force_x", "force_y", "interpenetration"):
+            assert float(a[key]) == pytest.approx(float(b[key]), rel=1e-8, abs=1e-12)
