@@ -25,7 +25,7 @@ from dolfinx import fem
 from tissuebench.meshes.benchmark import Benchmark
 from tissuebench.meshes.rod import SIZE as ROD_SIZE
 from tissuebench.solvers.materials import Material, get_material
-from tissuebench.solvers.truth.solver import Boundary, Problem, Truth
+from tissuebench.solvers.truth.solver import Boundary, ContactLaw, Problem, Truth
 
 # case -> (benchmark, material, model, load scale s, needle width w in m or None)
 CASES = {
@@ -36,6 +36,10 @@ CASES = {
     "rod-MP2": ("rod", "MP2", "linear", 1.0, None),  # SPEC 11: nearly incompressible, 3D
     "block-MP1-w0.2": ("block", "MP1", "linear", 1.0, 0.2),
     "block-MP2-w0.2": ("block", "MP2", "linear", 1.0, 0.2),
+    # SPEC 12: the needle as contact
+    "contact-MP1": ("contact", "MP1", "linear", 1.0, None),
+    "contact-MP2": ("contact", "MP2", "linear", 1.0, None),
+    "contact-MP1-nhb": ("contact", "MP1", "neo-hookean-barrier", 1.0, None),
 }
 
 
@@ -67,7 +71,18 @@ GRADED = {
     "block-MP1-w0.2": lambda x: graded_block(x, 0.2),
     "block-MP2-w0.2": lambda x: graded_block(x, 0.2),
     "rod-MP2": lambda x: graded_rod(x, ROD_SIZE),
+    "contact-MP1": lambda x: graded_contact(x),
+    "contact-MP2": lambda x: graded_contact(x),
+    "contact-MP1-nhb": lambda x: graded_contact(x),
 }
+# SPEC 12: the truth's penalty k = TRUTH_KAPPA E / h_min, h_min the contact edge's smallest
+# facet on the level (SPEC 12's limit: the finest level again with 10 k, compared)
+TRUTH_KAPPA = 1e3
+# the share of the contact block's rows of cells in the band |y - 0.5| <= 1.5 R that the needle
+# sweeps (the rest outside it), and the power of the columns' grading toward x = 1
+CONTACT_BAND = (0.35, 0.65)
+CONTACT_BAND_SHARE = 0.6
+CONTACT_X_GRADING = 1.5
 # the truth's time step is the benchmark's h / STEP_DIVISOR (sampled at the steps of h): the
 # linear blocks' own error is otherwise mostly in time, and the needle's stop at t = 2 s makes
 # them first order in time (N = 20: E_i max between h/k and h/2k for k = 1, 2, 4, 8: MP1
@@ -93,6 +108,18 @@ def graded_block(x: np.ndarray, width: float) -> None:
     for a, b, end in ((0.0, low, low), (low, 0.5, low), (0.5, high, high), (high, 1.0, high)):
         inside = (y >= a) & (y <= b)
         x[inside, 1] = _toward(y[inside], a, b, end)
+
+
+def graded_contact(x: np.ndarray) -> None:
+    """Move the uniform contact block grid's points x (rows x, y, m) in place: x toward the
+    right edge by the power CONTACT_X_GRADING; y piecewise linearly, CONTACT_BAND_SHARE of
+    the rows in the band CONTACT_BAND the needle sweeps, the rest spread below and above it.
+    The map is the same on every level, so that the levels nest."""
+    s = 1.0 - x[:, 0]
+    x[:, 0] = 1.0 - s**CONTACT_X_GRADING
+    (low, high), share = CONTACT_BAND, CONTACT_BAND_SHARE
+    eta = np.array([0.0, (1 - share) / 2, (1 + share) / 2, 1.0])
+    x[:, 1] = np.interp(x[:, 1], eta, [0.0, low, high, 1.0])
 
 
 def graded_rod(x: np.ndarray, size: tuple[float, float, float]) -> None:
@@ -134,12 +161,27 @@ def _constraint_nodes(V: fem.FunctionSpace, dim: int, entities: np.ndarray) -> n
     return np.unique(np.concatenate(nodes)).astype(np.int32)
 
 
+def _contact_law(benchmark: Benchmark, E: float, penalty: float) -> ContactLaw | None:
+    """The benchmark's contact (SPEC 12) with the truth's penalty: penalty x TRUTH_KAPPA x E /
+    the shortest facet of the contact edge on this (graded) mesh; None without contact."""
+    c = benchmark.contact
+    if c is None:
+        return None
+    mesh = benchmark.mesh
+    ends = mesh.geometry.x[dolfinx.mesh.entities_to_geometry(mesh, 1, c.facets)[:, :2]]
+    lengths = np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1)
+    shortest = mesh.comm.allreduce(float(lengths.min()) if len(lengths) else np.inf, op=MPI.MIN)
+    k = penalty * TRUTH_KAPPA * E / shortest
+    return ContactLaw(facets=c.facets, centre=c.centre, radius=c.radius, k=k)
+
+
 def benchmark_problem(
-    benchmark: Benchmark, material: Material | str, model: str = "linear"
+    benchmark: Benchmark, material: Material | str, model: str = "linear", penalty: float = 1.0
 ) -> Problem:
     """The truth Problem of a benchmark (meshes.benchmark.Benchmark, built with its load scale
     and needle width) with a material (solvers.materials.Material or name): its constraints on
-    every Q2 node of the constrained entities, gravity rho g (N/m^3), and its probe."""
+    every Q2 node of the constrained entities, gravity rho g (N/m^3), its probe, and its
+    contact (SPEC 12) with the truth's penalty times `penalty`."""
     mat = get_material(material)
     rho = mat.rho
     gravity = np.asarray(benchmark.gravity, dtype=float)
@@ -164,14 +206,16 @@ def benchmark_problem(
         body_force=lambda x, t: rho * ufl.as_vector([float(g) for g in gravity]),
         boundaries=boundaries,
         probe=benchmark.probe,
+        contact=_contact_law(benchmark, mat.E, penalty),
     )
 
 
 def case_truth(
-    case: str, mesh_size: int, comm: MPI.Comm = MPI.COMM_WORLD
+    case: str, mesh_size: int, comm: MPI.Comm = MPI.COMM_WORLD, penalty: float = 1.0
 ) -> tuple[Truth, Benchmark]:
     """(Truth, Benchmark) of a SPEC 10 case on the benchmark's grid of `mesh_size` (the
-    linear block's graded toward the needle's ends: graded_block)."""
+    linear block's graded toward the needle's ends: graded_block); a contact case's penalty is
+    the truth's times `penalty`."""
     from tissuebench.meshes import get_benchmark
 
     name, material, model, scale, width = CASES[case]
@@ -181,4 +225,4 @@ def case_truth(
     bench = get_benchmark(name, mesh_size=mesh_size, comm=comm, **options)
     if case in GRADED:
         GRADED[case](bench.mesh.geometry.x)
-    return Truth(benchmark_problem(bench, material, model)), bench
+    return Truth(benchmark_problem(bench, material, model, penalty)), bench

@@ -66,6 +66,8 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
+from tissuebench.solvers import contact
+
 # motion(t, x) -> (u, v, a): prescribed displacement (m), velocity (m/s) and acceleration
 # (m/s^2) at time t (s) of the nodes at coordinates x (n x 3); each broadcastable to (n, gdim)
 Motion = Callable[[float, np.ndarray], tuple]
@@ -84,6 +86,16 @@ MIXED_NU = 0.45  # Poisson's ratio from which the linear law is solved in Taylor
 REFRESH_ITERATIONS = 6
 KEEP = -2  # PETSc's lag: build the tangent at the first iteration, then never again
 LU = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+# SPEC 12: a contact step's Newton; its absolute floor is CONTACT_ATOL x E (N/m per Pa), above
+# the round-off at which the residual settles with a stiff penalty (about 1e-12 E measured)
+CONTACT_NEWTON = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",
+    "snes_rtol": 1e-10,
+    "snes_stol": 0.0,
+    "snes_max_it": 50,
+}
+CONTACT_ATOL = 1e-11
 
 
 @dataclass
@@ -93,6 +105,18 @@ class Boundary:
 
     nodes: np.ndarray
     motion: Motion
+
+
+@dataclass
+class ContactLaw:
+    """SPEC 12: the boundary facets `facets` (local indices) in frictionless penalty contact
+    with the rigid half-stadium of radius `radius` (m) centred at centre(t) (m), penalty k
+    (Pa/m): the traction p n on the tissue, p = k <-g_n>, driven toward its limit by k."""
+
+    facets: np.ndarray
+    centre: Callable[[float], np.ndarray]
+    radius: float
+    k: float
 
 
 @dataclass
@@ -112,6 +136,7 @@ class Problem:
     boundaries: Callable[[fem.FunctionSpace], list[Boundary]]
     probe: tuple | None = None
     degree: int = 2
+    contact: ContactLaw | None = None
 
     @property
     def form(self) -> str:
@@ -221,6 +246,13 @@ class Truth:
         self._step_h = None  # type: float | None  # the step of the factorised linear step matrix, s
         self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
         self._jacobian = _Jacobian(self.un, 2 * pb.degree) if self.kind == "mixed-nh" else None
+        # SPEC 12: the needle at the time of the solve, and the contact edge's measure
+        self.needle = None  # type: fem.Constant | None
+        if pb.contact is not None:
+            self.needle = fem.Constant(mesh, np.asarray(pb.contact.centre(0.0), dtype=float))
+            self._ds = contact.edge_measure(mesh, pb.contact.facets)
+            self._contact_solver = None  # type: Any  # the contact steps' NonlinearProblem
+            self._penalty = fem.Constant(mesh, 1.0)  # the penalty's factor: k x this
 
     # -- forms -----------------------------------------------------------------------------
     def _split(self, U):
@@ -265,7 +297,15 @@ class Truth:
         # Gauss with degree + 1 points per direction: exact for the linear forms on affine cells
         dx = ufl.dx(metadata={"quadrature_degree": 2 * pb.degree})
         force = self.load * ufl.inner(self.f, w)
-        return (inertia + self._elastic(u, v, ps, w, qs) - force) * dx
+        residual = (inertia + self._elastic(u, v, ps, w, qs) - force) * dx
+        if pb.contact is not None:  # the traction p n of the needle on the tissue (SPEC 12)
+            c = pb.contact
+            k = c.k * self._penalty
+            traction = contact.pressure(u, self.needle, c.radius, k) * contact.outward_normal(
+                contact.deformed(u), self.needle
+            )
+            residual = residual - ufl.inner(traction, w) * self._ds
+        return residual
 
     def step_residual(self) -> ufl.Form:
         """The residual at t_{n+1} with unknown u_{n+1} (trapezoidal rule)."""
@@ -341,6 +381,8 @@ class Truth:
             fn.x.array[:] = 0.0
             fn.x.array[self.cdofs] = val
         self.t.value = 0.0  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
+        if self.needle is not None:  # SPEC 12: the needle at rest, touching the edge
+            self.needle.value[:] = self.problem.contact.centre(0.0)  # type: ignore[union-attr]  # a Problem with contact: no assert here, the truth's cache key hashes this code
         A = fem.Function(self.W)  # unknown: the acceleration and the pressures at t = 0
         a, ps = self._split(A)
         residual = self._residual(self.un, self.vn, a, ps)
@@ -369,7 +411,10 @@ class Truth:
                 self._destroy(self._step_solver)
             self._step_solver = self._full_newton = None
         self._step_h = h
-        if self.kind == "mixed-nh":
+        if self.needle is not None:
+            self.needle.value[:] = self.problem.contact.centre(t_next)  # type: ignore[union-attr]  # a Problem with contact: no assert here, the truth's cache key hashes this code
+            self._contact_step(h)
+        elif self.kind == "mixed-nh":
             self._newton()
         else:
             self.bc.set(self.U.x.array)
@@ -446,6 +491,38 @@ class Truth:
         reason = solver.solver.getConvergedReason()
         if reason <= 0:  # type: ignore[operator]  # petsc4py's stubs: a ConvergedReason is an int
             raise RuntimeError(f"truth: Newton did not converge at t = {self.t.value} s ({reason})")
+
+    def _contact_step(self, h: float) -> None:
+        """A step with contact: full Newton (basic line search: the backtracking one stalls as
+        the active set changes) from u_n + h v_n, the tissue carried along at its velocity;
+        where it fails, from the same guess through the penalty k 1e-3, 1e-2 and 1e-1 times as
+        stiff first (each solve's active set close to the next one's)."""
+        if self._contact_solver is None:
+            mu, lmbda = self.problem.mu, self.problem.lmbda
+            E = mu * (3 * lmbda + 2 * mu) / (lmbda + mu)
+            self._contact_solver = dolfinx.fem.petsc.NonlinearProblem(
+                self.step_residual(),
+                self.U,
+                bcs=[self.bc],
+                petsc_options={**CONTACT_NEWTON, "snes_atol": CONTACT_ATOL * E, **LU},
+                petsc_options_prefix=f"truth_contact_{id(self)}_",
+            )
+        self._set_u(self.U, self.un.x.array + h * self.vn.x.array)
+        self.bc.set(self.U.x.array)
+        guess = self.U.x.array.copy()
+        for scales in ((1.0,), (1e-3, 1e-2, 1e-1, 1.0)):
+            self.U.x.array[:] = guess
+            for scale in scales:
+                self._penalty.value = scale  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
+                self._contact_solver.solve()
+                if self._contact_solver.solver.getConvergedReason() <= 0:
+                    break
+            self._penalty.value = 1.0  # type: ignore[assignment]  # dolfinx annotates a Constant's value as an array, takes a float
+            if self._contact_solver.solver.getConvergedReason() > 0 and scale == 1.0:
+                return
+        raise RuntimeError(
+            f"truth: Newton with contact did not converge at t = {float(self.t.value):.4g} s"
+        )
 
     def static(self, t: float) -> np.ndarray:
         """The static solution at t (s) (no inertia, no damping): owned dof values of V (m).

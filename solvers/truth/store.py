@@ -73,6 +73,7 @@ EXPECTED_SECONDS = {
     "block-MP1-w0.2": 146.0,
     "block-MP2-w0.2": 559.0,
 }
+PENALTY_CHECK = 10.0  # SPEC 12: the finest level of a contact case again with this times k
 # the code a truth comes from: its fingerprint changes when any of these files does
 SOURCES = (
     "solvers/truth/solver.py",
@@ -82,6 +83,8 @@ SOURCES = (
     "meshes/benchmark.py",
     "meshes/rod.py",
     "meshes/block.py",
+    "meshes/contact.py",
+    "solvers/contact.py",
 )
 PACKAGE = Path(__file__).resolve().parents[2]  # the tissuebench package's folder
 
@@ -485,6 +488,13 @@ def compute(
     time_ei = interior_difference(run, half)
     half = None
     info["time_difference"] = time_ei.tolist()
+    if truth.problem.contact is not None:  # SPEC 12: the penalty toward its limit, 10 k
+        stiff_truth, _ = case_truth(case, n, comm, penalty=PENALTY_CHECK)
+        stiff = _timed_run(stiff_truth, bench.dt / k, k * steps, k, f"{case} n={n} 10 k", comm)
+        info["penalty_wall"] = comm.allreduce(stiff.wall, op=MPI.MAX)
+        info["penalty_difference"] = interior_difference(run, stiff).tolist()
+        stiff = stiff_truth = None
+        say(f"{case} n={n} with {PENALTY_CHECK:g} k: {info['penalty_wall']:.1f} s")
     if tips:
         info["tip"], info["static_tip"] = tips, statics
     info["time_order"] = order = time_order(*info["time_order_differences"])
