@@ -165,6 +165,7 @@ class TruthRun:
     dofs: int
     wall: float
     min_jacobian: JacobianRecord | None = None
+    force: np.ndarray | None = None  # SPEC 12: the needle's force (N/m; x, y) at every step
 
 
 @dataclass
@@ -253,6 +254,13 @@ class Truth:
             self._ds = contact.edge_measure(mesh, pb.contact.facets)
             self._contact_solver = None  # type: Any  # the contact steps' NonlinearProblem
             self._penalty = fem.Constant(mesh, 1.0)  # the penalty's factor: k x this
+            c = pb.contact
+            self._force = [
+                fem.form(f)
+                for f in contact.needle_force(
+                    self._split(self.U)[0], self.needle, c.radius, c.k, self._ds
+                )
+            ]
 
     # -- forms -----------------------------------------------------------------------------
     def _split(self, U):
@@ -575,7 +583,7 @@ class Truth:
         displacement (0: none) and the probe at every step; on_step(i) after step i."""
         start = time.perf_counter()
         self.initial_state()
-        history, tips, times, jacobians = [], [], [], []
+        history, tips, times, jacobians, forces = [], [], [], [], []
 
         def record(i):
             values = self.un.x.array[: self.n_owned]
@@ -586,6 +594,8 @@ class Truth:
                     jacobians.append(self._jacobian())
             if self._probe is not None:
                 tips.append(self.tip(values))
+            if self.needle is not None:  # the force of U, which holds u at this step
+                forces.append([self.comm.allreduce(fem.assemble_scalar(f)) for f in self._force])
 
         record(0)
         for i in range(steps):
@@ -608,6 +618,7 @@ class Truth:
             dofs=self.num_dofs(),
             wall=time.perf_counter() - start,
             min_jacobian=record_j,
+            force=np.array(forces) if forces else None,
         )
 
 

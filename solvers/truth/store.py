@@ -470,6 +470,8 @@ def compute(
             info.setdefault("min_jacobian_at", []).append(
                 [run.min_jacobian.at_time, *run.min_jacobian.at_point.tolist()]
             )
+        if run.force is not None:  # SPEC 12: the needle's force at the steps of h, N/m
+            info.setdefault("force_levels", []).append(np.asarray(run.force)[::k].tolist())
         if previous is not None:
             info["level_differences"].append(interior_difference(previous, run).tolist())
             previous.u = None  # the coarser level's history is no longer needed
@@ -484,6 +486,8 @@ def compute(
         info["half_tip"] = np.asarray(half.tip)[::k].tolist()
     if half.min_jacobian is not None:
         info["half_min_jacobian"] = half.min_jacobian.values.tolist()
+    if half.force is not None:
+        info["half_force"] = np.asarray(half.force)[:: 2 * k].tolist()
     say(f"{case} n={n} half step: {2 * k * steps} steps, {info['half_wall']:.1f} s")
     time_ei = interior_difference(run, half)
     half = None
@@ -493,6 +497,7 @@ def compute(
         stiff = _timed_run(stiff_truth, bench.dt / k, k * steps, k, f"{case} n={n} 10 k", comm)
         info["penalty_wall"] = comm.allreduce(stiff.wall, op=MPI.MAX)
         info["penalty_difference"] = interior_difference(run, stiff).tolist()
+        info["penalty_force"] = np.asarray(stiff.force)[::k].tolist()
         stiff = stiff_truth = None
         say(f"{case} n={n} with {PENALTY_CHECK:g} k: {info['penalty_wall']:.1f} s")
     if tips:
