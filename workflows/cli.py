@@ -64,6 +64,7 @@ COMMANDS = [
     "tissuebench.workflows.commands.truth",
     "tissuebench.workflows.commands.frontier",
     "tissuebench.workflows.commands.hertz",
+    "tissuebench.workflows.commands.contact",
 ]
 
 
