@@ -191,3 +191,126 @@ def test_a_full_cache_disk_says_no_space_naming_the_cache(tmp_path, monkeypatch)
     with pytest.raises(cffi.VerificationError):
         blockcsr.compile_module("_tissuebench_test_full", source, "int one(void);")
     assert sys.modules.get("_tissuebench_test_full") is None
+
+
+# --- writes that are whole ----------------------------------------------------------------------
+
+
+class FullAfter:
+    """A text file whose writes fail with ENOSPC once `room` characters are written (the
+    disk fills mid-write): what fits is written, then OSError."""
+
+    def __init__(self, f, room: int):
+        self.f, self.room = f, room
+
+    def write(self, text: str) -> int:
+        if len(text) > self.room:
+            self.f.write(text[: self.room])
+            self.f.flush()
+            raise OSError(errno.ENOSPC, "No space left on device")
+        self.room -= len(text)
+        return self.f.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.f, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.f.close()
+
+
+def test_a_csv_rewritten_or_appended_on_a_full_disk_is_left_whole(tmp_path, monkeypatch):
+    """append_row and write_rows (frontier.csv, as each run ends and when it is timed again):
+    the disk filling mid-row leaves the old file as it was, not half a row."""
+    import builtins
+
+    path = tmp_path / "frontier.csv"
+    tables.write_rows(path, [{"case": "rod", "cost": 0.25}], ("case", "cost"))
+    before = path.read_bytes()
+
+    def filling(file, mode="r", *args, **kwargs):
+        f = builtins.open(file, mode, *args, **kwargs)
+        if "a" in mode:  # the row appended in place: the disk fills 8 characters into it
+            return FullAfter(f, 8)
+        return FullAfter(f, len(before) + 8) if "w" in mode else f
+
+    monkeypatch.setattr(tables, "open", filling, raising=False)
+    for write in (
+        lambda: tables.append_row(path, {"case": "block-MP2-w0.2", "cost": 0.5}, ("case", "cost")),
+        lambda: tables.write_rows(path, [{"case": "block-MP2-w0.2", "cost": 0.5}] * 3),
+    ):
+        with pytest.raises(OSError, match="No space"):
+            write()
+        assert path.read_bytes() == before
+    monkeypatch.undo()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frontier.csv"]  # nothing staged left
+    tables.append_row(path, {"case": "block-MP2-w0.2", "cost": 0.5}, ("case", "cost"))
+    assert [r["case"] for r in tables.read_rows(path)] == ["rod", "block-MP2-w0.2"]
+
+
+@pytest.mark.parametrize("cut", [40, 200, 2])
+def test_a_frontier_csv_cut_mid_row_is_read_as_its_whole_rows(tmp_path, capsys, cut):
+    """A frontier.csv that a kill or a full disk cut mid-row (an older tissuebench rewrote it
+    in place): its whole rows are read, the cut one is left out in one line (the study runs it
+    again); a TypeError traceback before."""
+    from tissuebench.workflows import frontier
+
+    committed = Path(__file__).parents[1] / "results" / "frontier" / "frontier.csv"
+    rows = frontier.read_rows(committed)[:3]
+    path = tmp_path / "frontier.csv"
+    tables.write_rows(path, rows, frontier.COLUMNS)
+    data = path.read_bytes()
+    path.write_bytes(data[:-cut])  # 2: the line's end only; the row's cells all there
+    kept = frontier.read_rows(path)
+    assert [frontier.row_key(r) for r in kept] == [frontier.row_key(r) for r in rows[:2]]
+    said = capsys.readouterr().err.splitlines()
+    assert len(said) == 1 and "1 row cut short" in said[0] and str(path) in said[0]
+    path.write_bytes(data)
+    assert len(frontier.read_rows(path)) == 3 and capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("writer", ["write_owned", "write_set"])
+def test_a_full_disk_while_the_manifest_is_written_leaves_the_old_files_ours(
+    tmp_path, monkeypatch, writer
+):
+    """truth --out writes truth.csv and truth.md and lists them in the folder's manifest: a
+    full disk while the manifest is written left truth.csv in place and outside the manifest,
+    and the rerun refused the folder as not ours. Now the manifest is staged before anything
+    moves: the old files stay, listed, and the rerun writes."""
+    from tissuebench.workflows import output
+
+    out = tmp_path / "out"
+    names = ("truth.csv", "truth.md")
+
+    def write(text: str) -> None:
+        files = {
+            out / name: (lambda tmp, name=name: tmp.write_text(f"{name} {text}\n"))
+            for name in names
+        }
+        if writer == "write_set":
+            output.write_set(files)
+        else:
+            for path, one in files.items():
+                output.write_owned(path, one)
+
+    write("old")
+    before = {name: (out / name).read_bytes() for name in names}
+    real = Path.write_text
+
+    def full(self, *args, **kwargs):
+        if self.name.startswith(output.MANIFEST):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", full)
+    with pytest.raises(OSError, match="No space"):
+        write("new")
+    monkeypatch.undo()
+    assert {name: (out / name).read_bytes() for name in names} == before
+    output.check_writable(out, owned=names)  # the rerun's check: ours, unchanged
+    assert sorted(p.name for p in out.iterdir()) == sorted([*names, output.MANIFEST])
+    write("new")
+    assert (out / "truth.csv").read_text() == "truth.csv new\n"
+    output.check_writable(out, owned=names)

@@ -178,6 +178,16 @@ def read_rows(path: Path, errors: str = "strict") -> list[dict[str, str]]:
         ]
 
 
+def ends_whole(path: Path) -> bool:
+    """Whether a file is empty or ends with a line's end (the writers here end every row with
+    one: a file that does not was cut mid-row, by a kill or a full disk)."""
+    with open(path, "rb") as f:
+        if f.seek(0, os.SEEK_END) == 0:
+            return True
+        f.seek(-1, os.SEEK_END)
+        return f.read(1) == b"\n"
+
+
 def _unguarded_cell(v: object) -> object:
     """unguarded for a DictReader value: text, None, or the list of a row's extra cells."""
     if isinstance(v, list):
