@@ -139,14 +139,37 @@ def test_a_lock_that_does_not_hold_is_taken_over_in_one_line(cache, computed, na
     assert not lock.exists()
 
 
-@pytest.mark.parametrize("text", ["", "{", "[1, 2]", '"pid"', "{" * 100_000, "\0\xff"])
+@pytest.mark.parametrize(
+    "text", [b"", b"{", b"[1, 2]", b'"pid"', b"{" * 100_000, b"\0\xff\xfe", b'{"pid": 1e999}']
+)
 def test_a_lock_that_cannot_be_parsed_is_taken_over(cache, computed, text):
     lock = store.lock_path("rod", True)
     lock.parent.mkdir(parents=True, exist_ok=True)
-    lock.write_text(text, errors="surrogateescape")
+    lock.write_bytes(text)
     lines: list[str] = []
     assert store.load_cached("rod", quick=True, log=lines.append) is None  # a reader
     assert len(lines) == 1 and "took over" in lines[0] and not lock.exists(), lines
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "link"])
+def test_a_lock_that_is_not_a_file_neither_blocks_nor_hangs(cache, computed, kind):
+    """A folder, a FIFO (reading it would block) or a link at the lock's name: said, and the
+    case computed (without a lock where the folder cannot be removed)."""
+    import os
+
+    lock = store.lock_path("rod", True)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    if kind == "folder":
+        (lock / "inside").mkdir(parents=True)
+    elif kind == "fifo":
+        os.mkfifo(lock)
+    else:
+        lock.symlink_to("/dev/zero")
+    lines: list[str] = []
+    samples = store.truth_samples("rod", quick=True, log=lines.append)
+    assert samples is not None and [case for case, _, _ in computed] == ["rod"]
+    assert any("took over" in line and "not a file" in line for line in lines), lines
+    assert lock.is_dir() if kind == "folder" else not lock.exists()
 
 
 def test_a_lock_taken_over_is_not_removed_by_the_process_that_held_it(cache, computed, monkeypatch):

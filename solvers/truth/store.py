@@ -27,6 +27,7 @@ import json
 import math
 import os
 import re
+import stat
 import sys
 import time
 import zipfile
@@ -701,17 +702,20 @@ def process_identity(pid: int) -> dict:
     running here, from /proc; None for each where /proc does not say (no such process, or
     no /proc)."""
     try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
+        status = Path(f"/proc/{pid}/stat").read_text()
         command = Path(f"/proc/{pid}/cmdline").read_bytes().decode("utf-8", "replace")
-        start = int(stat[stat.rindex(")") + 2 :].split()[19])  # field 22, starttime
+        start = int(status[status.rindex(")") + 2 :].split()[19])  # field 22, starttime
     except (OSError, ValueError, IndexError):
         return {"process_start": None, "command": None}
     return {"process_start": start, "command": command}
 
 
 def _number(x: object) -> bool:
-    """A finite int or float (not a bool)."""
-    return type(x) in (int, float) and math.isfinite(cast(float, x))
+    """A finite int or float (not a bool) that a float holds."""
+    try:
+        return type(x) in (int, float) and math.isfinite(cast(float, x))
+    except OverflowError:  # an int beyond any float
+        return False
 
 
 def lock_problem(held: object, lock: Path, case: str, quick: bool) -> str | None:
@@ -733,7 +737,11 @@ def lock_problem(held: object, lock: Path, case: str, quick: bool) -> str | None
     if not _number(expected) or cast(float, expected) <= 0:
         return f"an invalid estimate ({expected!r:.40})"
     cache = held.get("cache")
-    if not isinstance(cache, str) or Path(cache).resolve() != lock.parent.resolve():
+    try:
+        ours = isinstance(cache, str) and Path(cache).resolve() == lock.parent.resolve()
+    except (OSError, ValueError, RuntimeError):  # a NUL, a name too long, a symlink loop
+        ours = False
+    if not ours:
         return f"written for another cache ({cache!r:.80})"
     start, command = held.get("process_start"), held.get("command")
     if not (start is None or (type(start) is int and start >= 0)):
@@ -766,12 +774,16 @@ def computing(
     one that wrote it, too old) is taken over: removed, with one line to `say` (default
     stderr) naming it and why."""
     lock = lock_path(case, quick)
+    text: str | None = None
     try:
-        text = lock.read_text()
+        if _regular(lock):  # not a folder, a link or a FIFO (which would block a reader)
+            text = lock.read_text(errors="replace")
+        else:
+            problem = "not a file"
     except FileNotFoundError:
         return None
     except OSError as err:
-        text, problem = None, f"cannot be read ({err.strerror or err})"
+        problem = f"cannot be read ({err.strerror or err})"
     if text is not None:
         try:
             held = json.loads(text)
@@ -784,10 +796,15 @@ def computing(
             if problem is None:
                 return held
     with contextlib.suppress(OSError):
-        if text is None or lock.read_text() == text:  # not a new lock meanwhile
+        if text is None or lock.read_text(errors="replace") == text:  # not a new lock meanwhile
             lock.unlink(missing_ok=True)
     (say or _stderr)(f"truth {case}{' (quick)' if quick else ''}: took over {lock}: {problem}")
     return None
+
+
+def _regular(path: Path) -> bool:
+    """Whether path is a regular file, not through a link (FileNotFoundError if absent)."""
+    return stat.S_ISREG(path.lstat().st_mode)
 
 
 def _take_lock(case: str, quick: bool) -> bool:
@@ -808,6 +825,9 @@ def _take_lock(case: str, quick: bool) -> bool:
         tmp.write_text(json.dumps(record))
         os.link(tmp, lock)
     except FileExistsError:
+        with contextlib.suppress(OSError):
+            if not _regular(lock):  # a folder there, which computing() cannot remove
+                return True  # computed without a lock, as below
         return False
     except OSError:  # a cache that cannot be written: computed without a lock (and not kept)
         return True
@@ -821,7 +841,7 @@ def _release_lock(case: str, quick: bool) -> None:
     """Remove the case's lock if it is this process's own (another may have taken it over)."""
     lock = lock_path(case, quick)
     with contextlib.suppress(OSError, ValueError, RecursionError):
-        held = json.loads(lock.read_text())
+        held = json.loads(lock.read_text()) if _regular(lock) else None
         if isinstance(held, dict) and held.get("pid") == os.getpid():
             lock.unlink(missing_ok=True)
 
