@@ -19,7 +19,7 @@ import re
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -173,7 +173,7 @@ def read_rows(path: Path, errors: str = "strict") -> list[dict[str, str]]:
     apostrophe of a guarded cell taken off); a row cut short has None for its missing cells."""
     with open(path, newline="", errors=errors) as f:
         return [
-            {unguarded(k) if isinstance(k, str) else k: _unguarded_cell(v) for k, v in r.items()}
+            {_unguarded_cell(k): _unguarded_cell(v) for k, v in r.items()}
             for r in csv.DictReader(f)
         ]
 
@@ -188,8 +188,9 @@ def ends_whole(path: Path) -> bool:
         return f.read(1) == b"\n"
 
 
-def _unguarded_cell(v: object) -> object:
-    """unguarded for a DictReader value: text, None, or the list of a row's extra cells."""
+def _unguarded_cell(v: Any) -> Any:
+    """unguarded for a DictReader key or value: text, None, or the list of a row's extra
+    cells."""
     if isinstance(v, list):
         return [unguarded(x) for x in v]
     return unguarded(v) if isinstance(v, str) else v
