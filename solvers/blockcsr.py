@@ -13,10 +13,16 @@ the ghost values of x come from DOLFINx's scatter, as in DOLFINx's own MatrixCSR
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import importlib.util
+import math
 import os
 import platform
+import re
+import shutil
+import struct
+import sys
 import tempfile
 from pathlib import Path
 from types import ModuleType
@@ -112,6 +118,161 @@ def _cpu_key():
         return platform.processor()
 
 
+FREE_BYTES = 16 << 20  # a compilation that fails with less free in the cache: the disk is full
+
+
+def _say(line: str) -> None:
+    print(f"tissuebench: {line}", file=sys.stderr, flush=True)
+
+
+def _file_hash(path: Path) -> str:
+    """The SHA-256 of a file's bytes, as hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _elf_header(data: bytes) -> tuple[bytes, int] | None:
+    """(class, byte order and machine: the bytes an architecture is told by; e_type) of an ELF
+    file's first bytes, or None if they are not an ELF header."""
+    if len(data) < 20 or data[:4] != b"\x7fELF" or data[4] not in (1, 2) or data[5] not in (1, 2):
+        return None
+    order = "<" if data[5] == 1 else ">"
+    (kind,) = struct.unpack_from(order + "H", data, 16)
+    return data[4:6] + data[18:20], kind
+
+
+def _own_architecture() -> bytes | None:
+    """The ELF class, byte order and machine of this process's interpreter (None where it
+    cannot be read: then any architecture is taken, and dlopen decides)."""
+    for exe in ("/proc/self/exe", sys.executable):
+        try:
+            with open(exe, "rb") as f:
+                header = _elf_header(f.read(64))
+        except OSError:
+            continue
+        if header is not None:
+            return header[0]
+    return None
+
+
+def _elf_extent(data: bytes) -> int:
+    """The bytes an ELF file's headers say it holds: the end of its program and section header
+    tables and of every segment's bytes in the file (a file shorter than that was cut short)."""
+    order = "<" if data[5] == 1 else ">"
+    wide = data[4] == 2  # 64-bit: wider offsets, another layout
+    phoff, shoff = struct.unpack_from(order + ("QQ" if wide else "II"), data, 32 if wide else 28)
+    sizes = struct.unpack_from(order + "HHHH", data, 54 if wide else 42)
+    phentsize, phnum, shentsize, shnum = sizes
+    end = max(phoff + phentsize * phnum, shoff + shentsize * shnum)
+    # p_offset and p_filesz: at 8 and 32 in a 64-bit program header, at 4 and 16 in a 32-bit one
+    word = order + ("Q" if wide else "I")
+    at_offset, at_filesz = (8, 32) if wide else (4, 16)
+    for k in range(phnum):
+        at = phoff + k * phentsize
+        if at + phentsize > len(data):
+            break  # the table itself is cut short: end says so
+        (start,) = struct.unpack_from(word, data, at + at_offset)
+        (size,) = struct.unpack_from(word, data, at + at_filesz)
+        end = max(end, start + size)
+    return end
+
+
+def library_problem(path: Path, digest: str) -> str | None:
+    """What makes a cached shared library unfit to load (dlopen maps it: one cut short would
+    end the process with SIGBUS where its missing pages are read), or None: empty, not ELF,
+    not a shared library, of another architecture, shorter than its headers say, or bytes
+    other than the SHA-256 `digest` (hex) it was built with."""
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        return f"cannot be read ({err.strerror or err})"
+    if not data:
+        return "empty"
+    header = _elf_header(data[:64])
+    if header is None or len(data) < 64:
+        return "not a shared library (no ELF header)"
+    own = _own_architecture()
+    if own is not None and header[0] != own:
+        return "built for another architecture"
+    if header[1] != 3:  # ET_DYN
+        return f"not a shared library (ELF type {header[1]})"
+    extent = _elf_extent(data)
+    if len(data) < extent:
+        return f"cut short ({len(data)} bytes, its headers say {extent})"
+    if hashlib.sha256(data).hexdigest() != digest:
+        return "its bytes are not those it was built with (SHA-256)"
+    return None
+
+
+def _cached(folder: Path, name: str) -> Path | None:
+    """The first fit library of this name in the cache (`NAME.SHA256.so`, its bytes' hash in
+    its name); each unfit one is said in one line and removed."""
+    pattern = re.compile(re.escape(name) + r"\.(?P<digest>[0-9a-f]{64})\.so")
+    for path in sorted(folder.glob(name + ".*.so")) if folder.is_dir() else []:
+        m = pattern.fullmatch(path.name)
+        if m is None:
+            continue
+        problem = library_problem(path, m["digest"])
+        if problem is None:
+            return path
+        _say(f"{path}: {problem}; compiling it again")
+        path.unlink(missing_ok=True)
+    return None
+
+
+def _no_space(folder: Path) -> OSError:
+    """The one-line error of a full cache disk (cli.fault says FOLDER: no space left on the
+    device), raised outside any handler so that no other error rides along as its context."""
+    return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(folder))
+
+
+def _free_bytes(folder: Path) -> float:
+    """Bytes free for us in the folder (or its nearest existing parent); inf if unknown."""
+    for place in [folder, *folder.parents]:
+        if place.exists():
+            try:
+                return shutil.disk_usage(place).free
+            except OSError:
+                return math.inf
+    return math.inf
+
+
+def _build(folder: Path, name: str, source: str, declarations: str, flags: list[str]) -> Path:
+    """Compile the module into the cache as NAME.SHA256.so (put in place atomically: other
+    processes see all or nothing). A full disk is an OSError ENOSPC naming the folder, also
+    where the compiler failed for want of space."""
+    import cffi
+
+    full = False
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        ffi = cffi.FFI()
+        ffi.cdef(declarations)
+        ffi.set_source(name, source, extra_compile_args=flags)
+        with tempfile.TemporaryDirectory(dir=folder) as tmp:
+            built = Path(ffi.compile(tmpdir=tmp))
+            path = folder / f"{name}.{_file_hash(built)}.so"
+            os.replace(built, path)
+        return path
+    except OSError as err:
+        if err.errno != errno.ENOSPC:
+            raise
+        full = True
+    except Exception:
+        if _free_bytes(folder) >= FREE_BYTES:
+            raise
+        full = True  # the compiler could not write its output
+    assert full
+    raise _no_space(folder)
+
+
+def _imported(name: str, path: Path) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None  # a file's spec, with its loader
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def compile_module(
     prefix: str,
     source: str,
@@ -121,31 +282,38 @@ def compile_module(
 ) -> ModuleType:
     """A cffi module (.ffi, .lib) of C `source` with the prototypes `declarations`, compiled
     with FLAGS (and `flags`) on first use and kept in cache_dir() under `prefix` and a hash of
-    the source, the flags and the CPU (so that an edited source or another CPU compiles anew).
-    Under MPI, rank 0 of `comm` compiles and the others wait."""
-    import cffi
-
+    the source, the flags and the CPU (so that an edited source or another CPU compiles anew),
+    as PREFIX_KEY.SHA256.so with the SHA-256 of its bytes. A cached file is checked before it
+    is loaded (library_problem: empty, cut short, garbage, another architecture, other bytes),
+    and one that is unfit or fails to load is said in one line and compiled again, once. The
+    one cache of the compiled kernels: solvers/blockcsr.py, solvers/compiled_forces.py and
+    metrics/kernels.py. Under MPI, rank 0 of `comm` compiles and the others wait."""
     flags = FLAGS + (flags or [])
     key = source + declarations + " ".join(flags) + _cpu_key()
     name = f"{prefix}_{hashlib.sha256(key.encode()).hexdigest()[:16]}"
     folder = cache_dir()
-    found = sorted(folder.glob(name + ".*so")) if folder.exists() else []
-    if not found and (comm is None or comm.rank == 0):
-        folder.mkdir(parents=True, exist_ok=True)
-        ffi = cffi.FFI()
-        ffi.cdef(declarations)
-        ffi.set_source(name, source, extra_compile_args=flags)
-        with tempfile.TemporaryDirectory(dir=folder) as tmp:
-            built = Path(ffi.compile(tmpdir=tmp))
-            os.replace(built, folder / built.name)  # atomic: other processes see all or nothing
-    if comm is not None:
-        comm.Barrier()
-    found = sorted(folder.glob(name + ".*so"))
-    spec = importlib.util.spec_from_file_location(name, found[0])
-    assert spec is not None and spec.loader is not None  # a file's spec, with its loader
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    module = path = error = None
+    if comm is None or comm.rank == 0:
+        try:
+            path = _cached(folder, name)
+            if path is not None:
+                try:
+                    module = _imported(name, path)
+                except ImportError as err:
+                    _say(f"{path}: does not load ({err}); compiling it again")
+                    path.unlink(missing_ok=True)
+                    path = None
+            if path is None:
+                path = _build(folder, name, source, declarations, flags)
+                module = _imported(name, path)
+        except Exception as err:
+            error = err
+    if comm is not None and comm.size > 1:
+        path, error = comm.bcast((path, error), root=0)
+    if error is not None:
+        raise error
+    assert path is not None
+    return module if module is not None else _imported(name, path)
 
 
 def load(comm: MPI.Comm | None = None) -> ModuleType:

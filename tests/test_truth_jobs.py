@@ -6,9 +6,11 @@ a time in worker processes, each under its lock, and caches the same truths as o
 The waiting tests use small synthetic truths (test_newcomer_truth_cache.synthetic) in a
 cache of their own; the command test computes two quick truths for real."""
 
+import json
 import subprocess
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,10 +44,21 @@ def computed(monkeypatch):
     return calls
 
 
-def hold_lock(case: str, pid: int) -> None:
+def hold_lock(case: str, holder: int, **fields) -> Path:
+    """Write by hand the lock that process `holder` would hold on `case` (quick), started 2 min
+    ago with an estimate of 10 min, with `fields` changed (None: left out)."""
     lock = store.lock_path(case, True)
     lock.parent.mkdir(parents=True, exist_ok=True)
-    lock.write_text(f'{{"pid": {pid}, "started": {time.time() - 120}, "expected_s": 600}}')
+    held = {
+        "pid": holder,
+        "started": time.time() - 120,
+        "expected_s": 600,
+        **store.process_identity(holder),
+        "cache": str(lock.parent),
+    }
+    held.update(fields)
+    lock.write_text(json.dumps({k: v for k, v in held.items() if v is not None}))
+    return lock
 
 
 def test_a_reader_waits_for_the_process_computing_it_and_reads_its_result(cache, computed):
@@ -81,6 +94,101 @@ def test_a_lock_whose_process_has_gone_is_removed_and_the_case_computed(cache, c
     assert [(case, exists) for case, _, exists in computed] == [("rod", True)]
     assert computed[0][1] is None  # computing() ignores this process's own lock
     assert not store.lock_path("rod", True).exists()
+
+
+YESTERDAY = "yesterday"
+HOSTILE_LOCKS = {  # the lock's fields as written by hand: what makes each not hold
+    "not-tissuebench": ({"process_start": None, "command": None}, "not identified"),
+    "pid-reused": ({"process_start": 1}, "another process now"),
+    "other-command": ({"command": "tissuebench\0truth\0rod\0"}, "not the process that wrote"),
+    "pid-0": ({"pid": 0}, "invalid pid (0)"),
+    "pid-negative": ({"pid": -1}, "invalid pid (-1)"),
+    "pid-text": ({"pid": "1234"}, "invalid pid"),
+    "pid-bool": ({"pid": True}, "invalid pid"),
+    "started-yesterday": ({"started": YESTERDAY}, "invalid start time ('yesterday')"),
+    "started-nan": ({"started": float("nan")}, "invalid start time"),
+    "started-future": ({"started": time.time() + 86400}, "in the future"),
+    "started-missing": ({"started": None}, "invalid start time (None)"),
+    "estimate-text": ({"expected_s": "long"}, "invalid estimate"),
+    "estimate-negative": ({"expected_s": -5}, "invalid estimate"),
+    "other-cache": ({"cache": "/elsewhere/cache/truth"}, "another cache"),
+    "too-old": ({"started": time.time() - 2 * 86400}, "times its estimate"),
+}
+
+
+@pytest.mark.parametrize("name", HOSTILE_LOCKS)
+def test_a_lock_that_does_not_hold_is_taken_over_in_one_line(cache, computed, name):
+    """A lock naming a live process that is not the one that wrote it (not tissuebench, a
+    reused id, another command line), a field invalid, another cache's, or older than its
+    estimate times the bound: taken over at once with one line, and the case computed (no wait
+    for ever, no traceback)."""
+    fields, said = HOSTILE_LOCKS[name]
+    other = subprocess.Popen(["sleep", "60"])  # alive, and not tissuebench
+    try:
+        lock = hold_lock("rod", other.pid, **fields)
+        lines: list[str] = []
+        started = time.monotonic()
+        samples = store.truth_samples("rod", quick=True, log=lines.append)
+    finally:
+        other.kill()
+        other.wait()
+    assert time.monotonic() - started < 30  # computed (synthetic), not waited for
+    assert samples is not None and [case for case, _, _ in computed] == ["rod"]
+    taken = [line for line in lines if "took over" in line]
+    assert len(taken) == 1 and str(lock) in taken[0] and said in taken[0], lines
+    assert not lock.exists()
+
+
+@pytest.mark.parametrize(
+    "text", [b"", b"{", b"[1, 2]", b'"pid"', b"{" * 100_000, b"\0\xff\xfe", b'{"pid": 1e999}']
+)
+def test_a_lock_that_cannot_be_parsed_is_taken_over(cache, computed, text):
+    lock = store.lock_path("rod", True)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    lock.write_bytes(text)
+    lines: list[str] = []
+    assert store.load_cached("rod", quick=True, log=lines.append) is None  # a reader
+    assert len(lines) == 1 and "took over" in lines[0] and not lock.exists(), lines
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "link"])
+def test_a_lock_that_is_not_a_file_neither_blocks_nor_hangs(cache, computed, kind):
+    """A folder, a FIFO (reading it would block) or a link at the lock's name: said, and the
+    case computed (without a lock where the folder cannot be removed)."""
+    import os
+
+    lock = store.lock_path("rod", True)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    if kind == "folder":
+        (lock / "inside").mkdir(parents=True)
+    elif kind == "fifo":
+        os.mkfifo(lock)
+    else:
+        lock.symlink_to("/dev/zero")
+    lines: list[str] = []
+    samples = store.truth_samples("rod", quick=True, log=lines.append)
+    assert samples is not None and [case for case, _, _ in computed] == ["rod"]
+    assert any("took over" in line and "not a file" in line for line in lines), lines
+    assert lock.is_dir() if kind == "folder" else not lock.exists()
+
+
+def test_a_lock_taken_over_is_not_removed_by_the_process_that_held_it(cache, computed, monkeypatch):
+    """The computation ends after its lock was taken over: it leaves the new holder's lock."""
+    holder = subprocess.Popen(["sleep", "60"])
+    compute = store.compute  # the computed fixture's
+
+    def taken_over(case, quick=False, comm=None, log=None):
+        hold_lock(case, holder.pid)  # another process took the lock over meanwhile
+        return compute(case, quick, comm, log)
+
+    monkeypatch.setattr(store, "compute", taken_over)
+    try:
+        store.truth_samples("rod", quick=True)
+        held = json.loads(store.lock_path("rod", True).read_text())
+    finally:
+        holder.kill()
+        holder.wait()
+    assert held["pid"] == holder.pid
 
 
 def test_the_lock_goes_when_the_computation_fails(cache, monkeypatch):

@@ -16,6 +16,7 @@ finished and resumes from it.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -38,7 +39,7 @@ from tissuebench.solvers.system import System
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.store import size_of
 from tissuebench.workflows.grading import load_truth
-from tissuebench.workflows.io.tables import append_row, write_rows
+from tissuebench.workflows.io.tables import append_row, ends_whole, write_rows
 from tissuebench.workflows.io.tables import read_rows as read_csv
 from tissuebench.workflows.io.xdmf import gather_series
 
@@ -208,26 +209,54 @@ def run_config(config: Config, truth, comm: MPI.Comm = MPI.COMM_SELF) -> dict:
 TEXT = ("case", "benchmark", "material", "cell", "scheme", "algorithm", "requested", "status")
 
 
-def read_rows(path: Path) -> list[dict]:
-    """The rows of a frontier.csv, numbers as floats (ints where whole), NaN for empty."""
-    if not path.is_file():
-        return []
-    rows = []
-    for raw in read_csv(path):
-        row: dict[str, Any] = {}
-        for key, value in raw.items():
-            if key is None:  # cells past the header's (a file of an older version)
-                continue
-            if key in TEXT:
-                row[key] = value
-            elif value == "":
-                row[key] = math.nan
-            else:
+def _parsed(raw: dict) -> dict | None:
+    """One row of a frontier.csv with its numbers as floats (ints where whole), NaN for empty,
+    or None if a cell is missing or is not a number where one belongs (a row cut short)."""
+    row: dict[str, Any] = {}
+    for key, value in raw.items():
+        if key is None:  # cells past the header's (a file of an older version)
+            continue
+        if not isinstance(value, str):
+            return None  # the row ended before this column
+        if key in TEXT:
+            row[key] = value
+        elif value == "":
+            row[key] = math.nan
+        else:
+            try:
                 number = float(value)
                 whole = key in ("substeps", "mesh_size", "dofs", "timings")
                 row[key] = int(number) if whole else number
-        rows.append({k: row.get(k, math.nan) for k in COLUMNS})
+            except (ValueError, OverflowError):
+                return None
+    return {k: row.get(k, math.nan) for k in COLUMNS}
+
+
+def read_rows(path: Path, log: Callable[[str], None] | None = None) -> list[dict]:
+    """The rows of a frontier.csv, numbers as floats (ints where whole), NaN for empty. A row
+    that is not whole (a cell missing or not a number, or the file's last line without its
+    end: cut by a kill or a full disk) is left out, said in one line to `log` (default
+    stderr), so that the study runs it again."""
+    if not path.is_file():
+        return []
+    raw_rows = read_csv(path, errors="replace")
+    cut = not ends_whole(path)
+    rows = []
+    for k, raw in enumerate(raw_rows):
+        row = _parsed(raw)
+        if row is not None and not (cut and k == len(raw_rows) - 1):
+            rows.append(row)
+    if len(rows) < len(raw_rows):
+        left = len(raw_rows) - len(rows)
+        (log or _stderr)(
+            f"{path}: {left} row{'s' if left > 1 else ''} cut short or unreadable left out "
+            "(`tissuebench frontier` runs them again)"
+        )
     return rows
+
+
+def _stderr(line: str) -> None:
+    print(f"tissuebench: {line}", file=sys.stderr, flush=True)
 
 
 def row_key(row: dict) -> tuple:
@@ -253,7 +282,7 @@ def run_study(
     dropped and run again. Serial (one core)."""
     comm = MPI.COMM_SELF
     path = out / "frontier.csv"
-    rows = read_rows(path)
+    rows = read_rows(path, log)
     # serial (COMM_SELF): rank 0's truths, never None
     truths = {case: cast("TruthSamples", load_truth(case, comm)) for case in cases}
     # a row graded against another truth (computed again since: its own error differs) is stale
@@ -307,7 +336,7 @@ def retime(out: Path, log: Callable[[str], None] = print) -> list[dict]:
     time): a cost near the budget is then not decided by one noisy timing. Rewrites the file
     after each run; returns all rows."""
     path = out / "frontier.csv"
-    rows = read_rows(path)
+    rows = read_rows(path, log)
     low, high = RETIME
     todo = [
         r

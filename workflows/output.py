@@ -89,11 +89,22 @@ def read_manifest(folder: Path, kind: str) -> dict[str, str] | None:
     return files
 
 
-def _write_manifest(folder: Path, kind: str, files: dict[str, str]) -> None:
+def _stage_manifest(folder: Path, kind: str, files: dict[str, str]) -> Path:
+    """The manifest written whole under a staging name beside its place, which
+    os.replace(staged, folder / MANIFEST) puts in place (removed again if writing it fails)."""
     text = json.dumps({"tissuebench": kind, "files": dict(sorted(files.items()))}, indent=1)
     tmp = folder / f"{MANIFEST}.{os.getpid()}.tmp"
     try:
         tmp.write_text(text + "\n")
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return tmp
+
+
+def _write_manifest(folder: Path, kind: str, files: dict[str, str]) -> None:
+    tmp = _stage_manifest(folder, kind, files)
+    try:
         os.replace(tmp, folder / MANIFEST)
     finally:
         tmp.unlink(missing_ok=True)
@@ -526,27 +537,15 @@ def check_owned(path: Path, force: bool = True) -> None:
 
 def write_owned(path: Path, write: Callable[[Path], object]) -> None:
     """write(tmp) into a temporary file beside path, rename it into place and list it with
-    its hash in the folder's manifest (rank 0). Refuses a file that is not ours."""
-    path = Path(path)
-    folder = path.parent
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp = folder / f"{PREFIX}{path.name}.{os.getpid()}.tmp{path.suffix}"
-    lock = Lock(folder / f"{PREFIX}lock-{MANIFEST}", folder, wait=30.0)
-    try:
-        write(tmp)
-        digest = file_hash(tmp)
-        lock.acquire()
-        check_owned(path)
-        listed = read_manifest(folder, "files") or {}
-        interrupt.check()  # a signal while writing: the old file stays
-        os.replace(tmp, path)
-        _write_manifest(folder, "files", {**listed, path.name: digest})
-    finally:
-        lock.release()
-        tmp.unlink(missing_ok=True)
+    its hash in the folder's manifest (rank 0). Refuses a file that is not ours. The new
+    manifest is staged too before anything is renamed, and both renames are done with signals
+    deferred: a full disk or a signal leaves the old file with its manifest (write_set)."""
+    write_set({Path(path): write}, done=False)
 
 
-def write_set(files: dict[Path, Callable[[Path], None]], staged_hook=None) -> None:
+def write_set(
+    files: dict[Path, Callable[[Path], object]], staged_hook=None, done: bool = True
+) -> None:
     """Several loose files written as one set (rank 0): each write(tmp) staged into a
     temporary beside its target; then, every folder's manifest lock held and every target
     checked as ours (check_owned), all renamed into place and listed in their folders'
@@ -556,6 +555,7 @@ def write_set(files: dict[Path, Callable[[Path], None]], staged_hook=None) -> No
     done. `staged_hook()`, if given, runs once everything is staged (tests send a signal there).
     """
     staged: dict[Path, Path] = {}
+    manifests: dict[Path, Path] = {}  # folder: its new manifest, staged
     locks: list[Lock] = []
     try:
         for path, write in files.items():
@@ -575,19 +575,23 @@ def write_set(files: dict[Path, Callable[[Path], None]], staged_hook=None) -> No
         for path in staged:
             check_owned(path)
         digests = {path: file_hash(tmp) for path, tmp in staged.items()}
+        for folder in folders:  # every manifest written whole before any file moves
+            listed = read_manifest(folder, "files") or {}
+            mine = {p.name: digests[p] for p in staged if p.parent == folder}
+            manifests[folder] = _stage_manifest(folder, "files", {**listed, **mine})
         interrupt.check()  # the last point at which a signal leaves the old set whole
-        with interrupt.deferred():
+        with interrupt.deferred():  # renames only: no disk space needed
             for folder in folders:
-                listed = read_manifest(folder, "files") or {}
-                mine = {p: t for p, t in staged.items() if p.parent == folder}
-                for path, tmp in mine.items():
-                    os.replace(tmp, path)
-                _write_manifest(folder, "files", {**listed, **{p.name: digests[p] for p in mine}})
-            interrupt.will_write([])  # the whole set is in place
+                for path, tmp in staged.items():
+                    if path.parent == folder:
+                        os.replace(tmp, path)
+                os.replace(manifests[folder], folder / MANIFEST)
+            if done:
+                interrupt.will_write([])  # the whole set is in place
     finally:
         for lock in locks:
             lock.release()
-        for tmp in staged.values():
+        for tmp in [*staged.values(), *manifests.values()]:
             tmp.unlink(missing_ok=True)
 
 

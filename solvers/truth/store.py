@@ -27,6 +27,7 @@ import json
 import math
 import os
 import re
+import stat
 import sys
 import time
 import zipfile
@@ -640,7 +641,7 @@ def load_cached(
     samples = None
     if comm.rank == 0:
         samples, problem = _read(case, quick)
-        held = computing(case, quick) if samples is None else None
+        held = computing(case, quick, log) if samples is None else None
         if held is not None:  # a reader does not wait: it says why there is none yet
             (log or _stderr)(f"{being_computed(case, quick, held)}; not read until it ends")
         elif problem:
@@ -696,57 +697,174 @@ def remove_stale_temporaries(folder: Path, log: Callable[[str], None] | None = N
 
 WAIT_REPORT_SECONDS = 60.0  # how often a process waiting for another's computation says so
 WAIT_POLL_SECONDS = 2.0
+LOCK_BOUND = 10.0  # a lock older than this many times its case's estimate is taken over
+LOCK_FLOOR_SECONDS = 900.0  # ... and older than this (a quick case's estimate is seconds)
+CLOCK_SLACK_SECONDS = 60.0  # a lock started later than now by more than this is invalid
+PID_MAX = 1 << 22  # Linux's largest process id
 
 
 def lock_path(case: str, quick: bool = False) -> Path:
-    """The file that says a case's truth is being computed: {"pid", "started", "expected_s"}."""
+    """The file that says a case's truth is being computed: {"pid", "started" (time.time()),
+    "expected_s", "process_start" and "command" (the process's start in clock ticks after boot
+    and its command line, from /proc: together they tell it from a later process of the same
+    id), "cache" (the folder it computes into)}."""
     path = cache_path(case, quick)
     return path.with_name(f".{path.stem}.computing")
 
 
-def computing(case: str, quick: bool = False) -> dict | None:
-    """The lock of a computation of this case under way in another process (alive here), else
-    None; a lock whose process has gone is removed."""
-    lock = lock_path(case, quick)
+def process_identity(pid: int) -> dict:
+    """{"process_start": clock ticks after boot, "command": its command line} of a process
+    running here, from /proc; None for each where /proc does not say (no such process, or
+    no /proc)."""
     try:
-        held = json.loads(lock.read_text())
-        pid = int(held["pid"])
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError, KeyError, TypeError):
-        held, pid = None, -1
-    if pid == os.getpid():  # this process's own
-        return None
-    if held is not None and _alive(pid):
-        return held
-    lock.unlink(missing_ok=True)  # unreadable, or its process has gone
+        status = Path(f"/proc/{pid}/stat").read_text()
+        command = Path(f"/proc/{pid}/cmdline").read_bytes().decode("utf-8", "replace")
+        start = int(status[status.rindex(")") + 2 :].split()[19])  # field 22, starttime
+    except (OSError, ValueError, IndexError):
+        return {"process_start": None, "command": None}
+    return {"process_start": start, "command": command}
+
+
+def _number(x: object) -> bool:
+    """A finite int or float (not a bool) that a float holds."""
+    try:
+        return type(x) in (int, float) and math.isfinite(cast(float, x))
+    except OverflowError:  # an int beyond any float
+        return False
+
+
+def lock_problem(held: object, lock: Path, case: str, quick: bool) -> str | None:
+    """Why the lock `held` (its parsed JSON, found at `lock`) does not hold and is taken over,
+    or None if it holds: a field missing or invalid (pid, started, expected_s, cache,
+    process_start, command), written for another cache, its process gone or another one
+    now (a start time or command line other than the lock's), or older than LOCK_BOUND times
+    the case's estimate (and LOCK_FLOOR_SECONDS)."""
+    if not isinstance(held, dict):
+        return "not a lock (no JSON object)"
+    pid, started, expected = held.get("pid"), held.get("started"), held.get("expected_s")
+    if type(pid) is not int or not 0 < pid < PID_MAX:
+        return f"an invalid pid ({pid!r:.40})"
+    if not _number(started) or cast(float, started) <= 0:
+        return f"an invalid start time ({started!r:.40})"
+    now = time.time()
+    if cast(float, started) > now + CLOCK_SLACK_SECONDS:
+        return "a start time in the future"
+    if not _number(expected) or cast(float, expected) <= 0:
+        return f"an invalid estimate ({expected!r:.40})"
+    cache = held.get("cache")
+    try:
+        ours = isinstance(cache, str) and Path(cache).resolve() == lock.parent.resolve()
+    except (OSError, ValueError, RuntimeError):  # a NUL, a name too long, a symlink loop
+        ours = False
+    if not ours:
+        return f"written for another cache ({cache!r:.80})"
+    start, command = held.get("process_start"), held.get("command")
+    if not (start is None or (type(start) is int and start >= 0)):
+        return f"an invalid process start ({start!r:.40})"
+    if not (command is None or isinstance(command, str)):
+        return "an invalid command line"
+    if not _alive(pid):
+        return f"its process {pid} has gone"
+    live = process_identity(pid)
+    if live["command"] is not None:  # /proc says who runs under this id
+        if start is None or command is None:
+            return f"process {pid} is not identified (no start time or command line)"
+        if live["process_start"] != start:
+            return f"process {pid} is another process now (started at another time)"
+        if live["command"] != command:
+            shown = live["command"].replace("\0", " ").strip()
+            return f"process {pid} is not the process that wrote it ({shown!r:.80})"
+    age = now - cast(float, started)
+    bound = max(LOCK_BOUND * expected_seconds(case, quick), LOCK_FLOOR_SECONDS)
+    if age > bound:
+        return f"{age / 60:.0f} min old, more than {LOCK_BOUND:g} times its estimate"
     return None
 
 
-def _take_lock(case: str, quick: bool) -> bool:
-    """Create the case's lock for this process; False where another process holds it (True,
-    without a lock, where the cache folder cannot be written)."""
+def computing(
+    case: str, quick: bool = False, say: Callable[[str], None] | None = None
+) -> dict | None:
+    """The lock of a computation of this case under way in another process, else None. A lock
+    that does not hold (lock_problem: unreadable, a field invalid, its process gone or not the
+    one that wrote it, too old) is taken over: removed, with one line to `say` (default
+    stderr) naming it and why."""
     lock = lock_path(case, quick)
-    text = json.dumps(
-        {"pid": os.getpid(), "started": time.time(), "expected_s": expected_seconds(case, quick)}
-    )
+    text: str | None = None
+    try:
+        if _regular(lock):  # not a folder, a link or a FIFO (which would block a reader)
+            text = lock.read_text(errors="replace")
+        else:
+            problem = "not a file"
+    except FileNotFoundError:
+        return None
+    except OSError as err:
+        problem = f"cannot be read ({err.strerror or err})"
+    if text is not None:
+        try:
+            held = json.loads(text)
+        except (ValueError, RecursionError):
+            held, problem = None, "cannot be parsed"
+        else:
+            if isinstance(held, dict) and held.get("pid") == os.getpid():
+                return None  # this process's own
+            problem = lock_problem(held, lock, case, quick)
+            if problem is None:
+                return held
+    with contextlib.suppress(OSError):
+        if text is None or lock.read_text(errors="replace") == text:  # not a new lock meanwhile
+            lock.unlink(missing_ok=True)
+    (say or _stderr)(f"truth {case}{' (quick)' if quick else ''}: took over {lock}: {problem}")
+    return None
+
+
+def _regular(path: Path) -> bool:
+    """Whether path is a regular file, not through a link (FileNotFoundError if absent)."""
+    return stat.S_ISREG(path.lstat().st_mode)
+
+
+def _take_lock(case: str, quick: bool) -> bool:
+    """Create the case's lock for this process, whole (written aside, then linked into place:
+    no reader ever sees it empty); False where another process holds it (True, without a
+    lock, where the cache folder cannot be written)."""
+    lock = lock_path(case, quick)
+    record = {
+        "pid": os.getpid(),
+        "started": time.time(),
+        "expected_s": expected_seconds(case, quick),
+        **process_identity(os.getpid()),
+        "cache": str(lock.parent.resolve()),
+    }
+    tmp = lock.with_name(f"{lock.name}.{os.getpid()}.tmp")
     try:
         lock.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        tmp.write_text(json.dumps(record))
+        os.link(tmp, lock)
     except FileExistsError:
+        with contextlib.suppress(OSError):
+            if not _regular(lock):  # a folder there, which computing() cannot remove
+                return True  # computed without a lock, as below
         return False
     except OSError:  # a cache that cannot be written: computed without a lock (and not kept)
         return True
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
     return True
+
+
+def _release_lock(case: str, quick: bool) -> None:
+    """Remove the case's lock if it is this process's own (another may have taken it over)."""
+    lock = lock_path(case, quick)
+    with contextlib.suppress(OSError, ValueError, RecursionError):
+        held = json.loads(lock.read_text()) if _regular(lock) else None
+        if isinstance(held, dict) and held.get("pid") == os.getpid():
+            lock.unlink(missing_ok=True)
 
 
 def being_computed(case: str, quick: bool, held: dict) -> str:
     """'truth CASE: being computed by process N for M min (about K min left)', from its lock."""
-    now = time.time()
-    elapsed = now - float(held.get("started", now))
-    left = float(held.get("expected_s", 0.0)) - elapsed
+    elapsed = time.time() - float(held["started"])
+    left = float(held["expected_s"]) - elapsed
     return (
         f"truth {case}{' (quick)' if quick else ''}: being computed by process {held['pid']} "
         f"for {elapsed / 60:.0f} min "
@@ -758,7 +876,7 @@ def wait_for(case: str, quick: bool, say: Callable[[str], None]) -> None:
     """Wait while another process computes this case, saying so now and every
     WAIT_REPORT_SECONDS (who, since when, about how long is left)."""
     last = -math.inf
-    while (held := computing(case, quick)) is not None:
+    while (held := computing(case, quick, say)) is not None:
         now = time.time()
         if now - last >= WAIT_REPORT_SECONDS:
             say(f"{being_computed(case, quick, held)}; waiting for it")
@@ -797,8 +915,7 @@ def truth_samples(
         return _compute_and_store(case, quick, comm, log, say, path, problem)
     finally:
         if comm.rank == 0:
-            with contextlib.suppress(OSError):
-                lock_path(case, quick).unlink(missing_ok=True)
+            _release_lock(case, quick)
 
 
 def _compute_and_store(case, quick, comm, log, say, path, problem) -> TruthSamples | None:

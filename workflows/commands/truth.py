@@ -50,7 +50,7 @@ from tissuebench.solvers.truth.store import (
     truth_samples,
 )
 from tissuebench.workflows.io.tables import write_table
-from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
+from tissuebench.workflows.output import OutputError, check_writable, collective, write_set
 from tissuebench.workflows.truth_jobs import compute_in_parallel
 
 if TYPE_CHECKING:
@@ -508,10 +508,14 @@ def main(args: argparse.Namespace) -> int:
         samples = None
         interrupt.checkpoint(comm)
 
-    def write():
+    def write():  # one set: both staged with the manifest, then renamed (a full disk: the old)
         text = markdown(summaries, args.quick, names, comm.size, session)
-        write_owned(out / f"{NAME}.csv", lambda tmp: write_csv(tmp, csv_rows(summaries)))
-        write_owned(out / f"{NAME}.md", lambda tmp: tmp.write_text(text + "\n"))
+        write_set(
+            {
+                out / f"{NAME}.csv": lambda tmp: write_csv(tmp, csv_rows(summaries)),
+                out / f"{NAME}.md": lambda tmp: tmp.write_text(text + "\n"),
+            }
+        )
 
     collective(comm, write, out)
     interrupt.will_write([])

@@ -2,13 +2,24 @@
 step: the time in s, every metric of METRICS, the step's status), tip.csv (the probe point's
 displacement in m), and any table of rows: a study's (frontier.csv, mesh-sensitivity.csv;
 write_rows, append_row), truth.csv and leaderboard.csv (write_table), read back by read_rows.
-`CSVError` is the error of a file that is not CSV."""
+`CSVError` is the error of a file that is not CSV.
+
+A text cell that a spreadsheet would take for a formula (it begins with = + - @, a tab or a
+carriage return, after any apostrophes: a label `=HYPERLINK(...)` or `-2+3+cmd|...`) is written
+with a leading apostrophe, which read_rows takes off again (so the file reads back as the text
+it was given); numbers, and text that is a number (`-0.25`, `-inf`), are written as they are.
+Every file is written under a staging name beside it and renamed into place when complete
+(append_row too), so that a full disk or a kill leaves the old file whole, or none."""
 
 from __future__ import annotations
 
 import csv
-from collections.abc import Iterable, Sequence
+import os
+import re
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -17,6 +28,64 @@ from tissuebench.metrics.compare import columns
 from tissuebench.metrics.table import METRICS
 
 CSVError = csv.Error  # a file that the csv module cannot read as CSV
+FORMULA = ("=", "+", "-", "@", "\t", "\r")  # what a spreadsheet reads as the start of a formula
+NUMBER = re.compile(
+    r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|nan)", re.IGNORECASE
+)
+
+
+def guarded(x: object) -> object:
+    """A cell as written: text whose first character after any apostrophes is one of FORMULA
+    gets one more apostrophe in front (no spreadsheet evaluates it); numbers and text that is
+    a number (NUMBER) are as they are; None stays None (an empty cell)."""
+    if x is None or isinstance(x, (int, float, np.number)):
+        return x
+    text = str(x)
+    if text.lstrip("'")[:1] in FORMULA and not NUMBER.fullmatch(text):
+        return "'" + text
+    return text
+
+
+def unguarded(cell: str | None) -> str | None:
+    """The text a cell was given, from the cell as `guarded` wrote it: one leading apostrophe
+    off where guarded put it (the cell's first character after its apostrophes is one of
+    FORMULA), the cell itself otherwise."""
+    if cell is not None and cell[:1] == "'" and cell.lstrip("'")[:1] in FORMULA:
+        return cell[1:]
+    return cell
+
+
+def _writer(f: IO[str]):
+    """A csv.writer whose rows are guarded cell by cell."""
+    writer = csv.writer(f)
+
+    class Guarded:
+        def writerow(self, row: Iterable[object]) -> None:
+            writer.writerow([guarded(x) for x in row])
+
+        def writerows(self, rows: Iterable[Iterable[object]]) -> None:
+            for row in rows:
+                self.writerow(row)
+
+    return Guarded()
+
+
+@contextmanager
+def _staged(path: Path, keep: bool = False) -> Iterator[IO[str]]:
+    """A text file open for writing under a staging name beside `path` (with the old file's
+    content first if `keep`), renamed to `path` when the block ends without an error; on an
+    error (a full disk, a signal) the staging file is removed and `path` is as it was."""
+    path = Path(path)
+    tmp = path.with_name(f".tissuebench-{path.name}.{os.getpid()}.staged")
+    try:
+        with open(tmp, "w", newline="") as f:
+            if keep and path.is_file():
+                with open(path, newline="") as old:
+                    f.write(old.read())
+            yield f
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def write_metrics_csv(
@@ -27,8 +96,8 @@ def write_metrics_csv(
 ) -> None:
     """metrics.csv: for each run label, one row per step; `status` says ok, diverged,
     reference diverged or missing."""
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
+    with _staged(path) as f:
+        writer = _writer(f)
         writer.writerow(columns())
         for label, curve in curves.items():
             for i, t in enumerate(times):
@@ -45,8 +114,8 @@ def write_metrics_csv(
 
 def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) -> None:
     """tip.csv: for each run label, the probe point's displacement (m) at every step it has."""
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
+    with _staged(path) as f:
+        writer = _writer(f)
         d = next(iter(tips.values())).shape[1]
         writer.writerow(["algorithm", "step", "time", *("u_" + "xyz"[k] for k in range(d))])
         for label, tip in tips.items():
@@ -80,39 +149,62 @@ def write_rows(
     """Rows as a CSV file: a header of `columns` (default: the first row's keys), then one
     line a row, None as an empty cell, and NaN too unless not `empty_nan` (then "nan")."""
     columns = tuple(columns or (rows[0] if rows else ()))
-    with open(path, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
-        writer.writeheader()
+    with _staged(path) as f:
+        writer = _writer(f)
+        writer.writerow(columns)
         for row in rows:
-            writer.writerow({k: _cell(row[k]) if empty_nan else row[k] for k in columns})
+            writer.writerow([_cell(row[k]) if empty_nan else row[k] for k in columns])
 
 
 def write_table(path: Path, columns: Sequence[str], rows: Iterable[Sequence[object]]) -> None:
     """A CSV file of a header, `columns`, and one line for each row of cells (each cell as
     str() writes it, None as an empty cell)."""
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
+    with _staged(path) as f:
+        writer = _writer(f)
         writer.writerow(columns)
         writer.writerows(rows)
 
 
 def append_row(path: Path, row: dict, columns: tuple[str, ...]) -> None:
     """Add one row to a CSV file of `columns`, its header first if the file is new (a study
-    that keeps each result as it ends)."""
+    that keeps each result as it ends). The file is written again whole under a staging name
+    and renamed, so that it never ends in half a row."""
     new = not Path(path).is_file()
-    with open(path, "a", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
+    with _staged(path, keep=True) as f:
+        writer = _writer(f)
         if new:
-            writer.writeheader()
-        writer.writerow({k: _cell(row[k]) for k in columns})
+            writer.writerow(columns)
+        writer.writerow([_cell(row[k]) for k in columns])
 
 
 def read_rows(path: Path, errors: str = "strict") -> list[dict[str, str]]:
     """A CSV file's rows as {column: text}, keyed by its header; `errors` as open() takes it
     ("replace": undecodable bytes become U+FFFD). OSError, CSVError or UnicodeDecodeError for
-    a file that cannot be read."""
+    a file that cannot be read. Cells come back as they were given to the writers here (the
+    apostrophe of a guarded cell taken off); a row cut short has None for its missing cells."""
     with open(path, newline="", errors=errors) as f:
-        return list(csv.DictReader(f))
+        return [
+            {_unguarded_cell(k): _unguarded_cell(v) for k, v in r.items()}
+            for r in csv.DictReader(f)
+        ]
+
+
+def ends_whole(path: Path) -> bool:
+    """Whether a file is empty or ends with a line's end (the writers here end every row with
+    one: a file that does not was cut mid-row, by a kill or a full disk)."""
+    with open(path, "rb") as f:
+        if f.seek(0, os.SEEK_END) == 0:
+            return True
+        f.seek(-1, os.SEEK_END)
+        return f.read(1) == b"\n"
+
+
+def _unguarded_cell(v: Any) -> Any:
+    """unguarded for a DictReader key or value: text, None, or the list of a row's extra
+    cells."""
+    if isinstance(v, list):
+        return [unguarded(x) for x in v]
+    return unguarded(v) if isinstance(v, str) else v
 
 
 def read_curves(path: Path) -> tuple[np.ndarray, dict[str, dict[str, np.ndarray]]]:
