@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
+from tissuebench.core import interrupt
 from tissuebench.solvers import compiled_forces
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
@@ -233,7 +234,8 @@ class NewtonModel(ModelForces, Newmark):
         delta.set(0.0)
         t = (state.i + 1) * self.h
         try:
-            self.snes.solve(None, delta)
+            with interrupt.calling_back():  # a signal in _function: raised, not a divergence
+                self.snes.solve(None, delta)
         except PETSc.Error as err:
             raise SolveError(f"Newton at t = {t:.4g} s: {petsc_message(err)}") from None
         reason = self.snes.getConvergedReason()
@@ -294,7 +296,8 @@ class QuasiStaticModel:
 
     def _newton(self, u) -> bool:
         try:
-            self.snes.solve(None, u)
+            with interrupt.calling_back():  # a signal in _function: raised, not a failure
+                self.snes.solve(None, u)
         except PETSc.Error:
             return False
         self.newton_iterations += self.snes.getIterationNumber()
