@@ -106,7 +106,8 @@ def substep_count(k: int, h: float, steps: int, runs: int = 1) -> str:
     if each > MAX_SUBSTEPS:
         raise UserError(
             f"{said}: more than {MAX_SUBSTEPS:,} per run, which would take hours to days (a "
-            "sub-step takes 10 to 100 microseconds even on the smallest mesh); take fewer"
+            "sub-step takes 10 to 100 microseconds even on the smallest mesh): give a smaller "
+            "--substeps (auto takes as many as the critical step needs)"
         )
     return said
 
