@@ -28,12 +28,18 @@ alone and the command line ends the job with MPI_Abort.
 
 A child process (an outside simulator, `run_child`) is stopped at once on a signal.
 
+A signal raised inside a Python callback of PETSc or SLEPc (a Newton solve's residual) comes
+out of the solve as the library's error with the signal as its cause: `calling_back` raises
+the signal again instead, around the solves (`guard_solves` for DOLFINx's) and around the
+whole command.
+
 This module imports nothing heavy (no MPI): the command line uses it before its imports.
 """
 
 from __future__ import annotations
 
 import functools
+import gc
 import signal
 import subprocess
 import sys
@@ -109,10 +115,13 @@ def _lost() -> int:
 def _unraisable(previous: Callable) -> Callable:
     """A hook for `sys.unraisablehook`: where Python drops our exception (raised in a
     __del__ or a weak reference's callback), it would print "Exception ignored in" and a
-    traceback; the signal is raised again at the next point (`_lost`), so say nothing."""
+    traceback; the signal is raised again at the next point (`_lost`), so say nothing. Nor
+    of what the objects that the signal left half-built raise in their __del__ as they go (an
+    __init__ cut before it set the attributes its __del__ reads: DOLFINx's Vector), from the
+    signal's raising to the command's end (`restore`)."""
 
     def hook(unraisable):
-        if _raised and isinstance(unraisable.exc_value, (KeyboardInterrupt, Terminated)):
+        if _raised:
             return
         previous(unraisable)
 
@@ -170,6 +179,8 @@ def install(comm: MPI.Comm, received: int = 0) -> Callable[[], None]:
         signal.setitimer(signal.ITIMER_REAL, 0)
         for number, old in previous.items():
             signal.signal(number, old)
+        if _raised:  # what the signal left (in reference cycles) goes, unsaid (`_unraisable`)
+            gc.collect()
         sys.unraisablehook = previous_hook
         _pending, _depth, _raised = 0, 0, 0
 
@@ -269,6 +280,40 @@ def drawing(draw: Callable) -> Callable:
     return drawn
 
 
+def signal_behind(exc: BaseException) -> BaseException | None:
+    """The signal's exception behind a library's error, None if none: petsc4py turns an
+    exception raised in a Python callback of PETSc (SNES's residual and Jacobian, a KSP
+    monitor) into PETSc.Error 101, and SLEPc's EPS.solve into SystemError, each with the
+    exception as its cause (`raise ... from`), which is followed here."""
+    seen: set[int] = set()
+    cause = exc.__cause__
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, (KeyboardInterrupt, Terminated, Interrupted)):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__cause__
+    return None
+
+
+@contextmanager
+def calling_back() -> Iterator[None]:
+    """Around a solve that calls back into Python (PETSc's SNES and KSP, SLEPc's EPS): a
+    signal raised inside a callback reaches the caller as the library's error, which the
+    caller would take for a failed solve (a divergence, a load step halved, a static solve
+    not reported) or print as a traceback; it is raised here as the signal itself."""
+    try:
+        yield
+    except Exception as err:
+        signalled = signal_behind(err)
+        if signalled is None:
+            raise
+        signum = signal_of(signalled)
+        fresh = Interrupted(signum) if isinstance(signalled, Interrupted) else exception(signum)
+    else:
+        return
+    raise fresh  # out of the `except`: the library's error and its frames go now
+
+
 def guard_jit() -> None:
     """Compile forms in a critical section (see the module docstring): wraps DOLFINx's JIT
     entry point, which dolfinx.fem looks up at every call. Idempotent."""
@@ -284,6 +329,26 @@ def guard_jit() -> None:
 
     setattr(guarded, "deferred", True)  # a function attribute, which mypy does not model
     dolfinx.jit.ffcx_jit = guarded
+
+
+def guard_solves() -> None:
+    """Solve DOLFINx's nonlinear problems (the truth's Newton, solvers/truth/solver.py) inside
+    `calling_back`, so that a signal in their residual is raised as the signal, not as a failed
+    solve: wraps NonlinearProblem.solve, as guard_jit wraps the JIT (the truth's code, which
+    its cache key hashes, stays as it is). Idempotent."""
+    import dolfinx.fem.petsc
+
+    solve = dolfinx.fem.petsc.NonlinearProblem.solve
+    if getattr(solve, "calling_back", False):
+        return
+
+    @functools.wraps(solve)
+    def guarded(self, *args, **kwargs):
+        with calling_back():
+            return solve(self, *args, **kwargs)
+
+    setattr(guarded, "calling_back", True)  # a function attribute, which mypy does not model
+    dolfinx.fem.petsc.NonlinearProblem.solve = guarded  # type: ignore[method-assign]
 
 
 def run_child(command: list[str], timeout: float, **options) -> subprocess.CompletedProcess | None:

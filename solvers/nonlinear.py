@@ -26,6 +26,7 @@ from petsc4py import PETSc
 
 import numpy as np
 
+from tissuebench.core import interrupt
 from tissuebench.solvers import compiled_forces
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
@@ -243,7 +244,8 @@ class NewtonModel(ModelForces, Newmark):
         t = (state.i + 1) * self.h
         self.forces.set_time(t)
         try:
-            self.snes.solve(None, delta)
+            with interrupt.calling_back():  # a signal in _function: raised, not a divergence
+                self.snes.solve(None, delta)
         except PETSc.Error as err:
             raise SolveError(f"Newton at t = {t:.4g} s: {petsc_message(err)}") from None
         reason = self.snes.getConvergedReason()
@@ -304,7 +306,8 @@ class QuasiStaticModel:
 
     def _newton(self, u) -> bool:
         try:
-            self.snes.solve(None, u)
+            with interrupt.calling_back():  # a signal in _function: raised, not a failure
+                self.snes.solve(None, u)
         except PETSc.Error:
             return False
         self.newton_iterations += self.snes.getIterationNumber()

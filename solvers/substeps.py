@@ -10,12 +10,17 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Literal
 
+from tissuebench.core.errors import UserError
 from tissuebench.solvers.algorithm import Integrator, State
 
 if TYPE_CHECKING:
     from tissuebench.solvers.system import System
 
 SAFETY = 0.9  # h/k <= SAFETY x the critical step
+# sub-steps of one run at most (k x its steps): a sub-step takes some 10 to 100 microseconds
+# even on the smallest mesh (90 on the block at N = 4 here), so 1e7 of them take minutes to
+# hours, and more, days
+MAX_SUBSTEPS = 10**7
 
 
 def auto_substeps(system: System, algorithm: str, h: float) -> tuple[int, float]:
@@ -86,6 +91,25 @@ def sub_stepped(
         k = substeps
     inner = get_integrator(algorithm, system, h / k, solver=solver, model=model)
     return (SubSteps(inner, h, k) if k != 1 else inner), k, critical
+
+
+def substep_count(k: int, h: float, steps: int, runs: int = 1) -> str:
+    """What a run with k sub-steps per step h (s), `steps` steps, takes, in words: the sub-step
+    h/k and how many sub-steps in all over `runs` explicit runs. UserError where one run would
+    take more than MAX_SUBSTEPS (it would not end in reasonable time)."""
+    each = k * steps
+    said = (
+        f"{k} sub-steps of h/{k} = {h / k:.4g} s in each of {steps} steps of h = {h:.4g} s: "
+        f"{each:,} sub-steps per explicit run"
+        + (f", {each * runs:,} in all ({runs} runs)" if runs > 1 else "")
+    )
+    if each > MAX_SUBSTEPS:
+        raise UserError(
+            f"{said}: more than {MAX_SUBSTEPS:,} per run, which would take hours to days (a "
+            "sub-step takes 10 to 100 microseconds even on the smallest mesh): give a smaller "
+            "--substeps (auto takes as many as the critical step needs)"
+        )
+    return said
 
 
 def parse_substeps(text: str) -> int | Literal["auto"]:

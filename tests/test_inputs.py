@@ -93,6 +93,56 @@ def test_other_runs_diverging_at_step_0_with_models(tmp_path):
 
 
 @pytest.mark.serial
+def test_a_scheme_parameter_beyond_its_range_is_refused_in_one_line(tmp_path):
+    """Issue 45, item 14: before, a SystemError traceback from SLEPc ("EPS.solve returned a
+    result with an exception set") once the run had begun. --help states each range."""
+    block = ("block", "--mesh-size", 4, "--end-time", 0.1, "--algorithms", "explicit-lumped")
+    r = tissuebench(
+        "run", *block, "--scheme", "hourglass:c_hg=1e200", "--substeps", "auto",
+        "--out", tmp_path / "o",
+    )  # fmt: skip
+    line = one_line(r)
+    assert "c_hg" in line and "0 <= c_hg <= 100" in line and "1e200" in line, line
+    assert files(tmp_path) == []
+    usage = " ".join(tissuebench("run", "--help").stdout.split())
+    assert "0 <= c_hg <= 100" in usage and "-1 < nu_p < 0.5" in usage, usage
+
+
+@pytest.mark.serial
+def test_substeps_without_an_explicit_algorithm_or_beyond_reason_are_refused(tmp_path):
+    """Issue 45, item 15: `--substeps auto --algorithms implicit` was taken silently (no run
+    takes sub-steps), and `--substeps 1000000000` ran without saying its sub-step or its
+    count (3e9 sub-steps on 3 steps: a day or more). Now the first is refused in one line, the
+    second too, with its sub-step h/k and its count in all."""
+    block = ("block", "--mesh-size", 4, "--end-time", 0.1)
+    r = tissuebench(
+        "run", *block, "--algorithms", "implicit", "--substeps", "auto", "--out", tmp_path / "a"
+    )
+    line = one_line(r)
+    assert "--substeps auto" in line and "explicit" in line, line
+    r = tissuebench(
+        "run", *block, "--algorithms", "explicit-lumped", "--substeps", "1000000000",
+        "--out", tmp_path / "b",
+    )  # fmt: skip
+    line = one_line(r)
+    assert "h/1000000000 = 3.333e-11 s" in line and "3,000,000,000 sub-steps" in line, line
+    assert files(tmp_path) == []
+
+
+@pytest.mark.serial
+def test_a_run_says_its_substeps_before_it_starts(tmp_path):
+    """Issue 45, item 15: the sub-step and the count in all, on stdout before any run."""
+    r = tissuebench(
+        "run", "block", "--mesh-size", 4, "--end-time", 0.1, "--algorithms",
+        "explicit,explicit-lumped", "--substeps", 10, "--out", tmp_path / "o",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    first = r.stdout.splitlines()[0]
+    assert "10 sub-steps of h/10 = 0.003333 s in each of 3 steps" in first, r.stdout
+    assert "30 sub-steps per explicit run, 60 in all (2 runs)" in first, r.stdout
+
+
+@pytest.mark.serial
 @pytest.mark.parametrize("scale", ["1e308"])  # 1e200, 1e-41: test_range_bounds_are_inclusive
 def test_overflowing_load_scale_is_refused_with_its_range(tmp_path, scale):
     r = tissuebench("run", *ROD, "--load-scale", scale, "--out", tmp_path / "o")

@@ -202,6 +202,27 @@ def test_scheme_names_and_parameters_are_checked():
             parse_scheme(bad)
 
 
+@pytest.mark.parametrize(
+    "text, said",
+    [
+        ("hourglass:c_hg=1e200", "0 <= c_hg <= 100"),
+        ("hourglass:c_hg=-0.1", "0 <= c_hg <= 100"),
+        ("penalty:k=1e300", "0 <= k <= 100"),
+        ("penalty:nu_p=-1", "-1 < nu_p < 0.5"),
+    ],
+)
+def test_scheme_parameters_are_refused_outside_their_stated_range(text, said):
+    """Issue 45, item 14: hourglass:c_hg=1e200 was taken and ended in SLEPc's "EPS.solve
+    returned a result with an exception set"; each parameter has a range, stated once, which
+    the refusal names with the parameter's meaning; the ends of a closed range are taken."""
+    with pytest.raises(UserError, match=said) as refused:
+        parse_scheme(text)
+    name, key = text.split(":")[0], text.split(":")[1].split("=")[0]
+    assert SCHEMES[name].parameters[key].meaning in str(refused.value)
+    assert parse_scheme("hourglass:c_hg=100") == ("hourglass", {"c_hg": 100.0})
+    assert parse_scheme("penalty:k=0,nu_p=-0.99") == ("penalty", {"nu_p": -0.99, "k": 0.0})
+
+
 def hourglass_fractions(c_hg: float) -> np.ndarray:
     """∫ |grad u - G u|^2 / ∫ |grad u|^2 at each step of the rod (n = 3, MP3, the paper's
     300 steps of h = 1/30 s) run by explicit-lumped with the hourglass scheme."""

@@ -404,6 +404,122 @@ def test_signal_during_leaderboard_and_sensitivity(tmp_path, command, ranks, sig
     assert not (out / f"{name}.md").exists() and not (out / f"{name}.csv").exists()
 
 
+# --- issue 45: the truth's workers, Newton's callbacks, sub-steps ---------------------------------
+
+
+def test_a_signal_in_a_petsc_callback_is_raised_as_the_signal(handlers):
+    """petsc4py turns an exception raised in a Python callback (SNES's residual) into
+    PETSc.Error 101 with the exception as its cause: a caller took it for a failed solve (a
+    divergence, a load step halved) or printed it. `calling_back` raises the signal itself."""
+    from petsc4py import PETSc
+
+    interrupt = handlers
+
+    def residual(snes, x, f):
+        os.kill(os.getpid(), signal.SIGINT)  # the handler raises in this callback
+        time.sleep(1)
+        x.copy(f)
+
+    def solve():
+        snes = PETSc.SNES().create(PETSc.COMM_SELF)
+        x = PETSc.Vec().createSeq(3)
+        x.set(1.0)
+        snes.setFunction(residual, x.duplicate())
+        snes.setType("newtonls")
+        snes.solve(None, x)
+
+    with pytest.raises(PETSc.Error) as raw:  # what petsc4py gives
+        solve()
+    assert isinstance(raw.value.__cause__, KeyboardInterrupt)
+    assert interrupt.signal_behind(raw.value) is raw.value.__cause__
+    interrupt.acknowledge()
+    with pytest.raises(KeyboardInterrupt):
+        with interrupt.calling_back():
+            solve()
+    interrupt.acknowledge()
+    with pytest.raises(ValueError):  # any other failure goes through as it is
+        with interrupt.calling_back():
+            raise ValueError("not a signal")
+
+
+def ended_cleanly(process, sig, timeout=300):
+    """Wait for the process: the signal's status, one line on stderr, no traceback anywhere
+    (a worker's is forwarded on stdout). Returns its stdout."""
+    stdout, stderr = process.communicate(timeout=timeout)
+    lines = lines_of(stderr)
+    assert process.returncode == STATUS[sig], (process.returncode, stderr[-3000:])
+    assert len(lines) == 1 and SAID[sig] in lines[0], stderr[-3000:]
+    assert "Traceback" not in stdout and "error code" not in stdout, stdout[-3000:]
+    return stdout
+
+
+def descendants(pid):
+    """The processes below pid, from /proc."""
+    parent = {}
+    for entry in Path("/proc").iterdir():
+        try:
+            stat = (entry / "stat").read_text()
+        except (OSError, ValueError):
+            continue
+        if entry.name.isdigit():
+            parent[int(entry.name)] = int(stat[stat.rindex(")") + 1 :].split()[1])
+    found, todo = [], [pid]
+    while todo:
+        above = todo.pop()
+        below = [child for child, up in parent.items() if up == above]
+        found += below
+        todo += below
+    return found
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_to_truth_all_stops_its_workers_cleanly(tmp_path, sig):
+    """Issue 45, item 12: `truth all --quick --jobs 2` stopped while its two workers compute
+    (in their Newton solves) printed 2 (SIGINT) or 4 (SIGTERM) of their tracebacks. Now it
+    ends with the signal's status and one line, its workers ended, their locks gone."""
+    cache = tmp_path / "cache"
+    args = ("truth", "all", "--quick", "--jobs", 2, "--out", tmp_path / "out")
+    process = start(args, env={"TISSUEBENCH_CACHE": str(cache)})
+    after_line(process, " n=1: ")  # a worker's first level is done: both are computing
+    workers = descendants(process.pid)
+    assert len(workers) >= 2, workers
+    time.sleep(1)
+    process.send_signal(sig)
+    ended_cleanly(process, sig)
+    assert [pid for pid in workers if Path(f"/proc/{pid}").exists()] == []
+    assert list(cache.rglob("*.lock")) == [] and files(tmp_path / "out") == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_during_the_truths_newton_solve(tmp_path, sig):
+    """Issue 45, item 13: `truth rod-nh-s1 --quick` stopped during a Newton solve (its steps
+    spend most of their time in the residual, a Python callback of PETSc's SNES) ended with
+    exit 1 and petsc4py's "error code 101" traceback. Now: the signal's status, one line."""
+    cache = tmp_path / "cache"
+    args = ("truth", "rod-nh-s1", "--quick", "--out", tmp_path / "out")
+    process = start(args, env={"TISSUEBENCH_CACHE": str(cache)})
+    after_line(process, "rod-nh-s1 n=4: ")  # now n = 4 at h/2: 60 steps of Newton, about 5 s
+    time.sleep(1)
+    process.send_signal(sig)
+    ended_cleanly(process, sig)
+    assert list(cache.rglob("*.lock")) == [] and files(tmp_path / "out") == []
+
+
+def test_signal_during_many_substeps(tmp_path):
+    """Issue 45, item 15: a run of many sub-steps (here 10^5 a step, said before it starts)
+    stopped within them ends with 130 and one line."""
+    args = ("run", "block", "--mesh-size", 4, "--end-time", 0.1, "--algorithms",
+            "explicit-lumped", "--substeps", 100000, "--out", tmp_path / "o")  # fmt: skip
+    process = start(args)
+    after_line(process, "100000 sub-steps of h/100000")
+    after_line(process, "implicit")  # the reference's run is done: the sub-steps begin
+    time.sleep(2)
+    assert process.poll() is None, "the run ended before the signal"
+    process.send_signal(signal.SIGINT)
+    ended_cleanly(process, signal.SIGINT)
+    assert files(tmp_path) == []
+
+
 # --- faults --------------------------------------------------------------------------------------
 
 

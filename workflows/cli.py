@@ -168,10 +168,12 @@ def command_line(argv: list[str] | None = None) -> int:
     try:
         with interrupt.deferred():  # start-up: the commands' imports are not cut half-way
             interrupt.guard_jit()
+            interrupt.guard_solves()
             args = parser().parse_args(argv)
             command = f"tissuebench {args.command}"
         interrupt.checkpoint(comm)  # a signal during start-up: every rank stops here
-        status = args.func(args) or 0
+        with interrupt.calling_back():  # a signal in a PETSc callback: the signal, not its error
+            status = args.func(args) or 0
         ended = True
         interrupt.checkpoint(comm)  # one that no step acted on: never exit 0 after a signal
         succeeded = status == 0
@@ -195,8 +197,7 @@ def command_line(argv: list[str] | None = None) -> int:
             if comm.size > 1:
                 leave(1)
             return 1
-        signum = interrupt.signal_of(failure)
-        interrupt.acknowledge()
+        signum = interrupt.signal_of(failure)  # acknowledged by restore(), below
         status = interrupt.STATUS[signum]
         if ended:
             say(f"{interrupt.SAID[signum]} as it ended; its output is complete")

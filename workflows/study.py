@@ -26,13 +26,13 @@ from tissuebench.metrics import Metrics
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.series import InputError
 from tissuebench.metrics.table import METRICS
-from tissuebench.solvers import REFERENCE
+from tissuebench.solvers import ALGORITHMS, REFERENCE
 from tissuebench.solvers.contact import Measures
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR, REFERENCE_MODEL, run_label
 from tissuebench.solvers.schemes import STANDARD, scheme_label
 from tissuebench.solvers.simulate import simulate
-from tissuebench.solvers.substeps import sub_stepped
+from tissuebench.solvers.substeps import sub_stepped, substep_count
 from tissuebench.solvers.system import System, probe
 from tissuebench.workflows.contact.figures import plot_contact
 from tissuebench.workflows.contact.readings import contact_readings
@@ -202,6 +202,11 @@ def run_case(
     n_steps = step_count(h, end_time)
     materials = {m: get_material(m) for m in dict.fromkeys(run.material for run in case.runs)}
     inputs = case_inputs(case, mesh_size, h, n_steps, materials)
+    explicit = [run for run in case.runs if ALGORITHMS[run.algorithm].explicit]
+    if isinstance(case.substeps, int) and case.substeps > 1 and explicit:
+        said = substep_count(case.substeps, h, n_steps, len(explicit))  # or refused: too many
+        if rank0:
+            log(f"{case.name}: {said}")
 
     with RunFolder(out_dir, comm) as folder:
         if folder.prepare(inputs, force) == "complete":
@@ -261,8 +266,10 @@ def compute_case(
             algorithm, system, h, case.substeps, solver=case.solver, model=model
         )
         setup_s = time.perf_counter() - start  # assembly and factorisations before the loop
-        if rank0 and k != 1:
-            log(f"{case.name:>18} {label:<18} {k} sub-steps of h/{k} = {h / k:.4g} s per step")
+        if k != 1:
+            said = substep_count(k, h, n_steps)  # auto's k: refused where it is too many
+            if rank0:
+                log(f"{case.name:>18} {label:<18} {said}")
         bar = tqdm(
             total=n_steps,
             desc=f"{case.name} {label}",

@@ -25,6 +25,7 @@ from tissuebench.solvers.truth.store import expected_seconds
 
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 POLL_SECONDS = 0.5
+STOP_SECONDS = 10.0  # s: how long a worker may take to end on SIGTERM before it is killed
 
 
 @dataclass
@@ -35,6 +36,7 @@ class Job:
     process: subprocess.Popen
     started: float = field(default_factory=time.time)
     reader: threading.Thread | None = None
+    stopped: bool = False  # stopped by a signal: its last lines (its own end) are not said
 
 
 def worker_command(case: str, quick: bool) -> list[str]:
@@ -48,7 +50,7 @@ def _forward(job: Job, say: Callable[[str], None]) -> None:
     assert job.process.stdout is not None
     for line in job.process.stdout:
         line = line.rstrip()
-        if line:
+        if line and not job.stopped:
             say(f"  [{job.case}] {line}")
 
 
@@ -123,8 +125,25 @@ def compute_in_parallel(
                     f"about {left_seconds(pending, running, quick, jobs) / 60:.0f} min left)"
                 )
     finally:
-        for job in running:  # stopped by a signal: the workers stop too, their locks go
-            job.process.terminate()
-        for job in running:
-            job.process.wait()
+        stop(running)
     return failed
+
+
+def stop(running: list[Job]) -> None:
+    """Stop the workers still running (a signal stopped the parent): SIGTERM, then SIGKILL
+    after STOP_SECONDS; each ends as a command ends on SIGTERM (its partial output and its lock
+    removed, one line, which is not said here: the parent says its own)."""
+    with interrupt.deferred():  # a second signal meanwhile leaves no worker behind
+        for job in running:
+            job.stopped = True
+            job.process.terminate()
+        end = time.monotonic() + STOP_SECONDS
+        for job in running:
+            try:
+                job.process.wait(timeout=max(end - time.monotonic(), 0.0))
+            except subprocess.TimeoutExpired:
+                job.process.kill()
+                job.process.wait()
+    for job in running:
+        if job.reader is not None:
+            job.reader.join(timeout=1.0)

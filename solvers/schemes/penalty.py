@@ -10,10 +10,11 @@ gives back the material's bulk modulus (and its locking), k = 0 the lowered rati
 from __future__ import annotations
 
 from tissuebench.solvers.schemes import standard
-from tissuebench.solvers.schemes.scheme import Scheme, SchemeError, bulk_modulus
+from tissuebench.solvers.schemes.scheme import Parameter, Scheme, bulk_modulus
 
 NU_P = 0.3  # the lowered Poisson ratio (Picinbono et al.)
 K_PENALTY = 0.1  # default k, in units of the material's bulk modulus
+K_MAX = 100.0  # k at most: a hundred times the material's own volumetric stiffness
 
 
 def lowered(mu: float, lmbda: float, nu_p: float) -> tuple[float, float]:
@@ -41,23 +42,15 @@ def stiffness(V, mu, lmbda, parameters):
     return standard.stiffness(V, mu_k, lmbda_k, {})
 
 
-def check(parameters: dict) -> None:
-    if not -1 < parameters["nu_p"] < 0.5:
-        raise SchemeError(
-            f"scheme penalty: nu_p must be within -1 and 0.5, got {parameters['nu_p']:g}"
-        )
-    if parameters["k"] < 0:
-        raise SchemeError(f"scheme penalty: k must be >= 0, got {parameters['k']:g}")
-
-
 SCHEME = Scheme(
     "penalty",
     stiffness,
     cells=("triangle", "tetrahedron"),
     parameters={
-        "nu_p": (NU_P, "the lowered Poisson ratio"),
-        "k": (K_PENALTY, "volume penalty in units of the material's bulk modulus"),
+        "nu_p": Parameter(NU_P, -1.0, 0.5, "the lowered Poisson ratio", open=(True, True)),
+        "k": Parameter(
+            K_PENALTY, 0.0, K_MAX, "volume penalty in units of the material's bulk modulus"
+        ),
     },
     description="P1 with a lowered Poisson ratio and a volume penalty (Picinbono)",
-    check=check,
 )

@@ -29,17 +29,41 @@ class SchemeError(UserError):
 
 
 @dataclass(frozen=True)
+class Parameter:
+    """A scheme's number: its default, its range (low to high, each end taken unless `open`
+    says it is left out) and its meaning, stated once here for --help, the parser and its
+    refusals. The ranges keep the stiffness, the step matrices and the stability analysis's
+    eigenvalues finite in float64 for every material that solvers/materials.py takes."""
+
+    default: float
+    low: float
+    high: float
+    meaning: str
+    open: tuple[bool, bool] = (False, False)  # (low left out, high left out)
+
+    def holds(self, value: float) -> bool:
+        above = value > self.low if self.open[0] else value >= self.low
+        below = value < self.high if self.open[1] else value <= self.high
+        return above and below
+
+    def range_text(self, name: str) -> str:
+        """The range in words: "0 <= c_hg <= 100"."""
+        low, high = ("<" if o else "<=" for o in self.open)
+        return f"{self.low:g} {low} {name} {high} {self.high:g}"
+
+
+@dataclass(frozen=True)
 class Scheme:
     """stiffness(V, mu, lmbda, parameters) -> K (an assembled PETSc matrix on the vector
     space V, no boundary conditions). `cells`: the cell shapes it takes; `parameters`: {name:
-    (default, help)}, numbers; `description`: one line for --help and reports."""
+    Parameter}, numbers; `description`: one line for --help and reports."""
 
     name: str
     stiffness: Callable[..., PETSc.Mat]
     cells: tuple[str, ...]
-    parameters: dict[str, tuple[float, str]] = field(default_factory=dict)
+    parameters: dict[str, Parameter] = field(default_factory=dict)
     description: str = ""
-    check: Callable[[dict], None] | None = None  # refuses bad parameter values (SchemeError)
+    check: Callable[[dict], None] | None = None  # refuses values that do not go together
 
 
 def deviator(eps: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
@@ -131,12 +155,13 @@ def add(K: PETSc.Mat, other: PETSc.Mat, scale: float = 1.0) -> PETSc.Mat:
 
 def parse(text: str, schemes: dict[str, Scheme]) -> tuple[str, dict[str, float]]:
     """(name, parameters) of a scheme given as NAME or NAME:key=value,key=value; parameters
-    not given take their defaults. Refuses (SchemeError) an unknown name, key or value."""
+    not given take their defaults. Refuses (SchemeError) an unknown name, key, or a value
+    outside its parameter's range (Parameter)."""
     name, _, rest = text.strip().partition(":")
     if name not in schemes:
         raise SchemeError(f"unknown scheme {name!r}: use one of {', '.join(schemes)}")
     scheme = schemes[name]
-    values = {key: default for key, (default, _) in scheme.parameters.items()}
+    values = {key: p.default for key, p in scheme.parameters.items()}
     for item in filter(None, (s.strip() for s in rest.split(","))):
         key, eq, value = item.partition("=")
         key = key.strip()
@@ -147,8 +172,12 @@ def parse(text: str, schemes: dict[str, Scheme]) -> tuple[str, dict[str, float]]
             number = float(value)
         except ValueError:
             number = float("nan")
-        if not np.isfinite(number):
-            raise SchemeError(f"scheme {name}: {key} must be a finite number, got {value!r}")
+        parameter = scheme.parameters[key]
+        if not (np.isfinite(number) and parameter.holds(number)):
+            raise SchemeError(
+                f"scheme {name}: {key} ({parameter.meaning}) must be a number with "
+                f"{parameter.range_text(key)}, got {value.strip()!r}"
+            )
         values[key] = number
     if scheme.check is not None:
         scheme.check(values)

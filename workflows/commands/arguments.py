@@ -219,7 +219,10 @@ def add_scheme_options(p: argparse.ArgumentParser) -> None:
     from tissuebench.solvers.schemes import SCHEMES
 
     def parameters(s):
-        return ", ".join(f"{k}={d:g}" for k, (d, _) in s.parameters.items()) or "no parameters"
+        said = [
+            f"{k}={p.default:g}: {p.meaning}, {p.range_text(k)}" for k, p in s.parameters.items()
+        ]
+        return "; ".join(said) or "no parameters"
 
     described = "; ".join(
         f"{name} ({parameters(s)}, {'/'.join(s.cells)}): {s.description}"
@@ -276,4 +279,11 @@ def scheme_options(
         substeps = parse_substeps(args.substeps)
     except ValueError as err:
         raise UserError(str(err)) from None
+    explicit = [a for a in ALGORITHMS if ALGORITHMS[a].explicit]
+    if substeps != 1 and algorithms is not None and not set(algorithms) & set(explicit):
+        raise UserError(
+            f"--substeps {args.substeps.strip()} applies to the explicit schemes only "
+            f"({', '.join(explicit)}), and --algorithms names none ({', '.join(algorithms)}): "
+            "add one, or leave --substeps out"
+        )
     return scheme, substeps
