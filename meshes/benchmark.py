@@ -89,6 +89,10 @@ class Entry:
     # the benchmark states none, so that it is neither exported with a geometry nor posed on a
     # mesh that is not ours)
     posing: Callable[..., Any] | None = None
+    # a rigid tool in contact with it (SPEC 12) as the export states it: tool(mesh_size,
+    # **options) -> the JSON's `contact` object (plain data: the tool's shape and motion, the
+    # law, our penalty, what is graded); None for a benchmark without contact
+    tool: Callable[..., dict] | None = None
     # the truth's hierarchy (SPEC 10): mesh sizes, each twice the last, and the quick ones (CI
     # and tests, never the truth) with about how long a quick linear case takes here, s
     truth_levels: tuple[int, ...] = ()

@@ -29,6 +29,7 @@ from tissuebench.meshes.benchmark import (
 )
 from tissuebench.meshes.block import LENGTH, NEEDLE, block_mesh, needle_motion
 from tissuebench.meshes.gmshio import MeshError, TaggedMesh, start_gmsh, to_dolfinx
+from tissuebench.meshes.regions import Posing, Region, Term, Tool
 
 RADIUS = 0.1  # m, R of SPEC 12 (w = 2R = 0.2 m)
 KAPPA = 10.0  # SPEC 12: the penalty k = kappa E / h_e of our algorithms, by default
@@ -69,6 +70,12 @@ def outward_normal(points: np.ndarray, c: np.ndarray) -> np.ndarray:
     r = np.maximum(np.hypot(dx, dy), 1e-300)
     flank = dx >= 0
     return np.stack([np.where(flank, 0.0, dx / r), np.where(flank, np.sign(dy), dy / r)], axis=1)
+
+
+def check_kappa(kappa: object) -> None:
+    """Refuse a penalty kappa that is not a number within 0 < kappa < 1e12 (MeshError)."""
+    if not (isinstance(kappa, (int, float)) and not isinstance(kappa, bool) and 0 < kappa < 1e12):
+        raise MeshError(f"the penalty kappa must be a number > 0 (and below 1e12), got {kappa!r}")
 
 
 def graded_block(
@@ -139,8 +146,7 @@ def benchmark(
     and pushes the right edge through the penalty k = kappa E / h_e, h_e = 1/N m the right
     edge's cell size."""
     check_load_scale(load_scale)
-    if not (isinstance(kappa, (int, float)) and not isinstance(kappa, bool) and 0 < kappa < 1e12):
-        raise MeshError(f"the penalty kappa must be a number > 0 (and below 1e12), got {kappa!r}")
+    check_kappa(kappa)
     tagged = block_mesh(mesh_size, comm, msh_path, cell, mesh)
     options = {"load_scale": load_scale, "kappa": float(kappa)}
     options.update(shape_options(2, cell, mesh))
@@ -168,6 +174,107 @@ def benchmark(
     )
 
 
+def posing(load_scale: float = 1.0, kappa: float = KAPPA) -> Posing:
+    """The contact block's regions (SPEC 12): the fixed left, bottom and top edges, and the
+    needle as a tool touching the right edge x = 1, at load scale s and penalty kappa."""
+    check_load_scale(load_scale)
+    check_kappa(kappa)
+    return Posing(
+        (
+            Region("left", (Term(0, 0.0),), fixed(2)),
+            Region("bottom", (Term(1, 0.0),), fixed(2)),
+            Region("top", (Term(1, LENGTH),), fixed(2)),
+        ),
+        (0.0, 0.0),
+        LENGTH,
+        tool=Tool(
+            surface=(Term(0, NEEDLE[0]),),
+            centre=lambda t: centre(t, load_scale),
+            radius=RADIUS,
+            kappa=float(kappa),
+        ),
+    )
+
+
+def tool(mesh_size: int, load_scale: float = 1.0, kappa: float = KAPPA) -> dict:
+    """The needle as the export states it (the JSON's `contact` object, SI units): its shape,
+    its centre's motion c(t) = c0 + s g(t) with g's parameters, the contact law, our penalty
+    k = kappa E / h_e (h_e = 1/N m, our right edge's cell size) and what is graded."""
+    check_load_scale(load_scale)
+    check_kappa(kappa)
+    speed = needle_motion(0.0)[1]  # m/s, g's velocity until it stops
+    depth = needle_motion(float("inf"))[0]  # m, g where it stops
+    c0 = centre(0.0, load_scale)
+    return {
+        "what": "the needle as a rigid tool in frictionless contact with the block's right "
+        "edge: nothing is attached to it; it pushes the edge only where the tissue touches it",
+        "shape": {
+            "kind": "half-stadium",
+            "words": SHAPE,
+            "radius": RADIUS,
+            "signed_distance": "g(x) = |x_y - c_y| - R where x_x >= c_x, else |x - c| - R "
+            "(m, negative inside): the distance from x to the ray {c + (r, 0), r >= 0} minus R",
+            "outward_normal": "n(x) = (0, sign(x_y - c_y)) where x_x >= c_x, else "
+            "(x - c) / |x - c|: the gradient of g, the outward normal of S at its point closest "
+            "to x",
+        },
+        "motion": {
+            "centre": "c(t) = c0 + s g(t)",
+            "c0": [float(v) for v in c0],
+            "load_scale": float(load_scale),
+            "g": "g(t) = (v_x min(t, t_stop), 0): the block benchmark's needle motion, "
+            "stopping at t_stop",
+            "v_x": float(speed[0]),
+            "t_stop": float(depth[0] / speed[0]),
+            "touching": "at t = 0 the needle touches the right edge at (1, 0.5) only, with no "
+            "force",
+        },
+        "law": {
+            "words": LAW,
+            "friction": "none",
+            "surface": Term(0, NEEDLE[0]).text,
+            "gap": "g_n(X, t) = g(X + u(X, t)) at every point X of the surface, g the signed "
+            "distance to S(t) with c = c(t) (m, negative inside)",
+            "conditions": "g_n >= 0, p >= 0, p g_n = 0 (p the contact pressure, Pa, acting on "
+            "the tissue along n at the closest point of S), no tangential traction",
+            "methods": "a solver may impose this law by any contact method (penalty, "
+            "Lagrange multipliers, augmented Lagrangian, Nitsche, an active set); ours is the "
+            "penalty below",
+        },
+        "penalty": {
+            "ours": "the energy (k/2) int_surface <-g_n>^2 dS (J/m, <z> = max(z, 0)) added to "
+            "the elastic energy: the pressure p = k <-g_n> (Pa) on the tissue along n; Newton "
+            "takes its exact tangent (the active set may change within a step)",
+            "k_formula": "k = kappa E / h_e (Pa/m), E the material's Young's modulus",
+            "kappa": float(kappa),
+            "h_e": LENGTH / mesh_size,
+            "h_e_meaning": "our right edge's smallest cell size, 1/N m",
+        },
+        "graded": {
+            "displacement": "E_n, E_s and E_i as `metrics` says, against our reference",
+            "force": "F(t) = -int_surface p n dS (N/m): the force per unit thickness that the "
+            "tissue exerts on the needle, x and y components, at every t_i; its error is "
+            "max over the steps of |F - F_ref| / max |F_ref|",
+            "interpenetration": "the largest -g_n over the deformed surface (m, 0 where the "
+            "tissue does not pass into the needle), at every t_i and over the steps; ours "
+            "samples each deformed edge between two nodes at 9 points",
+        },
+        "units": {
+            "shape.radius": "m",
+            "motion.c0": "m",
+            "motion.c": "m",
+            "motion.v_x": "m/s",
+            "motion.t_stop": "s",
+            "motion.load_scale": "1",
+            "penalty.kappa": "1",
+            "penalty.h_e": "m",
+            "penalty.k": "Pa/m",
+            "graded.force": "N/m",
+            "graded.interpenetration": "m",
+        },
+    }
+
+
 def options_text(option) -> str:
     """The penalty's kappa in words, from option(name, default)."""
     return f", rigid needle R = {RADIUS:g} m, kappa = {option('kappa', KAPPA):g}"
@@ -189,6 +296,8 @@ ENTRY = Entry(
         "kappa": f"the contact penalty k = kappa E / h_e, h_e = 1/N m (default {KAPPA:g}, SPEC 12)",
     },
     box=(LENGTH, LENGTH),
+    posing=posing,
+    tool=tool,
     title="Block and rigid needle (contact)",
     size_name="N",
     options_text=options_text,

@@ -8,6 +8,10 @@ body within a tolerance (SPEC 9's τ = 1e-6 of the benchmark's extent by default
 the Benchmark with those constraints, the benchmark's gravity, load scale and needle motion,
 so that solvers.system.System assembles on that mesh as on ours.
 
+A benchmark with a rigid tool in contact (SPEC 12) states it too (`Tool`: the surface that may
+touch it, as terms, and the tool's centre, radius and penalty), and `on_mesh` finds that
+surface's boundary facets on the mesh, so that the tool pushes the body there as on our mesh.
+
 Each benchmark's module states its regions (its Entry's `posing`, with the classes here).
 """
 
@@ -21,7 +25,7 @@ from mpi4py import MPI
 import dolfinx.mesh
 import numpy as np
 
-from tissuebench.meshes.benchmark import Benchmark, Constraint, Entry
+from tissuebench.meshes.benchmark import Benchmark, Constraint, Contact, Entry
 from tissuebench.meshes.gmshio import MeshError, TaggedMesh
 
 AXES = "xyz"
@@ -74,13 +78,36 @@ class Region:
 
 
 @dataclass(frozen=True)
+class Tool:
+    """A rigid tool in frictionless penalty contact (SPEC 12): the boundary facets where every
+    term of `surface` holds may touch the half-stadium of radius `radius` (m) centred at
+    `centre(t)` (m); the penalty is k = kappa E / h_e, h_e the smallest of those facets (m)."""
+
+    surface: tuple[Term, ...]
+    centre: Callable[[float], np.ndarray]
+    radius: float  # m
+    kappa: float
+
+    @property
+    def predicate(self) -> str:
+        """The surface as the export states it ("x = 1")."""
+        return " and ".join(t.text for t in self.surface)
+
+    def mask(self, points: np.ndarray, tolerance: float) -> np.ndarray:
+        """Which of the points (n, d), m, lie on the surface within tolerance (m)."""
+        return Region("surface", self.surface, lambda t: None).mask(points, tolerance)
+
+
+@dataclass(frozen=True)
 class Posing:
     """What a benchmark prescribes on any mesh of its body: its regions in the solver's order
-    (a node in several follows the last), gravity (m/s^2) and extent (m)."""
+    (a node in several follows the last), gravity (m/s^2) and extent (m), and the rigid tool
+    in contact with it, if any."""
 
     regions: tuple[Region, ...]
     gravity: tuple[float, ...]
     extent: float
+    tool: Tool | None = None
 
 
 def posing(benchmark: str, **options: object) -> tuple[Entry, Posing]:
@@ -123,6 +150,7 @@ def on_mesh(
                 f"({region.predicate}, within {tol:.3g} m)"
             )
         constraints.append(Constraint(region.name, 0, vertices, region.motion))
+    contact = None if posed.tool is None else tool_on_mesh(benchmark, posed.tool, mesh, tol)
     return Benchmark(
         name=benchmark,
         tagged=TaggedMesh(mesh, {}, {}),
@@ -135,4 +163,31 @@ def on_mesh(
         mesh_size=0,  # not one of our meshes
         probe=entry.probe,
         options={k: v for k, v in options.items() if k in entry.options},
+        contact=contact,
+    )
+
+
+def tool_on_mesh(benchmark: str, tool: Tool, mesh: dolfinx.mesh.Mesh, tolerance: float) -> Contact:
+    """The tool's contact on `mesh`: the boundary facets whose vertices all lie on its surface
+    within tolerance (m), h_e the shortest of them over every rank (m). MeshError, one line,
+    when the mesh has no such facet. Collective."""
+    gdim, tdim = mesh.geometry.dim, mesh.topology.dim
+    facets = dolfinx.mesh.locate_entities_boundary(
+        mesh, tdim - 1, lambda x: tool.mask(x[:gdim].T, tolerance)
+    )
+    mesh.topology.create_connectivity(tdim - 1, 0)
+    owned = facets[facets < mesh.topology.index_map(tdim - 1).size_local]
+    found = mesh.comm.allreduce(len(owned), op=MPI.SUM)
+    if found == 0:
+        raise MeshError(
+            f"no boundary facet of the mesh lies on {benchmark}'s contact surface "
+            f"({tool.predicate}, within {tolerance:.3g} m)"
+        )
+    ends = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, owned)
+    x = mesh.geometry.x[:, :gdim]
+    pairs = [(i, j) for i in range(ends.shape[1]) for j in range(i)]  # its shortest edge
+    sizes = np.min([np.linalg.norm(x[ends[:, i]] - x[ends[:, j]], axis=1) for i, j in pairs], 0)
+    h_e = mesh.comm.allreduce(float(sizes.min()) if len(sizes) else np.inf, op=MPI.MIN)
+    return Contact(
+        facets=facets, centre=tool.centre, radius=tool.radius, kappa=tool.kappa, edge_size=h_e
     )

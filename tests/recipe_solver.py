@@ -129,11 +129,13 @@ def assemble(points, cells, lam, mu, rho, gravity):
 
 
 def write_xdmf(path: Path, points, cells, times, displacements) -> None:
-    """An XDMF series with every array inline (Format XML): mesh, then one grid per t_i."""
+    """An XDMF series with every array inline (Format XML): mesh (simplices, or quadrilaterals
+    in 2D), then one grid per t_i."""
     n, d = points.shape
     pad = np.zeros((n, 3 - d))
     xyz = np.hstack([points, pad])
-    topology = {2: "Triangle", 3: "Tetrahedron"}[d]
+    corners = cells.shape[1]
+    topology = {3: "Triangle", 4: "Tetrahedron" if d == 3 else "Quadrilateral"}[corners]
 
     def block(array, fmt):
         return "\n".join(" ".join(fmt % v for v in row) for row in array)
@@ -144,7 +146,7 @@ def write_xdmf(path: Path, points, cells, times, displacements) -> None:
         "  <Domain>",
         '    <Grid Name="mesh" GridType="Uniform">',
         f'      <Topology TopologyType="{topology}" NumberOfElements="{len(cells)}">',
-        f'        <DataItem Dimensions="{len(cells)} {d + 1}" NumberType="Int" Format="XML">',
+        f'        <DataItem Dimensions="{len(cells)} {corners}" NumberType="Int" Format="XML">',
         block(cells, "%d"),
         "        </DataItem>",
         "      </Topology>",

@@ -95,6 +95,41 @@ def geometry(benchmark: str, options: dict) -> dict | None:
     }
 
 
+def contact_object(benchmark: str, bench, V, material: Material, times: np.ndarray) -> dict | None:
+    """The JSON's `contact` (schema in workflows/io/exported.py) for a benchmark with a rigid
+    tool in contact: what its entry states (`tool`: shape, motion, law, penalty, what is
+    graded), with our penalty's k = kappa E / h_e (Pa/m) for the material, its quadrature, the
+    centre c(t_i) (m) at every t_i and, on rank 0, the surface's nodes (sorted indices of the
+    export's nodes); None for one without. Collective."""
+    from dolfinx import fem
+
+    from tissuebench.meshes import get_entry
+    from tissuebench.solvers.contact import QUADRATURE_DEGREE
+
+    entry, contact = get_entry(benchmark), bench.contact
+    if entry.tool is None or contact is None:
+        return None
+    mesh, imap = V.mesh, V.dofmap.index_map
+    mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    nodes = fem.locate_dofs_topological(V, mesh.topology.dim - 1, contact.facets)
+    nodes = imap.local_to_global(nodes[nodes < imap.size_local].astype(np.int32))
+    parts = mesh.comm.gather(nodes.astype(np.int64), root=0)
+    if mesh.comm.rank != 0:
+        return None
+    assert parts is not None  # gathered on rank 0
+    stated = entry.tool(
+        bench.mesh_size, **{k: v for k, v in bench.options.items() if k in entry.options}
+    )
+    stated["penalty"]["k"] = contact.kappa * material.E / contact.edge_size
+    stated["penalty"]["quadrature"] = (
+        f"Gauss-Legendre, exact to degree {QUADRATURE_DEGREE}, {QUADRATURE_DEGREE // 2 + 1} "
+        "points on each edge of the surface"
+    )
+    stated["motion"]["c"] = [[float(v) for v in contact.centre(float(t))] for t in times]
+    stated["law"]["surface_nodes"] = np.unique(np.concatenate(parts)).tolist()
+    return stated
+
+
 def truth_case(
     benchmark: str,
     options: dict,
@@ -178,12 +213,13 @@ def build(
     V = fem.functionspace(bench.mesh, ("Lagrange", 1, (dim,)))
     mesh_data, _ = gather_mesh(V)
     sets = constrained_sets(bench, V)
+    times = np.arange(steps + 1) * h
+    contact = contact_object(benchmark, bench, V, material, times)
     if comm.rank != 0:
         return None, bench, V
     assert mesh_data is not None and sets is not None  # gathered on rank 0
     points, cells, cell_type = mesh_data
     points = np.ascontiguousarray(points[:, :dim])
-    times = np.arange(steps + 1) * h
     data = Exported(
         benchmark=benchmark,
         mesh_size=mesh_size,
@@ -212,6 +248,7 @@ def build(
             plane if dim == 2 else None,
             procedure,
         ),
+        contact=contact,
     )
     return data, bench, V
 
@@ -250,6 +287,12 @@ def run_reference(
         run = simulate(integrator, steps, bench.extent, label)
     finally:
         integrator.destroy()
+    readings = None
+    if bench.contact is not None:  # SPEC 12: the needle force and interpenetration at each t_i
+        from tissuebench.solvers.contact import Measures
+
+        measure = Measures(system)
+        readings = [measure(u, i * h) for i, u in enumerate(run.u)]
     series = gather_series(system.V, {REFERENCE_FIELD: run.u})
     collective(comm, lambda: write_series(path, series, np.arange(run.steps + 1) * h), path)
     info = {
@@ -262,6 +305,13 @@ def run_reference(
     }
     if run.status != "ok":
         info["diverged_step"], info["reason"] = run.diverged_step, run.reason
+    if readings is not None:
+        info["contact"] = {
+            "force": [[float(r[0]), float(r[1])] for r in readings],
+            "interpenetration": [float(r[2]) for r in readings],
+            "meaning": "our run's needle force F (N/m, x and y) and interpenetration (m) at "
+            "each t_i kept, as `contact.graded` defines them",
+        }
     if comm.rank == 0:
         state = (
             "ok" if run.status == "ok" else f"DIVERGED at step {run.diverged_step}: {run.reason}"
@@ -309,7 +359,13 @@ def export(
         raise ExportError(f"unknown format {fmt!r}: use one of {', '.join(FORMATS)}")
     if procedure not in PROCEDURES:
         raise ExportError(f"unknown procedure {procedure!r}: use {' or '.join(PROCEDURES)}")
-    dim = get_entry(benchmark).gdim
+    entry = get_entry(benchmark)
+    dim = entry.gdim
+    if fmt == "inp" and entry.tool is not None:
+        raise ExportError(
+            f"the CalculiX deck does not pose {benchmark}'s rigid tool in contact: export it "
+            "as json (its `contact` states the tool and the law)"
+        )
     if fmt == "inp":
         element = element or default_element(dim, plane)
         check_element(element, dim, plane)

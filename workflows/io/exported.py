@@ -10,8 +10,9 @@ JSON alone. One object:
 
 - `schema`: "tissuebench.benchmark"; `version`: 2 (a reader refuses other versions, saying
   to export again); `description`: one line naming the benchmark and meshes/BENCHMARKS.md.
-- `benchmark`: "block" or "rod"; `mesh_size`: N or n; `options`: the benchmark's own options
-  ({"needle_width": w (m), "load_scale": s} for the block, {"load_scale": s} for the rod);
+- `benchmark`: "block", "rod" or "contact"; `mesh_size`: N or n; `options`: the benchmark's
+  own options ({"needle_width": w (m), "load_scale": s} for the block, {"load_scale": s} for
+  the rod, {"kappa": kappa, "load_scale": s} for contact);
   `dimension`: 2 or 3; `plane`: "strain" or "stress" in 2D, null in 3D.
 - `units`: {quantity: unit} for every number in the file, by its path ("nodes": "m",
   "constraints.a": "m/s^2", "body_force.gravity": "m/s^2", "material.beta": "s", ...) and for
@@ -62,7 +63,19 @@ JSON alone. One object:
   block-MP2-w0.2, at the benchmark's h and T), else {"case": null, "why": words}.
 - `reference`: null, or {"file": the XDMF beside the JSON, "field": "displacement",
   "run": its run label, "status": "ok" | "diverged", "steps": last step kept,
-  "wall_time_s": s}: our run's displacement at every t_i on these nodes.
+  "wall_time_s": s}: our run's displacement at every t_i on these nodes; with contact also
+  "contact": {"force": [[F_x, F_y] per t_i kept] (N/m), "interpenetration": [m per t_i]}.
+- `contact` (only for a benchmark with a rigid tool in contact, SPEC 12; absent otherwise, so
+  the other benchmarks' files are unchanged): the tool and the law, from its entry's `tool`
+  (meshes/contact.py): "shape" ({"kind": "half-stadium", "words", "radius": R (m), the signed
+  distance and outward normal in words}), "motion" ({"centre": "c(t) = c0 + s g(t)", "c0"
+  (m), "load_scale", g's "v_x" (m/s) and "t_stop" (s), "c": [c(t_i)] (m) at every t_i}),
+  "law" ({"words", "friction": "none", "surface": predicate ("x = 1"), "surface_nodes": the
+  export's nodes on it, "gap", "conditions", "methods": any contact method may be used}),
+  "penalty" (ours: {"k_formula": "k = kappa E / h_e", "kappa", "h_e" (m), "k" (Pa/m),
+  "quadrature"}), "graded" (the displacement's E_n, E_s, E_i; the needle force F(t) in N/m,
+  the force the tissue exerts on the needle; the interpenetration in m, the largest -g_n over
+  the deformed surface) and "units" (paths within `contact`, also in `units` as "contact.*").
 
 `read_json` returns the same `Exported` that was written (nodes, cells, sets, motions, ...).
 """
@@ -115,6 +128,7 @@ class Exported:
     reference: dict | None = None
     geometry: dict | None = None  # see the module docstring; posing.geometry builds it
     truth: dict | None = None  # {"case": name, ...} or {"case": None, "why": ...}
+    contact: dict | None = None  # the rigid tool in contact (SPEC 12), posing.contact_object
 
     @property
     def dim(self) -> int:
@@ -309,7 +323,7 @@ def to_json(data: Exported) -> dict:
             "not a node; its displacement is the finite-element displacement interpolated "
             "there (tip.csv of a run); reported, not graded",
         }
-    return {
+    doc = {
         "schema": SCHEMA,
         "version": SCHEMA_VERSION,
         "description": f"the tissuebench benchmark {data.benchmark!r} as data; defined in "
@@ -359,6 +373,13 @@ def to_json(data: Exported) -> dict:
         "truth": data.truth,
         "reference": data.reference,
     }
+    if data.contact is not None:  # only then: the other benchmarks' files stay as they were
+        doc["units"].update({f"contact.{k}": v for k, v in data.contact.get("units", {}).items()})
+        doc["units"].update(
+            {"reference.contact.force": "N/m", "reference.contact.interpenetration": "m"}
+        )
+        doc["contact"] = data.contact
+    return doc
 
 
 def dumps(value: object, indent: str = "") -> str:
@@ -425,6 +446,7 @@ def read_json(path: str | Path) -> Exported:
             reference=doc.get("reference"),
             geometry=doc["geometry"],
             truth=doc["truth"],
+            contact=doc.get("contact"),
         )
     except UserError as exc:
         raise InputError(f"{path}: {exc}") from None
