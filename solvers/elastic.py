@@ -143,11 +143,7 @@ class ElasticForces:
         from tissuebench.solvers import compiled_forces
 
         contact = system.benchmark.contact
-        if (
-            compiled
-            and contact is None
-            and compiled_forces.available(model, mesh.topology.cell_name())
-        ):
+        if compiled and compiled_forces.available(model, mesh.topology.cell_name()):
             self.compiled = compiled_forces.CompiledForces(
                 V, model, float(system.mu.value), float(system.lmbda.value), fbar
             )
@@ -169,6 +165,15 @@ class ElasticForces:
             energy = penalty.energy(self.u, self.needle, contact.radius, k, ds)
             f_int = f_int + ufl.derivative(energy, self.u, w)
         self.f_form = fem.form(f_int)
+        # the explicit schemes' fast path with contact: f_int from the compiled loop (or K u for
+        # the linear model) and the penalty's force facet by facet (solvers/edge_penalty.py)
+        self.edge = None
+        self._t = 0.0  # s, the time of set_time
+        self.linear_k = compiled and model.linear  # f_int = K u (the linear model, with contact)
+        if contact is not None and compiled and (self.compiled is not None or model.linear):
+            from tissuebench.solvers.edge_penalty import EdgePenalty
+
+            self.edge = EdgePenalty(system)
         # the Jacobian of a step: c_T K_T(u) + c_K K_0 (+ c_M M, consistent mass)
         self.c_T = fem.Constant(mesh, PETSc.ScalarType(1.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
         self.c_K = fem.Constant(mesh, PETSc.ScalarType(0.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
@@ -215,6 +220,7 @@ class ElasticForces:
     def set_time(self, t: float) -> None:
         """Place the contact tool (if any) where it is at time t (s)."""
         contact = self.system.benchmark.contact
+        self._t = t
         if self.needle is not None and contact is not None:
             self.needle.value[:] = contact.centre(t)
 
@@ -264,9 +270,14 @@ class ElasticForces:
         return f
 
     def internal_force(self, u: PETSc.Vec, out: PETSc.Vec) -> PETSc.Vec:
-        """out = f_int(u) (N) on the owned dofs."""
-        if self.compiled is not None:
-            out.array[:] = self.compiled_internal_force(u)
+        """out = f_int(u) (N) on the owned dofs (with contact, its penalty's force too)."""
+        if self.compiled is not None or (self.linear_k and self.edge is not None):
+            if self.compiled is not None:
+                out.array[:] = self.compiled_internal_force(u)
+            else:
+                self.system.K_csr.mult(u, out)
+            if self.edge is not None:
+                out.array[:] += self.edge(u.array_r, self._t)
             return out
         self.set_u(u)
         b = self._b

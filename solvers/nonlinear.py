@@ -164,6 +164,8 @@ class ExplicitLumpedModel(ExplicitModel):
         u, v, a = state.u, state.v, state.a
         i, (uc, vc, ac) = predict(s, state, h, self.gamma)
         f_int = self.forces.compiled_internal_force(u)  # and the smallest det F
+        if self.forces.edge is not None:  # SPEC 12: the contact's penalty force at t_{i+1}
+            f_int = f_int + self.forces.edge(u.array_r, i * h)
         assert self.forces.compiled is not None  # checked by __init__
         self.forces.compiled.explicit_update(
             s.f.array_r,
@@ -363,7 +365,7 @@ def integrator(
         return QuasiStaticModel(system, h, model, prefix, solver)
     if scheme.explicit:
         cell = system.mesh.topology.cell_name()
-        fused = scheme.lumped and not scheme.stiffness_damping and system.benchmark.contact is None
+        fused = scheme.lumped and not scheme.stiffness_damping
         if fused and compiled_forces.available(model, cell):
             return ExplicitLumpedModel(system, h, scheme, model, prefix, solver)
         return ExplicitModel(system, h, scheme, model, prefix, solver)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from tissuebench.meshes import get_benchmark
+from tissuebench.meshes.contact import RADIUS, centre
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.contact import Measures
 from tissuebench.solvers.stability import stability_limits
@@ -102,3 +103,63 @@ def test_contact_run_serial_equals_parallel(tmp_path: Path):
         assert a["algorithm"] == b["algorithm"]
         for key in ("force_x", "force_y", "interpenetration"):
             assert float(a[key]) == pytest.approx(float(b[key]), rel=1e-8, abs=1e-12)
+
+
+def test_the_edge_loop_equals_the_ufl_penalty():
+    """The explicit schemes' contact force, facet by facet in numpy (solvers/edge_penalty.py),
+    equals the UFL penalty residual assembled by DOLFINx, with the edge inside the needle's tip
+    and flank, serial and on 2 ranks."""
+    from petsc4py import PETSc
+
+    import dolfinx.fem.petsc
+    import ufl
+    from dolfinx import fem
+
+    from tissuebench.solvers import contact
+    from tissuebench.solvers.edge_penalty import EdgePenalty
+
+    system = System(get_benchmark("contact", mesh_size=10), "MP1")
+    u = system.function()
+    u.interpolate(
+        lambda x: np.stack([-0.1 * x[0] ** 4 * (1 - 4 * (x[1] - 0.5) ** 2), 0.02 * x[0] * x[1]])
+    )
+    t = 1.5
+    c = fem.Constant(system.mesh, np.asarray(centre(t)))
+    ds = contact.edge_measure(system.mesh, system.benchmark.contact.facets)
+    k = contact.penalty_stiffness(system)
+    w = ufl.TestFunction(system.V)
+    form = fem.form(ufl.derivative(contact.energy(u, c, RADIUS, k, ds), u, w))
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    n = system.V.dofmap.index_map.size_local * 2
+    expected = b.array_r[:n]
+    got = EdgePenalty(system)(u.x.array[:n].copy(), t)
+    largest = system.comm.allreduce(float(np.abs(expected).max(initial=0.0)), op=MPI.MAX)
+    assert largest > 1.0  # N/m: the edge is well inside the needle
+    difference = system.comm.allreduce(float(np.abs(got - expected).max(initial=0.0)), op=MPI.MAX)
+    assert difference < 1e-12 * largest
+
+
+@pytest.mark.parametrize("model", ["linear", "neo-hookean"])
+def test_the_fast_explicit_step_equals_the_ufl_one(model):
+    """explicit-lumped with contact through the fast path (K u or the compiled loop, and the
+    edge loop) gives the UFL-assembled path's states to round-off over 40 steps."""
+    from tissuebench.solvers import ALGORITHMS
+    from tissuebench.solvers.models import get_model
+    from tissuebench.solvers.nonlinear import ExplicitModel, integrator
+
+    system = System(get_benchmark("contact", mesh_size=10), "MP1")
+    h = 0.9 * stability_limits(system, ["explicit-lumped"])["explicit-lumped"].critical_dt
+    scheme, elastic = ALGORITHMS["explicit-lumped"], get_model(model)
+    fast = integrator(scheme, system, h, elastic, "fast_")
+    slow = ExplicitModel(system, h, scheme, elastic, "slow_", compiled=False)
+    assert fast.forces.edge is not None and slow.forces.edge is None
+    a, b = fast.start(), slow.start()
+    for _ in range(40):
+        a, b = fast.step(a), slow.step(b)
+    scale = system.comm.allreduce(float(np.abs(b.u.array_r).max(initial=0.0)), op=MPI.MAX)
+    assert scale > 1e-3
+    difference = system.comm.allreduce(
+        float(np.abs(a.u.array_r - b.u.array_r).max(initial=0.0)), op=MPI.MAX
+    )
+    assert difference < 1e-10 * scale

@@ -1,0 +1,84 @@
+"""The penalty contact's nodal force (SPEC 12) evaluated in numpy, facet by facet, beside the
+explicit schemes' compiled element loop (solvers/compiled_forces.py): the contact edge has N
+facets against the N^2 cells of the element loop, so its cost is small beside it. The UFL
+forms of solvers/contact.py give the same force (tests/test_contact_runs.py)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import basix
+import dolfinx.la
+import numpy as np
+from dolfinx import fem
+
+from tissuebench.meshes.contact import outward_normal as normal_numpy
+from tissuebench.meshes.contact import signed_distance as signed_distance_numpy
+from tissuebench.solvers.contact import QUADRATURE_DEGREE, penalty_stiffness
+
+if TYPE_CHECKING:
+    from tissuebench.solvers.system import System
+
+
+class EdgePenalty:
+    """The penalty's nodal force on first-order (P1/Q1) cells, evaluated facet by facet in
+    numpy beside the explicit schemes' compiled element loop: each contact facet is a straight
+    segment between its two nodes, integrated by the Gauss points of edge_measure; the force
+    is the UFL residual's to round-off (tests/test_contact_runs.py). Units: u in m, forces in N
+    (N/m in 2D, per unit thickness)."""
+
+    def __init__(self, system: System):
+        contact = system.benchmark.contact
+        if contact is None or system.gdim != 2:
+            raise ValueError("EdgePenalty needs a 2D system with contact")
+        mesh, V = system.mesh, system.V
+        self.system, self.contact, self.k = system, contact, penalty_stiffness(system)
+        tdim = mesh.topology.dim
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        mesh.topology.create_connectivity(tdim - 1, 0)
+        mesh.topology.create_connectivity(tdim, 0)
+        f2c = mesh.topology.connectivity(tdim - 1, tdim)
+        f2v = mesh.topology.connectivity(tdim - 1, 0)
+        c2v = mesh.topology.connectivity(tdim, 0)
+        owned_cells = mesh.topology.index_map(tdim).size_local
+        # each facet once over the ranks: on the rank that owns its (one) cell, as DOLFINx
+        # assembles exterior facet integrals
+        facets = [int(f) for f in contact.facets if f2c.links(f)[0] < owned_cells]
+        dof_of = {}
+        for f in facets:
+            cell = int(f2c.links(f)[0])
+            for vertex, dof in zip(c2v.links(cell), V.dofmap.cell_dofs(cell), strict=True):
+                dof_of[int(vertex)] = int(dof)
+        self.nodes = np.array(
+            [[dof_of[int(v)] for v in f2v.links(f)] for f in facets], dtype=np.int64
+        ).reshape(-1, 2)
+        self.X = V.tabulate_dof_coordinates()[:, :2]
+        points, weights = basix.make_quadrature(basix.CellType.interval, QUADRATURE_DEGREE)
+        self.s = np.asarray(points)[:, 0]
+        self.w = np.asarray(weights)
+        self.u = fem.Function(V)
+        self.f = fem.Function(V)
+
+    def __call__(self, u: np.ndarray, t: float) -> np.ndarray:
+        """The contact's share of f_int at the owned dof values u (m) at time t (s): the
+        owned dofs' nodal forces (N), -int p n . N_a dS, p = k <-g_n>. Collective."""
+        n_owned = len(u)
+        self.u.x.array[:n_owned] = u
+        self.u.x.scatter_forward()
+        values = self.u.x.array.reshape(-1, 2)
+        a, b = self.nodes[:, 0], self.nodes[:, 1]
+        xa, xb = self.X[a] + values[a], self.X[b] + values[b]
+        length = np.linalg.norm(self.X[b] - self.X[a], axis=1)  # the undeformed dS
+        s = self.s[None, :, None]
+        x = ((1 - s) * xa[:, None] + s * xb[:, None]).reshape(-1, 2)
+        c = np.asarray(self.contact.centre(t), dtype=float)
+        g = signed_distance_numpy(x, c, self.contact.radius)
+        traction = (self.k * np.maximum(-g, 0.0))[:, None] * normal_numpy(x, c)
+        traction = traction.reshape(len(a), len(self.s), 2) * (self.w[None, :, None])
+        traction *= length[:, None, None]
+        force = self.f.x.array.reshape(-1, 2)
+        force[:] = 0.0
+        np.add.at(force, a, -np.einsum("q,fqd->fd", 1 - self.s, traction))
+        np.add.at(force, b, -np.einsum("q,fqd->fd", self.s, traction))
+        self.f.x.scatter_reverse(dolfinx.la.InsertMode.add)
+        return self.f.x.array[:n_owned].copy()
