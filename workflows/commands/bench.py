@@ -57,13 +57,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
     p.add_argument(
         "--only",
-        choices=["explicit-models", "leaderboard-users"],
+        choices=["explicit-models", "leaderboard-users", "contact"],
         default=None,
         help="explicit-models: only the explicit-lumped step with each elastic model and "
         "remedy against the linear one (1 rank), into DIR/performance-explicit.md and .json, "
         "leaving DIR/performance.* alone; leaderboard-users: only `tissuebench leaderboard` "
         "grading --users user rows on each of --ranks, into DIR/performance-leaderboard.md "
-        "and .json",
+        "and .json; contact: only the explicit-lumped step with the needle as contact against "
+        "it glued (SPEC 12), into DIR/performance-contact.md and .json",
     )
     p.add_argument(
         "--users",
@@ -113,6 +114,24 @@ def explicit_models(args: argparse.Namespace) -> int:
     return 0
 
 
+def contact(args: argparse.Namespace) -> int:
+    """`tissuebench bench --only contact`: workflows/bench/contact.py."""
+    from tissuebench.workflows.bench import contact as bench
+
+    mode = "quick" if args.quick else "full"
+    out = Path(args.out) if args.out is not None else quick_out() if args.quick else Path("results")
+    names = ("performance-contact.json", "performance-contact.md")
+    check_writable(out, owned=names)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"tissuebench bench --only contact ({mode}): 1 rank", flush=True)
+    start = time.perf_counter()
+    records = bench.measure(mode, lambda line: print(line, flush=True))
+    wall = time.perf_counter() - start
+    bench.write(out, records, mode, wall)
+    print(f"\n{bench.table(records)}\n\nwall {wall:.0f} s; wrote {out / names[1]}")
+    return 0
+
+
 def leaderboard_users(args: argparse.Namespace) -> int:
     """`tissuebench bench --only leaderboard-users`: workflows/bench/leaderboard_users.py."""
     from tissuebench.workflows.bench import leaderboard_users as bench
@@ -153,6 +172,8 @@ def main(args: argparse.Namespace) -> int:
         return explicit_models(args)
     if getattr(args, "only", None) == "leaderboard-users":
         return leaderboard_users(args)
+    if getattr(args, "only", None) == "contact":
+        return contact(args)
     try:
         import pyamg  # noqa: F401
         import scipy  # noqa: F401
