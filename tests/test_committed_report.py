@@ -36,3 +36,13 @@ def test_the_spec_11_answer_is_what_the_committed_frontier_gives():
     assert len({r["case"] for r in rows}) == 4
     report = (RESULTS / "README.md").read_text()
     assert "\n".join(answer(rows)) in report
+
+
+def test_the_contact_section_is_what_the_committed_contact_results_give():
+    """SPEC 12: results/README.md's section on the needle as contact, written again from the
+    committed hertz.json and contact.csv, stands in it word for word."""
+    from tissuebench.workflows.contact.report import paper_section
+
+    assert (RESULTS / "contact" / "hertz.json").is_file()
+    report = (RESULTS / "README.md").read_text()
+    assert "\n".join(paper_section(RESULTS / "contact")) in report

@@ -33,8 +33,17 @@ import numpy as np
 
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
+from tissuebench.meshes import get_entry
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.truth.cases import CASES, GRADED, GRADING, STEP_DIVISOR
+from tissuebench.solvers.truth.cases import (
+    CASES,
+    CONTACT_BAND,
+    CONTACT_BAND_SHARE,
+    CONTACT_X_GRADING,
+    GRADED,
+    GRADING,
+    STEP_DIVISOR,
+)
 from tissuebench.solvers.truth.estimate import estimate_error
 from tissuebench.solvers.truth.store import (
     MEASURED_STEP_SECONDS,
@@ -219,10 +228,33 @@ def grid(case: str) -> str:
     """The levels' grids in words."""
     if case not in GRADED:
         return "uniform grids"
+    if get_entry(CASES[case][0]).tool is not None:  # SPEC 12: the needle as contact
+        (low, high), share = CONTACT_BAND, CONTACT_BAND_SHARE
+        return (
+            f"grids graded toward the right edge (power {CONTACT_X_GRADING:g}) and with "
+            f"{100 * share:.0f} % of the rows in the band {low:g} <= y <= {high:g} m that the "
+            "needle sweeps (the levels nest)"
+        )
     toward = "the needle's ends" if CASES[case][4] is not None else "the clamped face's edges"
     return (
         f"grids graded toward {toward} (power {GRADING:g}; the levels nest, as uniform "
         "refinement does)"
+    )
+
+
+def penalty_words(h: dict, own: dict, units: str) -> str:
+    """SPEC 12's limit of a contact truth's penalty in words: the finest level again with
+    10 k against it, or why that run did not end."""
+    if "penalty_failed" in h:
+        return (
+            "Contact: the finest level again with 10 times the penalty did not run through "
+            f"({h['penalty_failed']}), so the penalty's limit (SPEC 12) is unchecked here."
+        )
+    diff = max(h["penalty_difference"])
+    holds = "under" if diff < own["interior_error_max"] / 10 else "not under"
+    return (
+        f"Contact: the finest level again with 10 times the penalty differs from it by E_i max "
+        f"{fmt(diff)} {units}, {holds} a tenth of its own error (SPEC 12's limit of the penalty)."
     )
 
 
@@ -333,6 +365,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
         f"{h.get('total_wall', float('nan')):.0f} s.",
         "",
     ]
+    if "penalty_difference" in h or "penalty_failed" in h:  # SPEC 12: the penalty's limit
+        lines += [penalty_words(h, own, units), ""]
     space, step = own["space"], own["time"]
     if not math.isfinite(space) and len(diffs) > 1 and diffs[-1] >= diffs[-2]:
         lines += [

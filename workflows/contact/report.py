@@ -36,6 +36,26 @@ def fmt(x: object) -> str:
     return f"{x:.3g}" if isinstance(x, float) else str(x)
 
 
+def penalty_words(truth: TruthSamples) -> str:
+    """SPEC 12's limit of the truth's penalty in words: the finest level with k against 10 k
+    (E_i max of their difference beside the truth's own error), or why it was not made."""
+    info = truth.hierarchy
+    if "penalty_failed" in info:
+        return (
+            f"The penalty's limit is unchecked: the finest level with 10 k did not run through "
+            f"({info['penalty_failed']})."
+        )
+    if "penalty_difference" not in info:
+        return ""
+    diff = max(info["penalty_difference"])
+    own = truth.own_error["interior_error_max"]
+    holds = "meets" if diff < own / 10 else "does not meet"
+    return (
+        f"The finest level with 10 k differs from it by E_i max {fmt(diff)} m^2: SPEC 12's "
+        f"limit (under a tenth of the own error, {fmt(own / 10)}) {holds} it."
+    )
+
+
 def markdown(
     rows: list[dict], truths: dict[str, tuple[TruthSamples, TruthForce]], missing: list[str]
 ) -> str:
@@ -66,7 +86,8 @@ def markdown(
             f"{fmt(own['space'])}, time {fmt(own['time'])}); its needle force's own error "
             f"{fmt(force.own_error)} (against the next coarser level {fmt(force.parts['space'])}, "
             f"the half step {fmt(force.parts['time'])}, ten times the penalty "
-            f"{fmt(force.parts['penalty'])}); largest force {fmt(largest)} N/m.",
+            f"{fmt(force.parts.get('penalty'))}); largest force {fmt(largest)} N/m. "
+            + penalty_words(truth),
             "",
             "| run | N | kappa | status | sub-steps | E_i max (m^2) | E_i mean (m^2) "
             "| force error | interpenetration (m) | cost (s/s) |",
@@ -196,3 +217,42 @@ def plot_deformed(
     pressure.grid(True, alpha=0.3)
     pressure.legend(fontsize=8)
     fig.savefig(path, format="png", dpi=110)
+
+
+def paper_section(folder: Path) -> list[str]:
+    """The paper report's section on the needle as contact (results/README.md), from the Hertz
+    check's record and the contact study's table in `folder`, where they are."""
+    import json
+
+    lines = ["## The needle as contact (SPEC 12)", ""]
+    hertz = folder / "hertz.json"
+    if hertz.is_file():
+        r = json.loads(hertz.read_text())
+        lines += [
+            f"The Hertz check ([contact/hertz.json](contact/hertz.json), `tissuebench hertz`): "
+            f"the rigid needle pushed {1e3 * r['depth']:g} mm statically into the linear "
+            f"{r['material']} block, solved as the truth is, carries P = {r['P']:.4g} N/m; its "
+            f"largest pressure is {100 * r['p0_error']:+.2f} % from Hertz's line contact and its "
+            f"contact half-width {100 * r['a_error']:+.2f} % (SPEC 12 asks 1 % and 2 %).",
+            "",
+        ]
+    table = folder / "contact.csv"
+    if not table.is_file():
+        return lines
+    rows = read_rows(table)
+    lines += [
+        "Our algorithms with the needle as contact, graded against the contact truths "
+        "([contact/contact.md](contact/contact.md), `tissuebench contact`): on the paper's "
+        "grid (N = 20) with the default penalty (kappa = 10),",
+        "",
+        "| case | run | E_i max (m^2) | force error | interpenetration (mm) | cost (s/s) |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        if int(r["N"]) == 20 and float(r["kappa"]) == 10.0:
+            lines.append(
+                f"| {r['case'].split('-N')[0]} | {r['run']} | {fmt(float(r['interior_error_max']))}"
+                f" | {fmt(float(r['force_error']))} | "
+                f"{fmt(1e3 * float(r['interpenetration_max']))} | {fmt(float(r['cost']))} |"
+            )
+    return [*lines, ""]

@@ -208,6 +208,10 @@ def paper_report(
         from tissuebench.workflows.reports.frontier import answer
 
         parts += answer(read_rows(out / "frontier" / "frontier.csv"))
+    if (out / "contact").is_dir():  # SPEC 12, tissuebench hertz and tissuebench contact
+        from tissuebench.workflows.contact.report import paper_section
+
+        parts += paper_section(out / "contact")
     for extra, title in [
         ("stability.md", "Stability"),
         ("convergence.md", "Convergence"),
