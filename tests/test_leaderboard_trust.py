@@ -30,9 +30,12 @@ SMALL = Board("rod-small", "rod", "MP3", "linear", simulators=(), description="a
 
 
 def user_folder(where: Path, label: str = "mine") -> Path:
-    """A compare folder as compare writes it for rod-MP3 (summary.json and its manifest)."""
+    """A compare folder as compare writes it for rod-MP3 (summary.json and its manifest), its
+    candidate series a file in it (recorded with its hashes; not read as a series here)."""
     where.mkdir(parents=True)
-    (where / "summary.json").write_text(json.dumps(compare_summary(ROD, label)))
+    series = where / "mine.xdmf"
+    series.write_text(f"<Xdmf/> {label}\n")
+    (where / "summary.json").write_text(json.dumps(compare_summary(ROD, label, series)))
     seal(where)
     return where
 

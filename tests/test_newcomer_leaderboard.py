@@ -26,10 +26,12 @@ COMM = MPI.COMM_WORLD
 CASES = {b.name: b for b in BOARDS}
 
 
-def compare_summary(board: ranking.Board, label: str = "mine") -> dict:
+def compare_summary(board: ranking.Board, label: str = "mine", series: Path | None = None) -> dict:
     """A compare summary.json of a run graded against the reference `tissuebench export`
-    writes for the board's case."""
+    writes for the board's case; its candidate `series` (a file, recorded with its hashes as
+    compare records them; none without it)."""
     from tissuebench.meshes import get_entry
+    from tissuebench.workflows.grading import series_files
 
     case = board_case(board)
     size = board.mesh_size or get_entry(board.benchmark).mesh_size
@@ -53,14 +55,24 @@ def compare_summary(board: ranking.Board, label: str = "mine") -> dict:
                 "dimension": case["gdim"],
             },
         },
-        "candidate": {"file": "mine.xdmf", "field": None},
+        "candidate": {"file": str(series) if series else "mine.xdmf", "field": None},
+        "inputs": {
+            "candidate": {
+                "file": str(series) if series else "mine.xdmf",
+                "files": series_files(series) if series else {},
+            }
+        },
         "runs": {label: {"status": "ok", "wall_time_s": 2.0, **dict.fromkeys(error_keys(), 1e-4)}},
     }
 
 
 def compare_folder(folder: Path, board: ranking.Board) -> Path:
+    """A compare folder as compare writes it, its candidate series a file in it (not a
+    readable series: what is read here is its hash)."""
     folder.mkdir(parents=True)
-    (folder / "summary.json").write_text(json.dumps(compare_summary(board)))
+    series = folder / "mine.xdmf"
+    series.write_text("<Xdmf/>\n")
+    (folder / "summary.json").write_text(json.dumps(compare_summary(board, series=series)))
     seal(folder)  # as compare writes it: with its manifest
     return folder
 

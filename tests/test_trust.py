@@ -128,9 +128,12 @@ def test_user_rows_leave_out_what_is_malformed(graded, tmp_path):
     (user / "garbage" / "summary.json").write_text('{"kind": "compare", "runs": {"a": ')
     rows, skipped = ranking.user_rows(ROD, user)
     assert [r.label for r in rows] == [HOSTILE]
-    expected = json.loads((good / "summary.json").read_text())["runs"][HOSTILE]
     assert rows[0].source == "user" and rows[0].wall_time_s == 0.25
-    assert rows[0].errors == {k: expected[k] for k in error_keys()}
+    # no number is taken from the folder: the leaderboard grades its series (grading.py)
+    assert rows[0].errors == dict.fromkeys(error_keys()) and rows[0].status == "not graded"
+    summary = json.loads((good / "summary.json").read_text())
+    assert rows[0].series == summary["candidate"]["file"]
+    assert rows[0].series_hash == ranking.series_hash(summary["inputs"]["candidate"]["files"])
     assert len(skipped) == len(MALFORMED) + 4
     for line in skipped:
         assert "\n" not in line and str(user) in line

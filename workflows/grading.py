@@ -68,15 +68,37 @@ class GradingError(UserError):
     """Options of compare that cannot be taken (a label, a wall time): one line, exit 2."""
 
 
-def check_label(label: str | None) -> None:
-    if label is None:
+def check_label(label: str | None, candidate: str | Path | None = None) -> None:
+    """Refuse (GradingError, one line saying why) a label that is not printable text of 1 to
+    MAX_LABEL characters without leading or trailing spaces: `label`, or where it is None the
+    one the candidate's file name gives (its name without suffix), which names the run as
+    --label would (rows, figures, tables, the leaderboard's page)."""
+    given = label is not None
+    if not given:
+        if candidate is None:
+            return
+        label = Path(candidate).stem
+    assert label is not None  # given, or the file's
+    problem = None
+    if not 0 < len(label) <= MAX_LABEL:
+        problem = f"is {len(label):,} characters long (at most {MAX_LABEL})"
+    elif not label.isprintable():
+        problem = "has characters that are not printable (a newline, a tab, a control)"
+    elif label.strip() != label:
+        problem = "has leading or trailing spaces"
+    if problem is None:
         return
-    if not 0 < len(label) <= MAX_LABEL or not label.isprintable() or label.strip() != label:
-        shown = repr(label)[:40] + ("..." if len(repr(label)) > 40 else "")
+    shown = repr(label)[:40] + ("..." if len(repr(label)) > 40 else "")
+    rule = f"printable text of 1 to {MAX_LABEL} characters without leading or trailing spaces"
+    if given:
         raise GradingError(
-            f"--label must be printable text of 1 to {MAX_LABEL} characters without leading "
-            f"or trailing spaces, got {shown}: name the run, for example --label my-solver"
+            f"--label must be {rule}; {shown} {problem}: name the run, for example "
+            "--label my-solver"
         )
+    raise GradingError(
+        f"the candidate's file name gives the label {shown}, which {problem}: a label must be "
+        f"{rule}: name the run with --label, for example --label my-solver"
+    )
 
 
 def check_wall_time(wall_time) -> float | None:
@@ -122,7 +144,7 @@ def compare(
     external simulator's variant inside its own partial folder). A reference `truth:CASE` is
     SPEC 10's truth of that case (computed or loaded by solvers/truth/store.py; graded by
     metrics/truth.py; summary.json gets a "truth" entry: case, own error, timings)."""
-    check_label(label)
+    check_label(label, candidate)
     wall = check_wall_time(wall_time)
     case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
     truth = None

@@ -685,7 +685,7 @@ SESSION = re.compile(r"[0-9A-Za-z :+\-./]{1,40}")  # a session's time, as main w
 def study_row(study: Study, r: dict) -> dict:
     """One row of mesh-sensitivity.csv (text) as numbers, checked to be a run of the study:
     its algorithm, shape and size, counts >= 0, finite times >= 0 (s), errors empty or "nan"
-    (None: never ranked) or numbers >= 0. ValueError or TypeError says what is wrong."""
+    (None: never ranked) or finite numbers >= 0. ValueError or TypeError says what is wrong."""
 
     def count(key):
         value = int(r.get(key))
@@ -704,8 +704,8 @@ def study_row(study: Study, r: dict) -> dict:
         if text.lower() in ("", "nan"):
             return None
         value = float(text)
-        if not value >= 0:
-            raise ValueError(f"{key} is not a number >= 0")
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{key} is not a finite number >= 0")
         return value
 
     if r.get("algorithm") not in ALGORITHMS:

@@ -5,8 +5,10 @@ Rules (README, "Output folders"):
   holds a manifest, `.tissuebench.json`: every file below it with its SHA-256. The folder is
   ours while the manifest is there and nothing was added to it or changed in it since; a file
   of ours that is gone only makes the folder incomplete (nothing of anyone's is lost by
-  rewriting it). Its summary.json carries a `fingerprint`: the hash of every input that
-  changes its numbers (`inputs`, kept beside it).
+  rewriting it). The manifest is a guard against accidents, not a signature: anyone can
+  compute it again (seal), so it proves nothing about a folder's numbers. Its summary.json
+  carries a `fingerprint`: the hash of every input that changes its numbers (`inputs`, kept
+  beside it).
 - `--out` may name a new folder, an empty one, or one of ours, unchanged. A folder that holds
   anything else is refused in one line, `--force` or not; so are the current folder and its
   parents. Ours and complete with the same fingerprint: skipped. Ours with another

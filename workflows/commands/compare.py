@@ -8,7 +8,7 @@ from typing import Any, cast
 from mpi4py import MPI
 
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.grading import MAX_LABEL, compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
 from tissuebench.workflows.summary import read_compare_summary
 
@@ -68,7 +68,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--label",
         help="the candidate's name in metrics.csv and summary.json (default: its file name "
-        "without suffix)",
+        f"without suffix): printable text of 1 to {MAX_LABEL} characters without leading or "
+        "trailing spaces, else refused in one line",
     )
     p.add_argument(
         "--wall-time",

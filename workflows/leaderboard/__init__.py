@@ -3,10 +3,13 @@
 
 - `record`: leaderboard.json, read and validated row by row (type and range) before anything
   is replaced, and written;
-- `users`: the users' compare folders, each checked against its case and its own manifest
-  (an edited summary is left out with one line);
-- `grading`: our runs and every simulator's on a case (`--rerun`), and every row graded
-  against the case's truth, with its error budget (SPEC 10);
+- `users`: the users' compare folders, each checked against its case, its own manifest (an
+  edited summary is left out with one line; the manifest guards against accidents and is no
+  signature), its links and its series' hashes;
+- `runs`: our runs and every simulator's on a case (`--rerun`);
+- `grading`: every row graded against the case's truth, with its error budget (SPEC 10), and
+  each user's row graded from its series (against the case's reference too): no number of
+  a user's folder is believed;
 - `rows` (workflows/ranking.py re-exports it): the Row, reading outside rows, the checks of
   a compare summary, the Pareto front;
 - `page`: results/leaderboard/index.html, one self-contained page (inline SVG and a little

@@ -193,6 +193,11 @@ def main(args: argparse.Namespace) -> int:
     # what is read is read and checked before anything runs (rank 0 reads and writes)
     cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
     found, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
+    frontier = (  # the SPEC 11 frontier's runs, each checked (a bad one: one line)
+        page.read_frontier(out / "frontier" / "frontier.csv", warn=users.warn)
+        if comm.rank == 0
+        else {}
+    )
     interrupt.will_write(  # named on a signal: the old ones stay as they were
         [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]
     )
@@ -233,7 +238,6 @@ def main(args: argparse.Namespace) -> int:
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
         files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
-        frontier = page.read_frontier(out / "frontier" / "frontier.csv")
         text = document.markdown(boards, rows, shown, frontier, session)
         files[out / "leaderboard.md"] = lambda tmp: tmp.write_text(text)
         index = page.render(boards, rows, shown, frontier, session, unit_of)

@@ -1,10 +1,19 @@
 """Every row of a case graded against its truth (SPEC 10), loaded from the cache, with its
 error budget (rank 0, serial); the users' rows joined to their cases and graded, shared out
-among the ranks."""
+among the ranks.
+
+A user's row is graded here from its series, never from its folder's summary.json, whose
+numbers anyone can write (and its manifest recompute): against the case's reference (E_n, E_s
+and E_i, its status and its mesh: case_reference), against the case's truth, and its error
+budget. Grades are kept by the series' content hash (rows.series_hash): rows of one series
+are graded once in a run, and a row the record (or graded-users.json) holds for the same
+series keeps its grades.
+"""
 
 from __future__ import annotations
 
 import re
+import tempfile
 import time
 from collections import OrderedDict
 from pathlib import Path
@@ -16,19 +25,24 @@ import numpy as np
 
 from tissuebench.core import interrupt
 from tissuebench.workflows.leaderboard import users as user_folders
+from tissuebench.workflows.leaderboard.record import FOLDER
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
+    UNGRADED,
     Board,
     Row,
+    board_case,
     finite,
     mark_pareto,
     mark_truth_pareto,
     truth_error,
+    user_mesh,
 )
 from tissuebench.workflows.leaderboard.users import user_key
 
 if TYPE_CHECKING:
+    from tissuebench.metrics.series import Series
     from tissuebench.solvers.truth.samples import TruthSamples
 
 
@@ -86,17 +100,37 @@ class Caches:
     """What the gradings of a leaderboard run build once and share (one process): each truth's
     candidate meshes checked and located (`located`, {truth case: {mesh key: TruthMetrics}},
     metrics/truth.py's located_on), our implicit runs on the users' meshes and the budget
-    parts that depend on the mesh alone (`on_mesh`, user_mesh.budget_on_mesh's cache), and
-    the last series read (rows read their series once for both gradings). The numbers are
-    the same as without it. Each keeps its MESHES last used meshes: a mesh met again after
-    that is located and run on again (the same numbers)."""
+    parts that depend on the mesh alone (`on_mesh`, user_mesh.budget_on_mesh's cache), the
+    last series read (rows read their series once for every grading), the last cases'
+    references (`reference`: case_reference, found under `out` or run here) and every user's
+    row graded, by its series' content hash (`grades`: a row of the same series takes them).
+    The numbers are the same as without it. Each keeps its MESHES last used meshes: a mesh
+    met again after that is located and run on again (the same numbers)."""
 
     MESHES = 16
+    REFERENCES = 2  # the rows come case by case
 
-    def __init__(self):
+    def __init__(self, out: Path | None = None):
+        self.out = out
         self.located: dict[str, Recent] = {}
         self.on_mesh = Recent(self.MESHES)
-        self._series = None
+        self._series: tuple[tuple[str, str | None], Series] | None = None
+        self.references = Recent(self.REFERENCES)
+        self.grades: dict[tuple, dict] = {}
+
+    def reference(self, board: Board) -> Series:
+        """case_reference(board, out), found or run once per case (a failure too: raised
+        again)."""
+        found = self.references.get(board.name)
+        if found is None:
+            try:
+                found = case_reference(board, self.out)
+            except Exception as exc:  # anything a run or a file can do: said for each row
+                found = exc
+            self.references[board.name] = found
+        if isinstance(found, BaseException):
+            raise found
+        return found
 
     def located_for(self, truth) -> Recent | None:
         if truth is None:
@@ -112,6 +146,99 @@ class Caches:
             self._series = None  # the old one is let go before the new one is read
             self._series = (key, read_series(path, field))
         return self._series[1]
+
+
+def case_reference(board: Board, out: Path | None = None) -> Series:
+    """The case's reference series: our implicit with the case's model on its mesh, h and
+    steps. OUT/leaderboard/CASE/ours/LABEL.xdmf where a rerun of the case left it as we wrote
+    it (its folder is ours, unchanged: output.is_ours) and of the case's steps and nodes;
+    else run here as `tissuebench export` runs the reference it writes beside the benchmark
+    (posing.export into a temporary folder, read back, removed): the series a user compared
+    against. Rank 0's (one process)."""
+    from tissuebench.meshes import get_entry
+    from tissuebench.solvers.materials import get_material
+    from tissuebench.solvers.models import run_label
+    from tissuebench.workflows.io.series import read_series
+    from tissuebench.workflows.output import is_ours
+    from tissuebench.workflows.posing import export, reference_path
+
+    case = board_case(board)
+    if out is not None:
+        folder = Path(out) / FOLDER / board.name / "ours"
+        path = folder / f"{run_label('implicit', board.model)}.xdmf"
+        if path.is_file() and not path.is_symlink() and is_ours(folder):
+            series = read_series(path)
+            if len(series.times) == case["steps"] + 1 and len(series.points) == case["nodes"]:
+                return series
+    with tempfile.TemporaryDirectory(prefix="tissuebench-reference-") as tmp:
+        posed = Path(tmp) / f"{board.name}.json"
+        export(
+            board.benchmark,
+            "json",
+            posed,
+            mesh_size=board.mesh_size or get_entry(board.benchmark).mesh_size,
+            options=dict(board.options),
+            material=get_material(board.material),
+            model=board.model,
+            h=case["h"],
+            steps=case["steps"],
+            comm=MPI.COMM_SELF,
+            log=lambda line: None,
+        )
+        return read_series(reference_path(posed))
+
+
+def grade_row_reference(board: Board, row: Row, caches: Caches) -> None:
+    """Grade a user's row's own series against the case's reference (Caches.reference), as
+    compare grades it (metrics/compare.py: E_n, E_s, E_i, on its own mesh where it has one):
+    its errors, status (the worst step's; a series that diverged, ended early, ...) and
+    reason, and its mesh and dofs as the series holds them. Where it cannot be graded the
+    row keeps status UNGRADED (it never ranks) and its reason says why in one line."""
+    from tissuebench.metrics.compare import grade_series
+    from tissuebench.metrics.table import METRICS
+    from tissuebench.workflows.grading import mesh_of
+
+    def why(what: str, exc: Exception) -> str:
+        return f"{what}: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
+
+    if not row.series:
+        row.reason = "not graded: no series file of it is recorded"
+        return
+    try:
+        cand = caches.series(row.series, row.series_field)
+    except Exception as exc:  # anything a file can do: this row is not graded, the rest are
+        row.reason = why("not graded: its series cannot be read", exc)
+        return
+    row.mesh, row.dofs = user_mesh(mesh_of(cand))
+    try:
+        g = grade_series(caches.reference(board), cand, MPI.COMM_SELF, label=row.label)
+    except Exception as exc:
+        row.reason = why("not graded against the case's reference", exc)
+        return
+    for name in METRICS:
+        row.errors[f"{name}_max"], row.errors[f"{name}_mean"] = summarized(g.curves[name])
+    row.status = next((s for s in g.status if s != "ok"), "ok")
+    row.reason = g.candidate_reason or (
+        g.reference_reason if row.status == "reference diverged" else None
+    )
+
+
+GRADES = ("errors", "status", "reason", "mesh", "dofs", "truth", "truth_note", "budget")
+
+
+def grades_of(row: Row) -> dict:
+    """What grading a user's row gives it (GRADES), copied."""
+    return {k: json_copy(getattr(row, k)) for k in GRADES}
+
+
+def take_grades(row: Row, grades: dict) -> None:
+    """Put a user's row's grades (grades_of) into it, copied."""
+    for k in GRADES:
+        setattr(row, k, json_copy(grades[k]))
+
+
+def json_copy(value):
+    return dict(value) if isinstance(value, dict) else value
 
 
 def grade_row_truth(truth, row: Row, caches: Caches | None = None) -> None:
@@ -287,13 +414,15 @@ def grade_users(
     on_graded=None,
     comm: MPI.Comm = MPI.COMM_SELF,
 ) -> None:
-    """The users' rows joined to their cases, graded against each case's truth where it has one
-    (its cached truth loaded once per case; a user's row graded by compare against the truth
-    keeps its columns; one the record holds already graded, `graded` {user_key: Row}, keeps the
-    record's), the Pareto fronts marked again and the users' error budgets. A truth that is not
-    computed here is named, with the command that computes it, in the rows' notes and in one
-    line on stderr per case. Each row is graded whole (against the truth, then its budget), and
-    `on_graded(board, row, seconds)` is called on rank 0 as each ends.
+    """The users' rows joined to their cases and graded from their series (rows.user_rows
+    reads them with no grade): against the case's reference (grade_row_reference), against
+    each case's truth where it has one (its cached truth loaded once per case), and their
+    error budgets; the Pareto fronts marked again. A row of a series that the record holds
+    already graded (`graded` {user_key: Row}: the same series by its content hash) keeps the
+    record's grades. A truth that is not computed here is named, with the command that
+    computes it, in the rows' notes and in one line on stderr per case. Each row is graded
+    whole (reference, truth, budget), and `on_graded(board, row, seconds)` is called on rank 0
+    as each ends.
 
     Collective over comm (rank 0's arguments are the ones read, the others' are not used): the
     rows to grade are shared out, the k-th to rank k mod size, each rank grading its share with
@@ -310,10 +439,11 @@ def grade_users(
             rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
             kept = set()  # ids of the rows whose budget the record holds, complete
             for row in mine:
-                before = (graded or {}).get(user_key(row))
-                if before is not None and before.truth and not row.truth:
-                    row.truth, row.truth_note = dict(before.truth), before.truth_note
-                if before is not None and before.truth == row.truth and complete(before.budget):
+                before = (graded or {}).get(user_key(row)) if row.series_hash else None
+                if before is None or before.status == UNGRADED:
+                    continue
+                take_grades(row, {**grades_of(before), "budget": {}})
+                if complete(before.budget):
                     row.budget = dict(before.budget)
                     kept.add(id(row))
             pending = [r for r in mine if id(r) not in kept]
@@ -339,14 +469,14 @@ def grade_users(
                         )
             tasks += [(board, row) for row in pending]
     if comm.size == 1:
-        caches = Caches()
+        caches = Caches(out)
         for board, row in tasks:  # each graded whole (truth, then budget) and said as it ends
             truth = truths.get(board.truth) if board.truth is not None else None
             seconds = grade_user_row(board, rows[board.name], row, truth, caches)
             if on_graded is not None:
                 on_graded(board, row, seconds)
     else:
-        _grade_shared(comm, tasks, rows, truths, on_graded)
+        _grade_shared(comm, tasks, rows, truths, on_graded, out)
     if comm.rank == 0:
         for board in boards:
             mark_pareto(rows[board.name])
@@ -357,27 +487,41 @@ def grade_users(
 
 
 def grade_user_row(board: Board, board_rows: list[Row], row: Row, truth, caches: Caches) -> float:
-    """One user's row graded whole: against the truth (where it has none yet and the truth is
-    here), then its error budget; the seconds it took."""
+    """One user's row graded whole from its series: against the case's reference (where it
+    is not graded yet), against the truth (where it has none yet and the truth is here), then
+    its error budget; or its grades taken from a row of the same series graded before in this
+    run (Caches.grades, by content hash). The seconds it took."""
     start = time.perf_counter()
+    key = (board.name, row.series_hash, row.series_field, truth is not None)
+    done = caches.grades.get(key) if row.series_hash else None
+    if done is not None:
+        take_grades(row, done)
+        return time.perf_counter() - start
+    if row.status == UNGRADED:
+        grade_row_reference(board, row, caches)
     if truth is not None and not row.truth:
         grade_row_truth(truth, row, caches)
     if row.truth:
         error_budget(board_rows, only=[row], board=board, truth=truth, caches=caches)
+    if row.series_hash and row.status != UNGRADED:
+        caches.grades[key] = grades_of(row)
     return time.perf_counter() - start
 
 
 GRADED_ROW = 35  # the MPI tag of a graded user row sent to rank 0
 
 
-def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_graded) -> None:
+def _grade_shared(
+    comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_graded, out: Path | None = None
+) -> None:
     """grade_users' rows (rank 0's `tasks`, (board, row)) graded on every rank of comm, the k-th
-    by rank k mod size; every other rank sends each row's grades (truth columns, note, budget)
-    to rank 0 as it ends, where they are put into rank 0's row and on_graded is called. A
-    rank that cannot load a truth rank 0 has sends its rows back ungraded, and rank 0 grades
-    them; an error anywhere is raised on every rank once all rows are in. A signal (recorded,
-    under mpiexec, core/interrupt.py) stops each rank before its next row, and every rank
-    raises it together once the rows graded so far are in (and recorded by on_graded)."""
+    by rank k mod size; every other rank sends each row's grades (grades_of: reference and
+    truth columns, status, mesh, note, budget) to rank 0 as it ends, where they are put into
+    rank 0's row and on_graded is called. A rank that cannot load a truth rank 0 has sends its
+    rows back ungraded, and rank 0 grades them; an error anywhere is raised on every rank once
+    all rows are in. A signal (recorded, under mpiexec, core/interrupt.py) stops each rank
+    before its next row, and every rank raises it together once the rows graded so far are in
+    (and recorded by on_graded)."""
     from tissuebench.solvers.truth.store import load_cached
 
     plan = None
@@ -390,9 +534,9 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
         for board, row in tasks:
             index = next(i for i, r in enumerate(rows[board.name]) if r is row)
             listed.append((board.name, index, truths.get(board.truth) is not None))
-        plan = (shared, listed)
-    shared, listed = comm.bcast(plan, root=0)
-    caches, held = Caches(), (None, None)  # held: (case, truth) of this rank
+        plan = (shared, listed, out)
+    shared, listed, out = comm.bcast(plan, root=0)
+    caches, held = Caches(out), (None, None)  # held: (case, truth) of this rank
     error, sent, back, received = None, [], [], 0
 
     def truth_of(board: Board, here: bool):
@@ -423,7 +567,7 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
         elif problem is not None:
             error = error or RuntimeError(problem)
         else:
-            row.truth, row.truth_note, row.budget = grades
+            take_grades(row, grades)
             if on_graded is not None:
                 on_graded(board, row, seconds)
 
@@ -448,7 +592,7 @@ def _grade_shared(comm: MPI.Comm, tasks: list, rows: dict, truths: dict, on_grad
                 message = (k, None, 0.0, "no truth")
             else:
                 seconds = grade_user_row(board, board_rows, row, truth, caches)
-                message = (k, (row.truth, row.truth_note, row.budget), seconds, None)
+                message = (k, grades_of(row), seconds, None)
         except Exception as exc:  # said on every rank once all rows are in
             message = (k, None, 0.0, f"rank {comm.rank}: {type(exc).__name__}: {exc}")
         if comm.rank == 0:

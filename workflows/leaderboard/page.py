@@ -23,9 +23,9 @@ import math
 from pathlib import Path
 from typing import Any, cast
 
-from tissuebench.workflows.io.tables import CSVError, read_rows
+from tissuebench.workflows.io.tables import CSVError, ends_whole, read_rows
 from tissuebench.workflows.leaderboard.figures import sessions_line
-from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
+from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite, one_line
 
 # --- what a row is, in the page's words ----------------------------------------------------------
 
@@ -170,30 +170,89 @@ def frontier_tip(f: dict, unit: str) -> list[str]:
     ]
 
 
-def read_frontier(path: Path) -> dict[str, list[dict]]:
-    """results/frontier/frontier.csv by truth case: each finished run's scheme, algorithm,
-    cell, mesh size, dofs, sub-steps, E_i mean and max and cost (s/s); {} without the file."""
+TEXT_CELLS = {"case": 40, "scheme": 80, "algorithm": 40, "cell": 40, "status": 40}  # characters
+WHOLE_CELLS = ("mesh_size", "dofs", "substeps")  # whole numbers >= 1
+NUMBER_CELLS = {"cost": "cost", "interior_error_mean": "e_mean", "interior_error_max": "e_max"}
+
+
+class FrontierRowError(ValueError):
+    """A frontier.csv row that is not a run of the frontier: what is wrong with it."""
+
+
+def frontier_row(r: dict) -> dict[str, Any]:
+    """One frontier.csv row (text) as the page takes it: its texts printable and short
+    (TEXT_CELLS), mesh size, dofs and sub-steps whole numbers >= 1, and its cost (s per
+    simulated s) and E_i mean and max (m^gdim) finite numbers >= 0 (a finished run's, `ok`,
+    all three; another's empty where it has none). FrontierRowError says what is wrong."""
+    if None in r or any(v is None for v in r.values()):
+        raise FrontierRowError("its number of cells is not the header's")
+    row: dict[str, Any] = {}
+    for key, most in TEXT_CELLS.items():
+        text = r.get(key)
+        if not isinstance(text, str) or not 0 < len(text) <= most or not text.isprintable():
+            shown = repr(text)[:40] + ("..." if len(repr(text)) > 40 else "")
+            raise FrontierRowError(
+                f"{key} {one_line(shown)} is not printable text of 1 to {most} characters"
+            )
+        row[key] = text
+    for key in WHOLE_CELLS:
+        try:
+            value = int(r.get(key) or "")
+        except ValueError:
+            value = 0
+        if value < 1:
+            raise FrontierRowError(
+                f"{key} {one_line(repr(r.get(key)))[:40]} is not a whole number >= 1"
+            )
+        row[key] = value
+    for key, name in NUMBER_CELLS.items():
+        text = (r.get(key) or "").strip()
+        if not text and row["status"] != "ok":
+            row[name] = math.nan  # a run that did not finish: no cost or error
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value >= 0):
+            raise FrontierRowError(
+                f"{key} {one_line(repr(text))[:40]} is not a finite number >= 0"
+                + (" (the run finished: it has one)" if row["status"] == "ok" else "")
+            )
+        row[name] = value
+    return row
+
+
+def read_frontier(path: Path, warn=None) -> dict[str, list[dict]]:
+    """results/frontier/frontier.csv by truth case: each run's scheme, algorithm, cell, mesh
+    size, dofs, sub-steps, status, E_i mean and max and cost (s/s); {} without the file.
+    Nothing in it is trusted: each row is checked before it is drawn or ranked (frontier_row:
+    a negative, infinite or missing error or cost of a finished run, text where a number
+    goes, a text too long or not printable), and a row that fails is left out with one line
+    given to `warn`; so is a row cut mid-row (the file's last line not ended, as a kill or a
+    full disk leaves a file written in place: `tissuebench frontier` runs it again), and a
+    file that cannot be read is one line."""
+    say = warn or (lambda line: None)
     try:
+        if not path.is_file():
+            return {}
         raw = read_rows(path)
-    except (OSError, CSVError, UnicodeDecodeError):
+        cut = not ends_whole(path)
+    except (OSError, CSVError, UnicodeDecodeError) as exc:
+        say(f"{path}: cannot be read ({type(exc).__name__}: {one_line(exc)[:120]}), not read")
         return {}
     out: dict[str, list[dict]] = {}
-    for r in raw:
+    for i, r in enumerate(raw, start=2):  # the header is line 1
+        if cut and i == len(raw) + 1:
+            say(
+                f"{path}, row {i}: cut mid-row (the file's last line is not ended), left out: "
+                "`tissuebench frontier` runs it again"
+            )
+            continue
         try:
-            row: dict[str, Any] = {
-                "case": str(r["case"]),
-                "scheme": str(r["scheme"]),
-                "algorithm": str(r["algorithm"]),
-                "cell": str(r["cell"]),
-                "mesh_size": int(r["mesh_size"]),
-                "dofs": int(r["dofs"]),
-                "substeps": int(r["substeps"]),
-                "status": str(r["status"]),
-                "cost": float(r["cost"]) if r["cost"] else math.nan,
-                "e_mean": float(r["interior_error_mean"]) if r["interior_error_mean"] else math.nan,
-                "e_max": float(r["interior_error_max"]) if r["interior_error_max"] else math.nan,
-            }
-        except (KeyError, ValueError, TypeError):
+            row = frontier_row(r)
+        except FrontierRowError as exc:
+            say(f"{path}, row {i}: not a run of the frontier ({exc}): left out")
             continue
         out.setdefault(row["case"], []).append(row)
     return out

@@ -20,6 +20,9 @@ RECORD_VERSION = 1
 OWNED = ["leaderboard.md", "leaderboard.csv", RECORD]
 MAX_RECORD = 64 * 2**20  # bytes: a record larger than this is not ours (ours: under 1 MB)
 MAX_TEXT = 4000  # characters of any text field of a row or case
+# characters of a row's label: ours are under 60, a user's at most rows.MAX_LABEL and its
+# folder's name when another has the same label (rows.told_apart)
+MAX_LABEL = 200
 
 
 class LeaderboardError(UserError):
@@ -38,13 +41,16 @@ def _text(value, where: str, none: bool = False) -> None:
 
 
 def _number(value, where: str, none: bool = True, positive: bool = False) -> None:
-    """None (when allowed), or a real number (not a bool) >= 0 (> 0 when positive); NaN is
-    taken (it never ranks), a negative number or text is not."""
+    """None (when allowed), or a finite real number (not a bool) >= 0 (> 0 when positive);
+    NaN is taken (no number: it never ranks), an infinity, a negative number or text is
+    not."""
     if value is None and none:
         return
     if not real(value) or (not math.isnan(value) and (value < 0 or (positive and value == 0))):
         bound = "> 0" if positive else ">= 0"
         raise Invalid(f"{where} {one_line(repr(value))[:40]} is not a number {bound}")
+    if math.isinf(value):
+        raise Invalid(f"{where} {one_line(repr(value))[:40]} is not a finite number")
 
 
 def _numbers(value, where: str, keys: list[str] | None = None) -> None:
@@ -66,15 +72,21 @@ def _flags(value, where: str) -> None:
 
 
 def check_row(d) -> None:
-    """Raise Invalid unless a recorded row has every field of its type and range: texts,
-    dofs a whole number >= 0, wall time and end time numbers (s; the end time > 0), errors and
-    truth columns objects of numbers >= 0 or null, Pareto flags true/false, the budget's
-    parts numbers or null."""
+    """Raise Invalid unless a recorded row has every field of its type and range: texts (the
+    label printable, of at most MAX_LABEL characters), dofs a whole number >= 0, wall time and
+    end time finite numbers (s; the end time > 0), errors and truth columns objects of finite
+    numbers >= 0 or null, Pareto flags true/false, the budget's parts numbers or null."""
     if not isinstance(d, dict):
         raise Invalid(f"{one_line(repr(d))[:40]} is not an object")
     for key in ("case", "label", "source", "description", "mesh", "status", "timing"):
         _text(d.get(key), key)
-    for key in ("reason", "group", "series", "series_field", "truth_note"):
+    label = d["label"]
+    if not 0 < len(label) <= MAX_LABEL or not label.isprintable():
+        raise Invalid(
+            f"label {one_line(repr(label))[:40]} is not printable text of 1 to {MAX_LABEL} "
+            "characters"
+        )
+    for key in ("reason", "group", "series", "series_field", "truth_note", "series_hash"):
         _text(d.get(key), key, none=True)
     dofs = d.get("dofs")
     if not isinstance(dofs, int) or isinstance(dofs, bool) or dofs < 0:
@@ -135,6 +147,15 @@ def row_of(d: dict) -> Row:
     return Row(**{k: v for k, v in d.items() if k in known})
 
 
+def row_record(row: Row) -> dict:
+    """A Row as the record holds it: every field (series_hash only where it has one: a user's
+    row, so that a record of our rows reads as before)."""
+    d = asdict(row)
+    if d.get("series_hash") is None:
+        d.pop("series_hash", None)
+    return d
+
+
 def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, list[str]]) -> dict:
     """leaderboard.json: every case's Board (what renders it: description, truth, its band and
     note, sizes, session, machine), its notes (the run's; the users' refusals are not kept: they
@@ -147,7 +168,7 @@ def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, 
             {
                 "board": asdict(b),
                 "notes": list(notes.get(b.name, [])),
-                "rows": [asdict(r) for r in rows[b.name]],
+                "rows": [row_record(r) for r in rows[b.name]],
             }
             for b in boards
         ],

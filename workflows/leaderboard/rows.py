@@ -22,20 +22,27 @@ OUT/leaderboard/index.html, OUT/leaderboard.md, OUT/leaderboard.csv,
 OUT/leaderboard/CASE.png: the leaderboard; OUT/leaderboard.json: its record (record.py), from
 which it is rendered again.
 
-Nothing read is trusted: a user's folder is checked against its case (dimension and nodes of
-the reference it was graded against, h, steps, end time) and against its own manifest (a file
-changed since compare wrote it: edited), and each of its rows for its label,
-status, wall time and metrics; its reference's fingerprint (compare's summary.json) must be
-the case's; what fails is left out with one line saying why. Every text
-that was read is escaped for Markdown and HTML in leaderboard.md (md) and for matplotlib in
-the figures (plain); a user's label is never taken for a simulator's name. A NaN or infinite
-cost or error never ranks.
+Nothing read is trusted, and no number of a user's row is taken from its folder: the
+leaderboard grades the series again (workflows/leaderboard/grading.py), and summary.json only
+says which series, field, label and wall time. A user's folder is checked against its case
+(dimension and nodes of the reference it was graded against, h, steps, end time), against its
+own manifest (a file changed since compare wrote it: edited; the manifest is a guard against
+accidents, not a signature: anyone can compute it again, so it proves nothing about the
+numbers), for symbolic links (none is followed: the folder is left out), and its series
+against the hashes compare recorded of it (a series changed since compare graded it is left
+out); each of its rows is checked for its label, status, wall time and metrics; its
+reference's fingerprint (compare's summary.json) must be the case's; what fails is left out
+with one line saying why. Users' rows of one case with the same label are told apart by their
+folder's name (`label (NAME)`). Every text that was read is escaped for Markdown and HTML in
+leaderboard.md (md) and for matplotlib in the figures (plain); a user's label is never taken
+for a simulator's name. A NaN or infinite cost or error never ranks.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,6 +95,8 @@ class Row:
     truth_pareto: dict = field(default_factory=dict)  # "mean" / "max" -> bool, against the truth
     truth_note: str | None = None  # why the row has no truth columns
     budget: dict = field(default_factory=dict)  # the error budget (SPEC 10): workflows/leaderboard
+    # a user's row: the SHA-256 of its series' files (series_hash), which its grades are of
+    series_hash: str | None = None
 
     @property
     def cost(self) -> float | None:
@@ -307,11 +316,9 @@ def reference_problem(
     return None
 
 
-def user_mesh(summary: dict) -> tuple[str, int]:
-    """A user's run's mesh ("TYPE: C cells, N nodes") and dofs, as compare recorded them
-    ("?", 0 when it did not)."""
-    cand = summary.get("candidate")
-    mesh = cand.get("mesh") if isinstance(cand, dict) else None
+def user_mesh(mesh: dict | None) -> tuple[str, int]:
+    """A user's run's mesh ("TYPE: C cells, N nodes") and dofs from its series' mesh
+    (grading.mesh_of: cell_type, cells, nodes, dofs); ("?", 0) when it is not known."""
     if not isinstance(mesh, dict):
         return "?", 0
     cells, nodes, dofs = (mesh.get(k) for k in ("cells", "nodes", "dofs"))
@@ -493,21 +500,32 @@ def misplaced(leaderboard: Path, boards: list[Board]) -> list[str]:
     return lines
 
 
+UNGRADED = "not graded"  # a user's row's status until the leaderboard grades its series
+
+
 def user_rows(
     board: Board, folder: Path, boards: list[Board] | None = None
 ) -> tuple[list[Row], list[str]]:
     """Rows of the compare folders in folder (CASE/user/NAME/summary.json, kind "compare"),
-    and one line for each folder or run left out and why (see reference_problem and
-    run_problem); a folder graded for another of `boards` is told where it belongs. Reads
-    files only; rank 0."""
+    and one line for each folder or run left out and why (see reference_problem, run_problem,
+    links, edited and series_problem); a folder graded for another of `boards` is told where it
+    belongs. No number of a row is taken from the folder: each row names its series (found and
+    hashed here: series_hash), field, label and wall time, with no grade (status UNGRADED, every
+    error None): the leaderboard grades the series (grading.py). Rows of the same label are
+    told apart by their folder's name (told_apart). Reads files only; rank 0."""
     rows: list[Row] = []
     skipped: list[str] = []
+    folders: list[str] = []  # each row's folder name
     folder = Path(folder)
     if not folder.is_dir():
         return rows, skipped
     case = board_case(board)
-    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir() or p.is_symlink()):
         where = one_line(sub)
+        problem = links(sub)
+        if problem:
+            skipped.append(f"{where}: left out: {problem}")
+            continue
         summary = read_summary(sub)
         if summary is None:
             skipped.append(
@@ -531,6 +549,10 @@ def user_rows(
             problem = f"its summary.json has no runs: {RERUN_COMPARE}"
         if problem is None:
             problem = edited(sub)
+        found: dict = {}
+        if problem is None:
+            found = candidate_of(summary, sub)
+            problem = series_problem(summary, found)
         if problem:
             skipped.append(f"{where}: left out: {problem}")
             continue
@@ -545,40 +567,138 @@ def user_rows(
                     f"{where}: run {one_line(label)[:80]} is listed but not ranked: compare was "
                     "given no wall time; rerun it with --wall-time SECONDS (and --force)"
                 )
-            mesh, dofs = user_mesh(summary)
-            errors = {k: None if run[k] is None else float(run[k]) for k in error_keys()}
-            truth = {}
-            fp = summary["reference"]["fingerprint"]
-            if fp.get("source") == "truth":  # graded against the truth: those are its columns
-                truth = {k: errors[k] for k in TRUTH_KEYS}
-                errors = dict.fromkeys(errors)
             rows.append(
                 Row(
                     board.name,
                     label,
                     "user",
-                    f"graded by compare ({sub.name}) against "
-                    + (f"the truth {fp.get('truth')}" if truth else "the case's reference"),
-                    mesh,
-                    dofs,
-                    run["status"],
+                    f"{one_line(sub.name)[:80]}: its series graded by the leaderboard",
+                    "?",
+                    0,
+                    UNGRADED,
                     None,
-                    errors,
+                    dict.fromkeys(error_keys()),
                     None if run["wall_time_s"] is None else float(run["wall_time_s"]),
-                    float(summary["end_time"]),
+                    float(case["end_time"]),
                     "reported by the user",
-                    truth=truth,
-                    **candidate_of(summary, sub),
+                    **found,
                 )
             )
+            folders.append(sub.name)
+    told_apart(rows, folders)
     return rows, skipped
 
 
+SUFFIX = 40  # characters of a folder's name added to a label that another row has too
+
+
+def told_apart(rows: list[Row], folders: list[str]) -> None:
+    """Give each row whose label another row has too its folder's name after it, `label
+    (NAME)` (NAME at most SUFFIX characters, made one line), until every label differs (a
+    folder holds one row of a label: the names tell them apart)."""
+    for _ in range(len(rows)):
+        seen: dict[str, int] = {}
+        for r in rows:
+            seen[r.label] = seen.get(r.label, 0) + 1
+        same = [(r, name) for r, name in zip(rows, folders, strict=True) if seen[r.label] > 1]
+        if not same:
+            return
+        for r, name in same:
+            r.label = f"{r.label} ({one_line(name)[:SUFFIX]})"
+
+
+def links(folder: Path) -> str | None:
+    """Why a user's folder is not read for the links in it (None: it has none): the folder
+    itself, or anything in it (summary.json, the manifest, any file), a symbolic link. The
+    leaderboard follows none, wherever it points: compare writes none."""
+    if folder.is_symlink():
+        return (
+            f"it is a symbolic link (to {one_line(os.readlink(folder))[:120]}), which the "
+            "leaderboard does not follow: put the compare folder itself there"
+        )
+    try:
+        for root, dirs, files in os.walk(folder):
+            for name in sorted(files + dirs):
+                path = Path(root, name)
+                if path.is_symlink():
+                    rel = one_line(path.relative_to(folder).as_posix())[:80]
+                    return (
+                        f"its {rel} is a symbolic link (to {one_line(os.readlink(path))[:120]}), "
+                        "which the leaderboard does not follow (compare writes none): move the "
+                        "folder away and grade the run again with tissuebench compare"
+                    )
+    except OSError as exc:
+        return f"it cannot be read ({type(exc).__name__}: {one_line(exc)[:120]})"
+    return None
+
+
+def series_hash(files: dict) -> str:
+    """The hash of a series by its files ({name: SHA-256}, grading.series_files)."""
+    from tissuebench.core.fingerprint import fingerprint
+
+    return fingerprint({"series": files})
+
+
+def series_problem(summary: dict, found: dict) -> str | None:
+    """Why a compare folder's series cannot be graded here (None: it can, and `found`, its
+    candidate_of, gets its series_hash): it names none, it is not on this machine, it or a
+    file of it is a symbolic link, or its files are not the ones compare graded (the hashes
+    summary.json records, inputs.candidate.files: a series changed since would be graded as
+    another run than compare's)."""
+    from tissuebench.workflows.grading import series_files
+
+    again = "grade the run again with tissuebench compare (with --force)"
+    inputs = summary.get("inputs")
+    cand = inputs.get("candidate") if isinstance(inputs, dict) else None
+    recorded = cand.get("files") if isinstance(cand, dict) else None
+    if not found or not isinstance(recorded, dict) or not recorded:
+        return f"its summary.json records no series file with its hashes: {again}"
+    path = Path(found["series"])
+    shown = one_line(path)[:200]
+    try:
+        if path.is_symlink():
+            return (
+                f"its series {shown} is a symbolic link, which the leaderboard does not follow: "
+                f"put the series file itself there and {again}"
+            )
+        if not path.is_file():
+            return (
+                f"its series {shown} is not on this machine, and nothing of the folder is "
+                "believed without grading it: put the series there, or grade it with "
+                "tissuebench compare on this machine"
+            )
+        stem = path.name.split(".")[0]
+        for p in path.parent.iterdir():
+            if p.name.startswith((f"{stem}.", f"{stem}_")) and p.is_symlink():
+                return (
+                    f"its series' file {one_line(p)[:200]} is a symbolic link, which the "
+                    f"leaderboard does not follow: put the file itself there and {again}"
+                )
+        now = series_files(path)
+    except OSError as exc:
+        return f"its series {shown} cannot be read ({type(exc).__name__}: {one_line(exc)[:120]})"
+    if now != recorded:
+        changed = sorted(
+            n for n in {*now, *recorded} if now.get(n) != recorded.get(n) and isinstance(n, str)
+        )
+        named = ", ".join(one_line(n)[:60] for n in changed[:3]) + (
+            f" and {len(changed) - 3} more" if len(changed) > 3 else ""
+        )
+        return (
+            f"its series {shown} is not the one compare graded ({named} changed, added or gone "
+            f"since: the hashes summary.json records differ): {again}"
+        )
+    found["series_hash"] = series_hash(now)
+    return None
+
+
 def edited(folder: Path) -> str | None:
-    """Why a compare folder's numbers are not compare's (None: they are): a file of it changed
+    """Why a compare folder is not as compare wrote it (None: it is): a file of it changed
     since compare wrote it (its manifest, output.MANIFEST, holds another hash: compare itself
     refuses such a folder), or no manifest to check it against. A file added beside them
-    changes no number and is let be."""
+    changes nothing read and is let be. The manifest is a guard against accidents (a file
+    edited by hand, a copy cut short), not a signature: anyone can compute it again, so the
+    leaderboard takes no number from the folder and grades its series itself."""
     found = changes(folder)
     again = "move the folder away and grade the run again with tissuebench compare"
     if found is None:

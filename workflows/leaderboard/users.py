@@ -1,6 +1,7 @@
 """The users' compare folders of every case (OUT/leaderboard/CASE/user/NAME): read and checked
-(workflows/leaderboard/rows.py's user_rows), each against its own manifest; what is left out is
-said in one line."""
+(workflows/leaderboard/rows.py's user_rows: its case, its manifest, which guards against
+accidents and is no signature, its links, its series' hashes); what is left out is said in one
+line. No number is taken from a folder: grading.py grades each row's series."""
 
 from __future__ import annotations
 
@@ -40,11 +41,10 @@ def warn(line: str) -> None:
 
 
 def user_key(row: Row) -> str:
-    """What makes a user's row the same run graded the same way: case, label, series, field,
-    same-mesh grades and wall time."""
-    return json.dumps(
-        [row.case, row.label, row.series, row.series_field, row.errors, row.wall_time_s]
-    )
+    """What makes a user's row's grades the same: its case, its series by content hash
+    (rows.series_hash: the files themselves, wherever they are) and the field read. The label
+    and wall time are the folder's, read again each time; no grade is."""
+    return json.dumps([row.case, row.series_hash, row.series_field])
 
 
 class Progress:
