@@ -85,9 +85,9 @@ def markdown(
             f"Truth: own E_i max {fmt(own['interior_error_max'])} m^2 (space "
             f"{fmt(own['space'])}, time {fmt(own['time'])}); its needle force's own error "
             f"{fmt(force.own_error)} (against the next coarser level {fmt(force.parts['space'])}, "
-            f"the half step {fmt(force.parts['time'])}, ten times the penalty "
-            f"{fmt(force.parts.get('penalty'))}); largest force {fmt(largest)} N/m. "
-            + penalty_words(truth),
+            f"the half step {fmt(force.parts.get('time'))}, ten times the penalty "
+            f"{fmt(force.parts.get('penalty'))}; a dash: not measured); largest force "
+            f"{fmt(largest)} N/m. " + penalty_words(truth),
             "",
             "| run | N | kappa | status | sub-steps | E_i max (m^2) | E_i mean (m^2) "
             "| force error | interpenetration (m) | cost (s/s) |",
