@@ -11,6 +11,7 @@ A case without its truth is named with the command that computes it.
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -67,12 +68,17 @@ def main(args: argparse.Namespace) -> int:
     truths: dict = {}
     rows: list[dict] = []
     missing: list[str] = []
+    unconverged: list[str] = []
     files: dict[Path, Callable[[Path], None]] = {}
     for case in cases:
         if not args.quick and not is_cached(case, comm=comm):
             missing.append(case)
             continue
         truth = truth_samples(case, args.quick, comm, log=say)
+        own = truth.own_error.get("interior_error_max") if truth is not None else None
+        if not comm.bcast(own is not None and math.isfinite(own), root=0):
+            unconverged.append(case)  # its levels do not converge: nothing is graded on it
+            continue
         force = study.truth_force(truth) if truth is not None else None
         folders = study.run_study(case, out / "runs", comm, log=say, quick=args.quick)
         for folder in folders:
@@ -98,7 +104,7 @@ def main(args: argparse.Namespace) -> int:
         )
 
     def write_md(tmp: Path) -> None:
-        tmp.write_text(report.markdown(rows, truths, missing) + "\n")
+        tmp.write_text(report.markdown(rows, truths, missing, unconverged) + "\n")
 
     def write_csv(tmp: Path) -> None:
         write_table(tmp, report.COLUMNS, [[r[k] for k in report.COLUMNS] for r in rows])
@@ -110,5 +116,7 @@ def main(args: argparse.Namespace) -> int:
     if comm.rank == 0:
         for case in missing:
             print(f"{case}: its truth is not computed; run `tissuebench truth {case}` first")
+        for case in unconverged:
+            print(f"{case}: its truth's levels do not converge (truth.md): not graded")
         print(f"wrote {out / 'contact.md'} ({len(rows)} runs graded)")
     return 0

@@ -5,6 +5,7 @@ contact pressure along the edge."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -57,7 +58,10 @@ def penalty_words(truth: TruthSamples) -> str:
 
 
 def markdown(
-    rows: list[dict], truths: dict[str, tuple[TruthSamples, TruthForce]], missing: list[str]
+    rows: list[dict],
+    truths: dict[str, tuple[TruthSamples, TruthForce]],
+    missing: list[str],
+    unconverged: Sequence[str] = (),
 ) -> str:
     """contact.md: per contact case, the truth's own errors, then every run's row."""
     lines = [
@@ -110,6 +114,14 @@ def markdown(
         ]
     for case in missing:
         lines += [f"## {case}", "", f"Its truth is not computed: `tissuebench truth {case}`.", ""]
+    for case in unconverged:
+        lines += [
+            f"## {case}",
+            "",
+            "Its truth's levels do not converge (truth.md: the E_i between levels grows with "
+            "refinement), so nothing is graded against it.",
+            "",
+        ]
     return "\n".join(lines)
 
 
