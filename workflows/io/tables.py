@@ -134,6 +134,37 @@ def write_contact_csv(path: Path, times: np.ndarray, contacts: dict[str, np.ndar
                 writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in rows[i])])
 
 
+FORCE_COLUMNS = ("time", "force_x", "force_y")  # a candidate's needle force (SPEC 12)
+
+
+def write_force_csv(path: Path, times: np.ndarray, force: np.ndarray) -> None:
+    """A needle force series as a candidate hands it to compare (`--needle-force`, SPEC 12):
+    columns time (s), force_x and force_y (N/m: the force per unit thickness that the tissue
+    exerts on the needle), one row per step; times (steps,), force (steps, 2)."""
+    force = np.asarray(force, dtype=float).reshape(len(times), 2)
+    with _staged(path) as f:
+        writer = _writer(f)
+        writer.writerow(FORCE_COLUMNS)
+        for t, (fx, fy) in zip(times, force, strict=True):
+            writer.writerow([repr(float(t)), repr(float(fx)), repr(float(fy))])
+
+
+def read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """A needle force series written as write_force_csv says: (times (steps,) in s, force
+    (steps, 2) in N/m). ValueError, in one line, for a file without those columns or with a
+    cell that is not a finite number."""
+    rows = read_rows(path)
+    if not rows or any(c not in rows[0] for c in FORCE_COLUMNS):
+        raise ValueError(f"{path}: a needle force needs the columns {', '.join(FORCE_COLUMNS)}")
+    try:
+        table = np.array([[float(r[c] or "nan") for c in FORCE_COLUMNS] for r in rows])
+    except ValueError as err:
+        raise ValueError(f"{path}: a needle force cell is not a number ({err})") from None
+    if not np.isfinite(table).all():
+        raise ValueError(f"{path}: a needle force cell is empty or not finite")
+    return table[:, 0], table[:, 1:]
+
+
 def _cell(x: object) -> object:
     """A CSV cell: empty for None or NaN."""
     return "" if x is None or (isinstance(x, float) and x != x) else x

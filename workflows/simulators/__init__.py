@@ -53,7 +53,8 @@ class ExternalRun:
     unknowns of its mesh (nodes x dimension); `mesh`: "reference" when it runs on the
     exported nodes and cells, else a few words on its own mesh ("tetrahedra, 6 per hex");
     `status`: "ok" or "failed"; `reason`: why it failed, one line; `version`: the
-    simulator's version."""
+    simulator's version; `force`: on a contact benchmark (SPEC 12), the needle force the
+    simulator reports, as io/tables.py's write_force_csv writes it (None: it reports none)."""
 
     series: Path | None
     wall_time_s: float | None
@@ -64,6 +65,7 @@ class ExternalRun:
     reason: str | None = None
     timing: str = ""
     version: str = ""
+    force: Path | None = None
 
 
 def get_simulator(name: str) -> ModuleType:
