@@ -6,8 +6,10 @@ rule with consistent mass), its cases on the benchmarks, and its own error from 
   TruthRun (the displacement history as owned dof values of the Q2 space, and the probe).
 - cases.py: the SPEC 10 cases on the benchmarks' grids (the block's graded toward the needle).
 - estimate.py: E_i between levels and time steps; estimate_error(): order and own error.
+- fallbacks.py: the cases taken where a case does not converge (SPEC 10, 12), registered.
 """
 
+from tissuebench.solvers.truth import fallbacks  # noqa: F401  (registers its cases)
 from tissuebench.solvers.truth.cases import (
     CASES,
     benchmark_problem,

@@ -252,6 +252,13 @@ def penalty_words(h: dict, own: dict, units: str) -> str:
         )
     diff = max(h["penalty_difference"])
     holds = "under" if diff < own["interior_error_max"] / 10 else "not under"
+    if "penalty_step" in h:  # at the half step, against the finest level's own half step
+        return (
+            f"Contact: the finest level at the half step ({fmt(h['penalty_step'])} s) with 10 "
+            f"times the penalty differs from it with the truth's penalty by E_i max {fmt(diff)} "
+            f"{units}, {holds} a tenth of its own error (SPEC 12's limit of the penalty; at the "
+            "step h itself Newton cycles between active sets with 10 times the penalty)."
+        )
     return (
         f"Contact: the finest level again with 10 times the penalty differs from it by E_i max "
         f"{fmt(diff)} {units}, {holds} a tenth of its own error (SPEC 12's limit of the penalty)."
