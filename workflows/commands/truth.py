@@ -45,6 +45,7 @@ from tissuebench.solvers.truth.cases import (
     STEP_DIVISOR,
 )
 from tissuebench.solvers.truth.estimate import estimate_error
+from tissuebench.solvers.truth.fallbacks import FALLBACKS
 from tissuebench.solvers.truth.store import (
     MEASURED_STEP_SECONDS,
     QUICK_STEPS,
@@ -60,6 +61,7 @@ from tissuebench.solvers.truth.store import (
 )
 from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_set
+from tissuebench.workflows.reports.crease import FOLDED, crease_figures
 from tissuebench.workflows.truth_jobs import compute_in_parallel
 
 if TYPE_CHECKING:
@@ -70,6 +72,9 @@ MARKER = "# The truth (SPEC 10)"
 QUICK_NOTE = " (quick check, not the truth)"
 COLUMNS = ["case", "level", "dofs", "time", "u_x", "u_y", "u_z"]
 TIP_TIMES = (1.0, 5.0, 10.0)  # s: the tip times shown in truth.md
+
+
+CREASE = "crease"  # OUT/crease/: the figures of a truth that folds (reports/crease.py)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -212,6 +217,28 @@ def jacobian_lines(case: str, h: dict, diffs: list) -> list[str]:
     ]
 
 
+def crease_lines(crease: dict) -> list[str]:
+    """The fold's figures and what they show (reports/crease.py)."""
+    least = crease["least_corner_J"]
+    inverted = (
+        ": an inverted corner of the trilinear interpolant, where the Q2 field's quadrature "
+        "points still have J > 0"
+        if least <= 0
+        else ""
+    )
+    return [
+        f"The crease (SPEC 10): the smallest J of each level against time, and the finest "
+        f"grid at t = {crease['t']:.3g} s with its cells coloured by their smallest corner J "
+        f"(from the displacement at the grid's vertices, trilinear): {crease['cells']} cells "
+        f"below {FOLDED:g}, the least {least:.3g}{inverted}.",
+        "",
+        f"![smallest J against time]({crease['J']})",
+        "",
+        f"![the folded cells]({crease['folded']})",
+        "",
+    ]
+
+
 def quick_levels() -> str:
     """The quick levels of each benchmark with truth cases, in words: "rod n = 1, 2, 4, ..."."""
     from tissuebench.meshes import get_entry
@@ -287,7 +314,19 @@ def time_words(h: dict, div: int) -> str:
 def case_line(case: str) -> str:
     benchmark, material, model, scale, width = CASES[case]
     needle = f", needle width w = {width} m" if width is not None else ""
-    return f"{benchmark}, {material}, {model}, load scale s = {scale}{needle}"
+    line = f"{benchmark}, {material}, {model}, load scale s = {scale}{needle}"
+    if case in FALLBACKS:  # SPEC 10/12: taken where its own case does not converge
+        line += f"; the fallback of {FALLBACKS[case][0]}, whose levels do not converge (SPEC 12)"
+    return line
+
+
+def fallback_words(case: str) -> list[str]:
+    """The cases taken in place of a case that does not converge (solvers/truth/fallbacks.py),
+    in a line, or none."""
+    taken = [f"{c} (s = {scale:g})" for c, (source, scale) in FALLBACKS.items() if source == case]
+    if not taken:
+        return []
+    return [f"SPEC 12 takes it at a smaller load instead: {', '.join(taken)}, below.", ""]
 
 
 def section(case: str, s: dict | None, quick: bool) -> list[str]:
@@ -383,8 +422,11 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
             "and this truth is not one yet (the leaderboard grades nothing against it).",
             "",
         ]
+        lines += fallback_words(case)
     if jac:
         lines += jacobian_lines(case, h, diffs)
+    if s.get("crease"):
+        lines += crease_lines(s["crease"])
     if not own["meets_target"] and all(math.isfinite(x) for x in (space, step)):
         larger = "space (the levels)" if space >= step else f"time (the step against {half})"
         lines += [
@@ -538,6 +580,8 @@ def main(args: argparse.Namespace) -> int:
             samples = load_cached(case, args.quick, comm)
         if samples is not None:
             summaries[case] = summary(samples)
+            if not args.quick and comm.rank == 0:  # SPEC 10: a fold is a finding, drawn
+                summaries[case]["crease"] = crease_figures(samples, out / CREASE)
             path = cache_path(case, args.quick)
             summaries[case]["cached_at"] = path.stat().st_mtime if path.is_file() else None
             if case in cases:
