@@ -47,3 +47,14 @@ def test_quick_contact_study(tmp_path: Path):
     assert e_i[("quasi-static", 8, 10.0)] == max(e_i[(a, n, k)] for a, n, k in e_i if n == 8)
     assert all(np.isfinite(float(r["force_error"])) for r in rows)
     assert all(r["status"] == "ok" for r in rows)
+    # SPEC 12's check of the truth's penalty, made at the half step (store.penalty_check): it
+    # ran through, and the 10 k run lies nearer the truth's own half step than the two finest
+    # levels lie to each other (the penalty is not what the truth's error is made of)
+    from tissuebench.solvers.truth.store import load_cached
+
+    truth = load_cached("contact-MP1", quick=True)
+    assert truth is not None
+    h = truth.hierarchy
+    assert "penalty_failed" not in h
+    assert h["penalty_step"] == pytest.approx(h["h"] / 2)
+    assert max(h["penalty_difference"]) < max(h["level_differences"][-1]) / 5
