@@ -23,6 +23,9 @@ How it is posed (SPEC sections 1-3):
   factorisation kept across steps; SfePy's reduced ("active only") vectors, so that the
   constrained values enter the free equations as known terms.
 
+The contact benchmark (SPEC 12: an export with a `contact` block) is posed with SfePy's rigid
+contact terms by sfepy_contact.py, to which variants, skipped and run hand it (CONTACT).
+
 Run, the displacement at every t_i goes to WORKDIR/sfepy.xdmf; a run stops at its first step
 with a non-finite displacement or one beyond 100 times the domain's extent (SPEC section 3)
 and writes NaN there (compare marks that step as its divergence).
@@ -55,6 +58,7 @@ SERIES = "sfepy.xdmf"
 FIELD = "displacement"
 TIMING = "SfePy problem setup and time loop, in process"
 DIVERGENCE_FACTOR = 100.0  # SPEC section 3: a displacement beyond 100 x the extent diverges
+CONTACT = True  # poses the contact benchmark (SPEC 12), in sfepy_contact.py
 
 # variant -> (SfePy time stepper, its parameters, mass, one line of what it is)
 VARIANTS: dict[str, tuple[str, dict[str, float | None], str, str]] = {
@@ -117,7 +121,12 @@ def available() -> str | None:
 
 def variants(data: Exported) -> dict[str, str]:
     """The variants that pose the export faithfully: every SfePy elastodynamics stepper for a
-    dynamic export of the linear model; none for the static procedure or another model."""
+    dynamic export of the linear model; none for the static procedure or another model. A
+    contact export: sfepy_contact.py's."""
+    if data.contact is not None:
+        from tissuebench.workflows.simulators import sfepy_contact
+
+        return sfepy_contact.variants(data)
     if data.model != "linear" or data.procedure != "dynamic":
         return {}
     plane = f", plane {data.plane or 'strain'}" if data.dim == 2 else ""
@@ -127,6 +136,10 @@ def variants(data: Exported) -> dict[str, str]:
 
 def skipped(data: Exported) -> dict[str, str]:
     """Variants that cannot pose this export, with why ({"all": why} when none can)."""
+    if data.contact is not None:
+        from tissuebench.workflows.simulators import sfepy_contact
+
+        return sfepy_contact.skipped(data)
     if data.model != "linear":
         return {"all": f"the {data.model} model is not posed in SfePy here (linear only)"}
     if data.procedure != "dynamic":
@@ -398,6 +411,10 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     reason; wall_time_s (s) covers SfePy's problem setup and time loop."""
     from tissuebench.workflows.io.xdmf import write_series
 
+    if data.contact is not None:
+        from tissuebench.workflows.simulators import sfepy_contact
+
+        return sfepy_contact.run(data, variant, workdir)
     if variant not in VARIANTS:
         raise ValueError(f"unknown SfePy variant {variant!r}: use one of {', '.join(VARIANTS)}")
     if not variants(data):
