@@ -45,6 +45,7 @@ from dolfinx.io.utils import cell_perm_vtk
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
+from tissuebench.core.speed import scaled
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, STEP_DIVISOR, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
@@ -108,13 +109,15 @@ def levels_of(case: str, quick: bool = False) -> tuple[int, ...]:
 
 
 def expected_seconds(case: str, quick: bool = False) -> float:
-    """About how long the first computation of a case takes here, s (one rank): a case not
-    measured (a benchmark registered from elsewhere) takes ten times its quick estimate."""
+    """About how long the first computation of a case takes here, s (one rank): its time
+    measured on the quiet machine of EXPECTED_SECONDS scaled by this machine's speed and load
+    now (core/speed.py); a case not measured (a benchmark registered from elsewhere) takes ten
+    times its quick estimate."""
     from tissuebench.meshes import get_entry
 
     factor = 5.0 if CASES[case][2] in VOLUMETRIC else 1.0  # neo-Hookean: about x 5
     quick_seconds = get_entry(CASES[case][0]).quick_truth_seconds * factor
-    return quick_seconds if quick else EXPECTED_SECONDS.get(case, 10 * quick_seconds)
+    return scaled(quick_seconds if quick else EXPECTED_SECONDS.get(case, 10 * quick_seconds))
 
 
 def _versions() -> dict:

@@ -1,0 +1,50 @@
+"""How fast this machine does tissuebench's kind of work now, against the machine its time
+estimates were measured on: a probe of about 0.1 s (a sparse LU factorisation and solve, one
+thread, as the truth's steps are) timed at first use, so that every "about N s" scales with the
+machine's speed and its load at the time (issue: estimates that hold under load).
+
+The probe's CPU time on the machine of the estimates (a quiet 2-core machine, one core for the
+probe) is REFERENCE_SECONDS; its wall time here, best of three, over that is `slowdown()`. On a
+machine loaded to twice its cores the probe shares its core and takes about twice as long, as
+the truth's computation will."""
+
+from __future__ import annotations
+
+import time
+from functools import cache
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+REFERENCE_SECONDS = 0.04  # s: probe()'s CPU time (best of 15) on the machine of the estimates
+GRID = 120  # the probe's 2D Laplacian: GRID^2 unknowns
+
+
+def probe() -> tuple[float, float]:
+    """(wall, CPU) seconds of one probe, best of three: factorise the 5-point Laplacian of a
+    GRID x GRID grid (SuperLU, one thread) and solve with it."""
+    one = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(GRID, GRID))
+    eye = sp.identity(GRID)
+    matrix = (sp.kron(one, eye) + sp.kron(eye, one)).tocsc()
+    rhs = np.ones(GRID * GRID)
+    best = (float("inf"), float("inf"))
+    for _ in range(3):
+        wall, cpu = time.perf_counter(), time.process_time()
+        spla.splu(matrix).solve(rhs)
+        best = min(best, (time.perf_counter() - wall, time.process_time() - cpu))
+    return best
+
+
+@cache
+def slowdown() -> float:
+    """This machine's time for the probe now over REFERENCE_SECONDS (1: as fast as where the
+    estimates were measured; 2: half as fast, or loaded so that a core is shared), at least
+    0.25; measured once a process."""
+    wall, _ = probe()
+    return max(wall / REFERENCE_SECONDS, 0.25)
+
+
+def scaled(seconds: float) -> float:
+    """An estimate measured on the reference machine (s), for this machine now (s)."""
+    return seconds * slowdown()
