@@ -232,7 +232,8 @@ def add_scheme_options(p: argparse.ArgumentParser) -> None:
         "--scheme",
         default="standard",
         metavar="NAME[:KEY=VALUE,...]",
-        help=f"the element's stiffness (SPEC 11, linear model only): {described}",
+        help=f"the element's stiffness (SPEC 11; with the linear model, and mean-dilatation also "
+        f"with a nonlinear model under the explicit algorithms, as F-bar): {described}",
     )
     p.add_argument(
         "--substeps",
