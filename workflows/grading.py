@@ -35,6 +35,13 @@ from tissuebench.metrics.compare import Grading, grade_series, metric_units, sum
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
+from tissuebench.workflows.contact.grading import (
+    CONTACT_METRICS,
+    ContactGrades,
+    ContactReference,
+    force_columns,
+    is_contact_benchmark,
+)
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import RunFolder, collective, file_hash
@@ -130,6 +137,8 @@ def compare(
     wall_time: float | str | None = None,
     force: bool = False,
     folder_of_ours: bool = False,
+    needle_force: str | Path | None = None,
+    contact: ContactReference | None = None,
 ) -> dict[str, str]:
     """Grade the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
     .dat), write out_dir/metrics.csv, metrics.png and summary.json, and return the one-line
@@ -143,24 +152,49 @@ def compare(
     `folder_of_ours` writes straight into a folder that the caller is writing already (an
     external simulator's variant inside its own partial folder). A reference `truth:CASE` is
     SPEC 10's truth of that case (computed or loaded by solvers/truth/store.py; graded by
-    metrics/truth.py; summary.json gets a "truth" entry: case, own error, timings)."""
+    metrics/truth.py; summary.json gets a "truth" entry: case, own error, timings).
+
+    A contact reference (SPEC 12: a truth, run folder or export of the benchmark "contact", or
+    `contact` given, as the external runner gives its export's) grades the candidate's
+    interpenetration too and, with `needle_force` (the candidate's force file), its force
+    error (workflows/contact/grading.py); `needle_force` against any other reference is
+    refused in one line."""
     check_label(label, candidate)
     wall = check_wall_time(wall_time)
     case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
+    in_contact = contact is not None or comm.bcast(
+        is_contact_benchmark(reference_benchmark(reference, case)) if comm.rank == 0 else None
+    )
+    if needle_force is not None and not in_contact:
+        raise GradingError(
+            "--needle-force is for a contact reference (SPEC 12: the benchmark contact, or "
+            f"truth:contact-...); {reference} is not one: leave --needle-force out"
+        )
     truth = None
 
     def grading() -> Grading:  # against the reference's file, or the truth
         if case is not None:
-            return grade_against_truth(truth, candidate, candidate_field or field, comm, label)
-        return grade(
-            reference,
-            candidate,
-            field,
-            comm,
-            reference_field=reference_field,
-            candidate_field=candidate_field,
-            label=label,
-        )
+            g = grade_against_truth(
+                truth, candidate, candidate_field or field, comm, label, keep=in_contact
+            )
+        else:
+            g = grade(
+                reference,
+                candidate,
+                field,
+                comm,
+                reference_field=reference_field,
+                candidate_field=candidate_field,
+                label=label,
+                keep=in_contact,
+            )
+        if in_contact:
+            grades = collective(
+                comm, lambda: contact_grades(g, reference, truth, contact, needle_force)
+            )
+            setattr(g, "contact", grades)
+            g.summaries.update(grades.summaries())
+        return g
 
     if folder_of_ours:
         truth = load_truth(case, comm) if case is not None else None
@@ -173,7 +207,15 @@ def compare(
         inputs = collective(
             comm,
             lambda: compare_inputs(
-                reference, candidate, field, reference_field, candidate_field, label, wall, truth
+                reference,
+                candidate,
+                field,
+                reference_field,
+                candidate_field,
+                label,
+                wall,
+                truth,
+                needle_force,
             ),
         )
         if folder.prepare(inputs, force) == "complete":
@@ -205,17 +247,32 @@ def series_files(path: Path) -> dict[str, str]:
 
 
 def compare_inputs(
-    reference, candidate, field, reference_field, candidate_field, label, wall, truth=None
+    reference,
+    candidate,
+    field,
+    reference_field,
+    candidate_field,
+    label,
+    wall,
+    truth=None,
+    needle_force=None,
 ):
     """Every input that changes a compare folder's numbers (rank 0: it reads the files); for a
-    truth (rank 0's TruthSamples), its case and the fingerprint of its inputs."""
+    truth (rank 0's TruthSamples), its case and the fingerprint of its inputs; the candidate's
+    needle force file when given (absent otherwise, so that other folders keep their
+    fingerprint)."""
     from importlib.metadata import version
 
     if truth is not None:
         ref = {"truth": truth.case, "fingerprint": fingerprint(truth.inputs)}
     else:
         ref = {"file": str(Path(reference).resolve()), "files": series_files(reference)}
+    given = {}
+    if needle_force is not None:
+        path = Path(needle_force)
+        given = {"needle_force": {"file": str(path.resolve()), "sha256": file_hash(path)}}
     return {
+        **given,
         "command": "compare",
         "reference": ref,
         "candidate": {"file": str(Path(candidate).resolve()), "files": series_files(candidate)},
@@ -276,6 +333,21 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
     steps = len(times) - 1
     dim = (getattr(g, "candidate_mesh", None) or {}).get("dimension")
     truth = {"truth": g.summary()} if isinstance(g, TruthGrading) else {}
+    metrics = metric_units(dim)
+    grades = getattr(g, "contact", None)
+    contact = {}
+    if grades is not None:  # SPEC 12: a contact reference's two readings (absent otherwise)
+        entry.update(grades.entry())
+        metrics = {**metrics, **CONTACT_METRICS}
+        contact = {
+            "contact": {
+                **grades.entry(),
+                "force_given": grades.force is not None,
+                "force_reference": grades.force_source,
+                "reference_force_own_error": grades.own_error,
+                "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},
+            }
+        }
     return {
         "kind": "compare",
         "schema_version": SCHEMA_VERSION,
@@ -298,13 +370,14 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
         "h": float(times[1] - times[0]) if steps else None,
         "steps": steps,
         "end_time": float(times[-1]),
-        "metrics": metric_units(dim),
+        "metrics": metrics,
         "reference_diverged_step": g.reference_diverged,
         "reference_diverged_reason": g.reference_reason,
         "runs": {g.label: entry},
         "versions": {"tissuebench": version("tissuebench")},
         "files": ["metrics.csv", "metrics.png", SUMMARY],
         **truth,  # type: ignore[typeddict-item]
+        **contact,  # type: ignore[typeddict-item]
     }
 
 
@@ -315,7 +388,11 @@ def write_grading(out: Path, g: Grading, summary: CompareSummary) -> None:
     final = [out / "metrics.csv", out / "metrics.png", out / SUMMARY]
     temporary = [p.with_name(f".{p.name}.{os.getpid()}.tmp") for p in final]
     try:
-        write_metrics_csv(temporary[0], g.times, {g.label: g.curves}, {g.label: g.status})
+        grades = getattr(g, "contact", None)
+        extra = None if grades is None else {g.label: force_columns(grades, len(g.times))}
+        write_metrics_csv(
+            temporary[0], g.times, {g.label: g.curves}, {g.label: g.status}, extra=extra
+        )
         plot(temporary[1], g.title, g.times, g.curves)
         temporary[2].write_text(dumps(summary))
         for tmp, path in zip(temporary, final, strict=True):
@@ -360,6 +437,7 @@ def grade(
     reference_field: str | None = None,
     candidate_field: str | None = None,
     label: str | None = None,
+    keep: bool = False,
 ) -> Grading:
     """Measure the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
     .dat files). The point field of each side is `reference_field` / `candidate_field`, else
@@ -370,7 +448,8 @@ def grade(
     on another mesh of the reference's body (triangles, quadrilaterals, tetrahedra or
     hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
     `label` names the candidate (default: its file name without suffix). Collective over
-    comm; the same Grading on every rank.
+    comm; the same Grading on every rank. `keep`: rank 0's Grading keeps the candidate series
+    read (`candidate_series`).
 
     Raises InputError on every rank for unreadable files, meshes of different dimensions or
     bodies, time stamps that do not match, degenerate cells, a mesh boundary that touches
@@ -384,6 +463,8 @@ def grade(
     if comm.rank == 0:  # rank 0 writes the summary (its attributes beyond Grading's: getattr)
         setattr(g, "reference_fingerprint", reference_fingerprint(reference, ref))
         setattr(g, "candidate_mesh", mesh_of(cand))
+        if keep:
+            setattr(g, "candidate_series", cand)
     return g
 
 
@@ -393,18 +474,68 @@ def grade_against_truth(
     field: str | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
     label: str | None = None,
+    keep: bool = False,
 ) -> TruthGrading:
     """Read the candidate series file (XDMF, PVD, CalculiX .frd or .dat; point field `field`,
     else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
     truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
-    and for an unreadable file."""
+    and for an unreadable file. `keep` as grade's."""
     (cand,) = read_on_rank0(comm, (candidate, field))
     g = grade_truth(truth, cand, comm, label=label)
     if comm.rank == 0:  # rank 0 writes the summary (its attributes beyond Grading's: getattr)
         assert truth is not None  # rank 0's
         setattr(g, "reference_fingerprint", truth_fingerprint(truth.case))
         setattr(g, "candidate_mesh", mesh_of(cand))
+        if keep:
+            setattr(g, "candidate_series", cand)
     return g
+
+
+# --- a contact reference (SPEC 12) ----------------------------------------------------------
+
+
+def reference_benchmark(reference: str | Path, case: str | None) -> str | None:
+    """The benchmark the reference poses, as far as it can be told before reading its series:
+    the truth case's, or its folder's (folder_fingerprint); None when unknown."""
+    if case is not None:
+        from tissuebench.solvers.truth.cases import CASES
+
+        return CASES[case][0] if case in CASES else None
+    try:
+        return folder_fingerprint(Path(reference)).get("benchmark")
+    except Exception:  # anything a file can hold: the folder says nothing
+        return None
+
+
+def contact_grades(
+    g: Grading,
+    reference: str | Path,
+    truth: TruthSamples | None,
+    contact: ContactReference | None,
+    needle_force: str | Path | None,
+) -> ContactGrades:
+    """The candidate's contact readings (rank 0: its Grading keeps the candidate's series)
+    against the contact reference: `contact` when given, else the truth's, else the reference
+    folder's (workflows/contact/grading.py)."""
+    from tissuebench.workflows.contact.grading import (
+        file_reference,
+        grade_contact,
+        truth_reference,
+    )
+
+    if contact is None:
+        if truth is not None:
+            contact = truth_reference(truth)
+        else:
+            contact = file_reference(Path(reference), getattr(g, "reference_fingerprint", {}))
+    grades = grade_contact(
+        getattr(g, "candidate_series"),
+        g.times,
+        contact,
+        None if needle_force is None else Path(needle_force),
+    )
+    delattr(g, "candidate_series")  # read once, graded: not kept with the summary
+    return grades
 
 
 # --- what was graded against what ---------------------------------------------------------------
