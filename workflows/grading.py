@@ -162,8 +162,11 @@ def compare(
     check_label(label, candidate)
     wall = check_wall_time(wall_time)
     case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
-    in_contact = contact is not None or comm.bcast(
-        is_contact_benchmark(reference_benchmark(reference, case)) if comm.rank == 0 else None
+    in_contact = comm.bcast(  # rank 0's `contact` (the external runner gives it there)
+        (contact is not None or is_contact_benchmark(reference_benchmark(reference, case)))
+        if comm.rank == 0
+        else None,
+        root=0,
     )
     if needle_force is not None and not in_contact:
         raise GradingError(
@@ -343,6 +346,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
             "contact": {
                 **grades.entry(),
                 "force_given": grades.force is not None,
+                "force_file": grades.force_file,
                 "force_reference": grades.force_source,
                 "reference_force_own_error": grades.own_error,
                 "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},

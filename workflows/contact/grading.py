@@ -80,6 +80,7 @@ class ContactGrades:
     interpenetration_max: float
     force_source: str
     own_error: float | None = None  # the reference force's own relative error (a truth's)
+    force_file: str | None = None  # the candidate's force file, absolute (None: not given)
 
     def summaries(self) -> dict[str, str]:
         """One line each: the interpenetration, and the force error or why it is not given."""
@@ -230,7 +231,8 @@ def grade_contact(
     source = reference.source if reference.force is not None else "no force of the reference"
     finite = curve[np.isfinite(curve)]
     peak = float(finite.max()) if len(finite) else float("nan")
-    return ContactGrades(curve, force, error, peak, source, reference.own_error)
+    given = None if needle_force is None else str(Path(needle_force).resolve())
+    return ContactGrades(curve, force, error, peak, source, reference.own_error, given)
 
 
 def force_columns(grades: ContactGrades, steps: int) -> dict[str, np.ndarray]:

@@ -97,6 +97,11 @@ class Row:
     budget: dict = field(default_factory=dict)  # the error budget (SPEC 10): workflows/leaderboard
     # a user's row: the SHA-256 of its series' files (series_hash), which its grades are of
     series_hash: str | None = None
+    # a contact case's row (SPEC 12; {} on other cases): "force_error" (dimensionless) and
+    # "interpenetration_max" (m), numbers or None, and "force_error_how" (words: against what,
+    # or why none)
+    contact: dict = field(default_factory=dict)
+    force: str | None = None  # a contact case's row: its needle force file (write_force_csv)
 
     @property
     def cost(self) -> float | None:
@@ -809,11 +814,19 @@ def fmt(x: float | None, spec: str = ".3g") -> str:
     return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
 
 
+CONTACT_KEYS = ("force_error", "interpenetration_max")  # a contact case's row's columns
+
+
 def write_csv(path: Path, rows: list[Row]) -> None:
+    """leaderboard.csv: every row; with the contact columns (CONTACT_KEYS, then how the force
+    was graded) at the end only when a row of a contact case is among them, empty for the
+    others."""
+    contact = any(r.contact for r in rows)
     names = ["case", "label", "source", "description", "mesh", "dofs", "status", "reason"]
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
     names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
+    names += [*CONTACT_KEYS, "force_error_how"] if contact else []
     write_table(
         path,
         names,
@@ -824,6 +837,14 @@ def write_csv(path: Path, rows: list[Row]) -> None:
             + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
             + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
             + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
+            + (contact_cells(r) if contact else [])
             for r in rows
         ),
     )
+
+
+def contact_cells(r: Row) -> list[str]:
+    """A row's contact cells in leaderboard.csv: force error, interpenetration (m), how the
+    force was graded (empty for a row of another case)."""
+    values = ["" if r.contact.get(k) is None else repr(r.contact[k]) for k in CONTACT_KEYS]
+    return values + [r.contact.get("force_error_how") or ""]
