@@ -11,6 +11,12 @@ leaderboard finds its series from any working folder), `notes` (how the series w
 E_i in m^d) and `runs` {label: {status, diverged_step, diverged_time, steps, wall_time_s,
 <metric>_max, <metric>_mean for every metric}}; the candidate's label and wall time are
 `--label` and `--wall-time` (the run's total wall seconds, setup included).
+Against a contact reference (SPEC 12: workflows/contact/grading.py) summary.json also has
+`contact` {force_error (1; null without --needle-force), interpenetration_max (m), force_given,
+force_file, force_reference, reference_force_own_error, units}, the run's entry force_error and
+interpenetration_max, `metrics` their symbols and units, and metrics.csv the columns
+interpenetration (m) and, with a force, force_x and force_y (N/m) after the status; other
+references' files are as before.
 `reference.fingerprint` says what the reference is (reference_fingerprint: its benchmark, case,
 options, material, model, h, T, mesh size, nodes and dimension, as its run folder or the
 export beside it says, or the truth case), and `candidate.mesh` the candidate's mesh (mesh_of:
@@ -381,7 +387,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
         "versions": {"tissuebench": version("tissuebench")},
         "files": ["metrics.csv", "metrics.png", SUMMARY],
         **truth,  # type: ignore[typeddict-item]
-        **contact,  # type: ignore[typeddict-item]
+        **contact,
     }
 
 

@@ -12,7 +12,9 @@ file is graded again against the truth's force (impulse-averaged: workflows/cont
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -82,7 +84,7 @@ def our_forces(folder: Path, rows: list[Row], forces: Path) -> None:
         unfinished(row)
 
 
-def external_contact(row: Row, run: dict, force: str | None) -> None:
+def external_contact(row: Row, run: Mapping[str, Any], force: str | None) -> None:
     """A simulator's row: compare's readings of its variant (`run`, its external summary's
     entry) and its force file (None: it handed none)."""
     row.force = force

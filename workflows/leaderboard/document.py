@@ -124,7 +124,7 @@ def case_lines(
 def contact_line(board: Board, rows: list[Row]) -> str:
     """A contact case's line under its table: what its force error is against, and its force
     figure."""
-    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.contact.get("force")})
+    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
     against = "; ".join(md(h) for h in how if h) or "no run handed its needle force"
     return (
         f"Force error (max over the steps of |F - F_ref| / max |F_ref|): {against}. "

@@ -53,7 +53,9 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
             times,
             f[:, 0],
             "-" if ours else "--",
-            lw=1.3 if row.reference else 1.0,
+            lw=2.4 if row.reference else 1.0,
+            zorder=3 if row.reference else 2,  # on top: the others are graded against it
+            alpha=0.75 if row.reference else 1.0,
             color=f"C{k % 10}",
             label=plain(row.label) + (" (reference)" if row.reference else ""),
         )

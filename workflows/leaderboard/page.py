@@ -697,7 +697,7 @@ def contact_cells(contact: dict) -> str:
 
 def contact_note(board: Board, rows: list[Row]) -> str:
     """A contact case's paragraph: what its two columns are, and its force figure."""
-    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.contact.get("force")})
+    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
     against = "; ".join(h for h in how if h) or "no run handed its needle force"
     return (
         '<p class="note">Force error: max over the steps of |F - F_ref| / max |F_ref|, F the '
