@@ -57,8 +57,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=Path,
         help="reference series (.xdmf, .pvd, .frd or .dat), or truth:CASE, the converged "
         "reference of a SPEC 10 case (rod, rod-nh-s1, rod-nhb-s3, rod-MP2, block-MP1-w0.2, "
-        "block-MP2-w0.2, contact-MP1, contact-MP1-nhb, contact-MP2; computed once and cached): the candidate is graded on its own "
-        "mesh at the truth's vertices and quadrature points, and needs every t_i = i h",
+        "block-MP2-w0.2, contact-MP1, contact-MP1-nhb, contact-MP2; computed once and "
+        "cached): the candidate is graded on its own mesh at the truth's vertices and "
+        "quadrature points, and needs every t_i = i h",
     )
     p.add_argument("candidate", type=Path, help="candidate series (.xdmf, .pvd, .frd or .dat)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
