@@ -89,8 +89,11 @@ class ContactGrades:
         if self.force is None:
             lines["force error"] = NOT_GIVEN
         else:
+            n, every = len(self.force), len(self.interpenetration)
+            part = f"steps 0..{n - 1} of 0..{every - 1}, " if n < every else ""
             lines["force error"] = (
-                f"force error force_error: {self.force_error:.6g} (against {self.force_source})"
+                f"force error force_error: {self.force_error:.6g} ({part}against "
+                f"{self.force_source})"
             )
         return lines
 

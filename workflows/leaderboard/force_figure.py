@@ -42,7 +42,10 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
         ax.fill_between(t, fx - band, fx + band, color="0.82", lw=0)
         ax.plot(t, fx, "k-", lw=2.2, label=f"truth {board.truth} (band: its own error)")
     missing = []
-    for k, row in enumerate(r for r in rows if r.force):
+    # ours with the case's model only (every model of ours on a nonlinear case: 25 curves)
+    shown = [r for r in rows if r.force and (r.source != "tissuebench" or of_model(r, board))]
+    others = sum(1 for r in rows if r.force and r not in shown)
+    for k, row in enumerate(shown):
         try:
             times, f = read_force_csv(Path(str(row.force)))
         except (OSError, ValueError):
@@ -69,6 +72,8 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     note = []
     if untold:
         note.append("hand no force: " + ", ".join(plain(x) for x in untold))
+    if others:
+        note.append(f"{others} runs of ours with other models: in leaderboard.csv")
     if missing:
         note.append("force file not found: " + ", ".join(plain(x) for x in missing))
     if note:
@@ -83,3 +88,9 @@ def board_h(board: Board, rows: list[Row]) -> float:
     from tissuebench.meshes import get_entry
 
     return float(get_entry(board.benchmark).dt)
+
+
+def of_model(row: Row, board: Board) -> bool:
+    """Whether a row of ours runs the case's model (its label ALGORITHM, or ALGORITHM+MODEL)."""
+    model = row.label.partition("+")[2] or "linear"
+    return model == board.model
