@@ -109,3 +109,36 @@ def test_a_record_without_contact_rows_has_no_contact_fields(board_out, tmp_path
     assert "contact" not in row_record(row) and "force" not in row_record(row)
     write_csv(tmp_path / "a.csv", [row])
     assert "force_error" not in (tmp_path / "a.csv").read_text()
+
+
+def test_a_users_row_on_a_contact_case(board_out, tmp_path, monkeypatch):
+    """A user's compare of our explicit run, with its force (--needle-force), joins the case:
+    the leaderboard grades its series and force file itself, and gets the explicit row's force
+    error (against our implicit: the case has no truth) and, from the series, the
+    interpenetration our run's Measures recorded."""
+    import shutil
+
+    from tissuebench.workflows.grading import compare
+
+    out = tmp_path / "results"
+    shutil.copytree(board_out, out)
+    case = out / "leaderboard" / "contact-tiny"
+    compare(
+        case / "ours" / "implicit.xdmf",
+        case / "ours" / "explicit.xdmf",
+        case / "user" / "mine",
+        label="mine",
+        wall_time=1.0,
+        needle_force=case / "forces" / "explicit.csv",
+    )
+    monkeypatch.setattr(leaderboard, "BOARDS", leaderboard.read_record(out)[0])
+    args = argparse.Namespace(out=out, solver="direct", petsc="", force=False, rerun=None)
+    assert leaderboard.main(args) == 0
+    (record,) = json.loads((out / "leaderboard.json").read_text())["cases"]
+    rows = {r["label"]: r for r in record["rows"]}
+    mine, explicit = rows["mine"]["contact"], rows["explicit"]["contact"]
+    assert mine["force_error"] == explicit["force_error"] > 0
+    assert mine["interpenetration_max"] == pytest.approx(
+        explicit["interpenetration_max"], abs=1e-12
+    )
+    assert mine["force_error_how"] == "against our implicit's force"

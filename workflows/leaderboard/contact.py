@@ -138,3 +138,49 @@ def truth_force(case: str, truth=None):
 
         _FORCES[case] = of_truth(truth)
     return _FORCES[case]
+
+
+def user_contact(board, rows: list[Row], row: Row, series, truth=None) -> None:
+    """A user's row on a contact case, from what the leaderboard reads itself: its
+    interpenetration from its series (metrics/contact.py), and its force error from the force
+    file its compare graded (rows.user_force, checked against its hash) against the truth's
+    force where the truth is in the cache and converged (`truth`: its TruthSamples, where
+    loaded already), else against our reference row's."""
+    from tissuebench.meshes.contact import centre
+    from tissuebench.metrics.contact import interpenetration_curve
+
+    scale = float(board.options.get("load_scale", 1.0))
+    try:
+        curve = interpenetration_curve(
+            series.points, series.displacements, series.times, lambda t: centre(t, scale)
+        )
+        finite = curve[np.isfinite(curve)]
+        depth = number(finite.max()) if len(finite) else None
+    except ValueError:  # no node on the contact edge
+        depth = None
+    row.contact = {"force_error": None, "interpenetration_max": depth}
+    if not row.force:
+        row.contact["force_error_how"] = NOT_GIVEN + " (compare --needle-force FILE.csv)"
+        return
+    if unfinished(row):
+        return
+    try:
+        _, force = read_force_csv(Path(row.force))
+    except (OSError, ValueError) as exc:
+        row.contact["force_error_how"] = f"not graded: {' '.join(str(exc).split())[:160]}"
+        return
+    yardstick = truth_force(board.truth, truth) if board.truth else None
+    if yardstick is not None and math.isfinite(yardstick.own_error):
+        row.contact["force_error"] = number(force_error(force, yardstick.force))
+        row.contact["force_error_how"] = (
+            f"against the truth {board.truth}'s force (impulse-averaged; its own error "
+            f"{yardstick.own_error:.3g})"
+        )
+        return
+    reference = next((r for r in rows if r.reference and r.force), None)
+    if reference is None:
+        row.contact["force_error_how"] = "not graded: no force of our reference is recorded"
+        return
+    _, theirs = read_force_csv(Path(str(reference.force)))
+    row.contact["force_error"] = number(force_error(force, theirs))
+    row.contact["force_error_how"] = f"against our {reference.label}'s force"

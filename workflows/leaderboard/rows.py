@@ -58,7 +58,7 @@ from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here a
 )
 from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.limits import step_count
-from tissuebench.workflows.output import MANIFEST, changes
+from tissuebench.workflows.output import MANIFEST, changes, file_hash
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.summary import CaseSummary, read_summary
 
@@ -563,6 +563,7 @@ def user_rows(
             skipped.append(f"{where}: left out: {problem}")
             continue
         assert isinstance(runs, dict)  # a summary with runs: checked above
+        given = user_force(summary)  # a contact case's: the force file compare graded
         for label, run in runs.items():
             problem = run_problem(label, run)
             if problem:
@@ -588,6 +589,7 @@ def user_rows(
                     float(case["end_time"]),
                     "reported by the user",
                     **found,
+                    force=given,
                 )
             )
             folders.append(sub.name)
@@ -736,6 +738,22 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
     assert isinstance(cand, dict)  # file came from it
     field = cand.get("field")
     return {"series": file, "series_field": field if isinstance(field, str) else None}
+
+
+def user_force(summary: dict) -> str | None:
+    """The needle force file that a user's compare graded (--needle-force, a contact case),
+    where it is still the file compare hashed (its inputs' sha256); None otherwise (the row
+    then has no force error, and says so)."""
+    inputs = summary.get("inputs")
+    given = inputs.get("needle_force") if isinstance(inputs, dict) else None
+    if not isinstance(given, dict) or not isinstance(given.get("file"), str):
+        return None
+    path = Path(given["file"])
+    try:
+        same = path.is_file() and file_hash(path) == given.get("sha256")
+    except OSError:
+        same = False
+    return str(path) if same else None
 
 
 def error_keys() -> list[str]:
