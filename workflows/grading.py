@@ -43,10 +43,11 @@ from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.contact.grading import (
     CONTACT_METRICS,
-    ContactGrades,
     ContactReference,
+    contact_grades,
     force_columns,
     is_contact_benchmark,
+    reference_benchmark,
 )
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
@@ -499,53 +500,6 @@ def grade_against_truth(
         if keep:
             setattr(g, "candidate_series", cand)
     return g
-
-
-# --- a contact reference (SPEC 12) ----------------------------------------------------------
-
-
-def reference_benchmark(reference: str | Path, case: str | None) -> str | None:
-    """The benchmark the reference poses, as far as it can be told before reading its series:
-    the truth case's, or its folder's (folder_fingerprint); None when unknown."""
-    if case is not None:
-        from tissuebench.solvers.truth.cases import CASES
-
-        return CASES[case][0] if case in CASES else None
-    try:
-        return folder_fingerprint(Path(reference)).get("benchmark")
-    except Exception:  # anything a file can hold: the folder says nothing
-        return None
-
-
-def contact_grades(
-    g: Grading,
-    reference: str | Path,
-    truth: TruthSamples | None,
-    contact: ContactReference | None,
-    needle_force: str | Path | None,
-) -> ContactGrades:
-    """The candidate's contact readings (rank 0: its Grading keeps the candidate's series)
-    against the contact reference: `contact` when given, else the truth's, else the reference
-    folder's (workflows/contact/grading.py)."""
-    from tissuebench.workflows.contact.grading import (
-        file_reference,
-        grade_contact,
-        truth_reference,
-    )
-
-    if contact is None:
-        if truth is not None:
-            contact = truth_reference(truth)
-        else:
-            contact = file_reference(Path(reference), getattr(g, "reference_fingerprint", {}))
-    grades = grade_contact(
-        getattr(g, "candidate_series"),
-        g.times,
-        contact,
-        None if needle_force is None else Path(needle_force),
-    )
-    delattr(g, "candidate_series")  # read once, graded: not kept with the summary
-    return grades
 
 
 # --- what was graded against what ---------------------------------------------------------------

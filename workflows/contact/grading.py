@@ -247,3 +247,46 @@ def force_columns(grades: ContactGrades, steps: int) -> dict[str, np.ndarray]:
         padded[: len(grades.force)] = grades.force[:steps]
         columns |= {"force_x": padded[:, 0], "force_y": padded[:, 1]}
     return columns
+
+
+# --- compare's side (workflows/grading.py calls these) ----------------------------------------
+
+
+def reference_benchmark(reference: str | Path, case: str | None) -> str | None:
+    """The benchmark the reference poses, as far as it can be told before reading its series:
+    the truth case's, or its folder's (folder_fingerprint); None when unknown."""
+    from tissuebench.workflows.grading import folder_fingerprint
+
+    if case is not None:
+        from tissuebench.solvers.truth.cases import CASES
+
+        return CASES[case][0] if case in CASES else None
+    try:
+        return folder_fingerprint(Path(reference)).get("benchmark")
+    except Exception:  # anything a file can hold: the folder says nothing
+        return None
+
+
+def contact_grades(
+    g,
+    reference: str | Path,
+    truth,
+    contact: ContactReference | None,
+    needle_force: str | Path | None,
+) -> ContactGrades:
+    """The candidate's contact readings (rank 0: its Grading keeps the candidate's series)
+    against the contact reference: `contact` when given, else the truth's (`truth`, rank 0's
+    TruthSamples), else the reference folder's."""
+    if contact is None:
+        if truth is not None:
+            contact = truth_reference(truth)
+        else:
+            contact = file_reference(Path(reference), getattr(g, "reference_fingerprint", {}))
+    grades = grade_contact(
+        getattr(g, "candidate_series"),
+        g.times,
+        contact,
+        None if needle_force is None else Path(needle_force),
+    )
+    delattr(g, "candidate_series")  # read once, graded: not kept with the summary
+    return grades
