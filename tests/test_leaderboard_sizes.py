@@ -97,4 +97,30 @@ def test_the_rod_mp2_boards_are_the_linear_rods_at_three_sizes():
             same.variants,
             same.mesh_size,
         )
-    assert [b.name for b in size_series(BOARDS)[-1]] == ["rod-MP2", "rod-MP2-n6", "rod-MP2-n12"]
+    series = {s[0].sizes: [b.name for b in s] for s in size_series(BOARDS)}
+    assert series["rod-MP2"] == ["rod-MP2", "rod-MP2-n6", "rod-MP2-n12"]
+
+
+def test_the_contact_boards_are_three_cases_at_three_sizes():
+    """SPEC 12 on the leaderboard: contact-MP1, contact-MP1-nhb and contact-MP2, each a series
+    of N = 10, 20 (the main board) and 40 with kappa = 10; the nhb one runs every model of ours
+    against implicit+neo-hookean-barrier and gives the simulators neo-hookean; contact-MP2 has
+    no truth (its levels do not converge) and says so."""
+    from tissuebench.workflows.leaderboard.rows import BOARDS
+
+    series = {s[0].sizes: s for s in size_series(BOARDS)}
+    for case in ("contact-MP1", "contact-MP1-nhb", "contact-MP2"):
+        boards = series[case]
+        assert [b.name for b in boards] == [f"{case}-n10", case, f"{case}-n40"]
+        assert [b.mesh_size for b in boards] == [10, None, 40]  # 20: the benchmark's default
+        for b in boards:
+            assert (b.benchmark, b.options) == ("contact", {"kappa": 10.0, "load_scale": 1.0})
+    nhb = series["contact-MP1-nhb"][1]
+    assert (nhb.model, nhb.simulator_model, nhb.truth) == (
+        "neo-hookean-barrier",
+        "neo-hookean",
+        "contact-MP1-nhb",
+    )
+    assert len(nhb.models) == 5
+    mp2 = series["contact-MP2"][1]
+    assert mp2.truth is None and "do not converge" in mp2.truth_note

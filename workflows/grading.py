@@ -11,6 +11,12 @@ leaderboard finds its series from any working folder), `notes` (how the series w
 E_i in m^d) and `runs` {label: {status, diverged_step, diverged_time, steps, wall_time_s,
 <metric>_max, <metric>_mean for every metric}}; the candidate's label and wall time are
 `--label` and `--wall-time` (the run's total wall seconds, setup included).
+Against a contact reference (SPEC 12: workflows/contact/grading.py) summary.json also has
+`contact` {force_error (1; null without --needle-force), interpenetration_max (m), force_given,
+force_file, force_reference, reference_force_own_error, units}, the run's entry force_error and
+interpenetration_max, `metrics` their symbols and units, and metrics.csv the columns
+interpenetration (m) and, with a force, force_x and force_y (N/m) after the status; other
+references' files are as before.
 `reference.fingerprint` says what the reference is (reference_fingerprint: its benchmark, case,
 options, material, model, h, T, mesh size, nodes and dimension, as its run folder or the
 export beside it says, or the truth case), and `candidate.mesh` the candidate's mesh (mesh_of:
@@ -35,6 +41,14 @@ from tissuebench.metrics.compare import Grading, grade_series, metric_units, sum
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
+from tissuebench.workflows.contact.grading import (
+    CONTACT_METRICS,
+    ContactReference,
+    contact_grades,
+    force_columns,
+    is_contact_benchmark,
+    reference_benchmark,
+)
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import RunFolder, collective, file_hash
@@ -130,6 +144,8 @@ def compare(
     wall_time: float | str | None = None,
     force: bool = False,
     folder_of_ours: bool = False,
+    needle_force: str | Path | None = None,
+    contact: ContactReference | None = None,
 ) -> dict[str, str]:
     """Grade the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
     .dat), write out_dir/metrics.csv, metrics.png and summary.json, and return the one-line
@@ -143,24 +159,52 @@ def compare(
     `folder_of_ours` writes straight into a folder that the caller is writing already (an
     external simulator's variant inside its own partial folder). A reference `truth:CASE` is
     SPEC 10's truth of that case (computed or loaded by solvers/truth/store.py; graded by
-    metrics/truth.py; summary.json gets a "truth" entry: case, own error, timings)."""
+    metrics/truth.py; summary.json gets a "truth" entry: case, own error, timings).
+
+    A contact reference (SPEC 12: a truth, run folder or export of the benchmark "contact", or
+    `contact` given, as the external runner gives its export's) grades the candidate's
+    interpenetration too and, with `needle_force` (the candidate's force file), its force
+    error (workflows/contact/grading.py); `needle_force` against any other reference is
+    refused in one line."""
     check_label(label, candidate)
     wall = check_wall_time(wall_time)
     case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
+    in_contact = comm.bcast(  # rank 0's `contact` (the external runner gives it there)
+        (contact is not None or is_contact_benchmark(reference_benchmark(reference, case)))
+        if comm.rank == 0
+        else None,
+        root=0,
+    )
+    if needle_force is not None and not in_contact:
+        raise GradingError(
+            "--needle-force is for a contact reference (SPEC 12: the benchmark contact, or "
+            f"truth:contact-...); {reference} is not one: leave --needle-force out"
+        )
     truth = None
 
     def grading() -> Grading:  # against the reference's file, or the truth
         if case is not None:
-            return grade_against_truth(truth, candidate, candidate_field or field, comm, label)
-        return grade(
-            reference,
-            candidate,
-            field,
-            comm,
-            reference_field=reference_field,
-            candidate_field=candidate_field,
-            label=label,
-        )
+            g = grade_against_truth(
+                truth, candidate, candidate_field or field, comm, label, keep=in_contact
+            )
+        else:
+            g = grade(
+                reference,
+                candidate,
+                field,
+                comm,
+                reference_field=reference_field,
+                candidate_field=candidate_field,
+                label=label,
+                keep=in_contact,
+            )
+        if in_contact:
+            grades = collective(
+                comm, lambda: contact_grades(g, reference, truth, contact, needle_force)
+            )
+            setattr(g, "contact", grades)
+            g.summaries.update(grades.summaries())
+        return g
 
     if folder_of_ours:
         truth = load_truth(case, comm) if case is not None else None
@@ -173,7 +217,15 @@ def compare(
         inputs = collective(
             comm,
             lambda: compare_inputs(
-                reference, candidate, field, reference_field, candidate_field, label, wall, truth
+                reference,
+                candidate,
+                field,
+                reference_field,
+                candidate_field,
+                label,
+                wall,
+                truth,
+                needle_force,
             ),
         )
         if folder.prepare(inputs, force) == "complete":
@@ -205,17 +257,32 @@ def series_files(path: Path) -> dict[str, str]:
 
 
 def compare_inputs(
-    reference, candidate, field, reference_field, candidate_field, label, wall, truth=None
+    reference,
+    candidate,
+    field,
+    reference_field,
+    candidate_field,
+    label,
+    wall,
+    truth=None,
+    needle_force=None,
 ):
     """Every input that changes a compare folder's numbers (rank 0: it reads the files); for a
-    truth (rank 0's TruthSamples), its case and the fingerprint of its inputs."""
+    truth (rank 0's TruthSamples), its case and the fingerprint of its inputs; the candidate's
+    needle force file when given (absent otherwise, so that other folders keep their
+    fingerprint)."""
     from importlib.metadata import version
 
     if truth is not None:
         ref = {"truth": truth.case, "fingerprint": fingerprint(truth.inputs)}
     else:
         ref = {"file": str(Path(reference).resolve()), "files": series_files(reference)}
+    given = {}
+    if needle_force is not None:
+        path = Path(needle_force)
+        given = {"needle_force": {"file": str(path.resolve()), "sha256": file_hash(path)}}
     return {
+        **given,
         "command": "compare",
         "reference": ref,
         "candidate": {"file": str(Path(candidate).resolve()), "files": series_files(candidate)},
@@ -276,6 +343,22 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
     steps = len(times) - 1
     dim = (getattr(g, "candidate_mesh", None) or {}).get("dimension")
     truth = {"truth": g.summary()} if isinstance(g, TruthGrading) else {}
+    metrics = metric_units(dim)
+    grades = getattr(g, "contact", None)
+    contact = {}
+    if grades is not None:  # SPEC 12: a contact reference's two readings (absent otherwise)
+        entry.update(grades.entry())
+        metrics = {**metrics, **CONTACT_METRICS}
+        contact = {
+            "contact": {
+                **grades.entry(),
+                "force_given": grades.force is not None,
+                "force_file": grades.force_file,
+                "force_reference": grades.force_source,
+                "reference_force_own_error": grades.own_error,
+                "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},
+            }
+        }
     return {
         "kind": "compare",
         "schema_version": SCHEMA_VERSION,
@@ -298,13 +381,14 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
         "h": float(times[1] - times[0]) if steps else None,
         "steps": steps,
         "end_time": float(times[-1]),
-        "metrics": metric_units(dim),
+        "metrics": metrics,
         "reference_diverged_step": g.reference_diverged,
         "reference_diverged_reason": g.reference_reason,
         "runs": {g.label: entry},
         "versions": {"tissuebench": version("tissuebench")},
         "files": ["metrics.csv", "metrics.png", SUMMARY],
         **truth,  # type: ignore[typeddict-item]
+        **contact,
     }
 
 
@@ -315,7 +399,11 @@ def write_grading(out: Path, g: Grading, summary: CompareSummary) -> None:
     final = [out / "metrics.csv", out / "metrics.png", out / SUMMARY]
     temporary = [p.with_name(f".{p.name}.{os.getpid()}.tmp") for p in final]
     try:
-        write_metrics_csv(temporary[0], g.times, {g.label: g.curves}, {g.label: g.status})
+        grades = getattr(g, "contact", None)
+        extra = None if grades is None else {g.label: force_columns(grades, len(g.times))}
+        write_metrics_csv(
+            temporary[0], g.times, {g.label: g.curves}, {g.label: g.status}, extra=extra
+        )
         plot(temporary[1], g.title, g.times, g.curves)
         temporary[2].write_text(dumps(summary))
         for tmp, path in zip(temporary, final, strict=True):
@@ -360,6 +448,7 @@ def grade(
     reference_field: str | None = None,
     candidate_field: str | None = None,
     label: str | None = None,
+    keep: bool = False,
 ) -> Grading:
     """Measure the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
     .dat files). The point field of each side is `reference_field` / `candidate_field`, else
@@ -370,7 +459,8 @@ def grade(
     on another mesh of the reference's body (triangles, quadrilaterals, tetrahedra or
     hexahedra) is graded on its own mesh, SPEC section 9 (a note says so).
     `label` names the candidate (default: its file name without suffix). Collective over
-    comm; the same Grading on every rank.
+    comm; the same Grading on every rank. `keep`: rank 0's Grading keeps the candidate series
+    read (`candidate_series`).
 
     Raises InputError on every rank for unreadable files, meshes of different dimensions or
     bodies, time stamps that do not match, degenerate cells, a mesh boundary that touches
@@ -384,6 +474,8 @@ def grade(
     if comm.rank == 0:  # rank 0 writes the summary (its attributes beyond Grading's: getattr)
         setattr(g, "reference_fingerprint", reference_fingerprint(reference, ref))
         setattr(g, "candidate_mesh", mesh_of(cand))
+        if keep:
+            setattr(g, "candidate_series", cand)
     return g
 
 
@@ -393,17 +485,20 @@ def grade_against_truth(
     field: str | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
     label: str | None = None,
+    keep: bool = False,
 ) -> TruthGrading:
     """Read the candidate series file (XDMF, PVD, CalculiX .frd or .dat; point field `field`,
     else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
     truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
-    and for an unreadable file."""
+    and for an unreadable file. `keep` as grade's."""
     (cand,) = read_on_rank0(comm, (candidate, field))
     g = grade_truth(truth, cand, comm, label=label)
     if comm.rank == 0:  # rank 0 writes the summary (its attributes beyond Grading's: getattr)
         assert truth is not None  # rank 0's
         setattr(g, "reference_fingerprint", truth_fingerprint(truth.case))
         setattr(g, "candidate_mesh", mesh_of(cand))
+        if keep:
+            setattr(g, "candidate_series", cand)
     return g
 
 

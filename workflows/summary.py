@@ -346,6 +346,8 @@ class CompareSummary(TypedDict):
     versions: dict[str, Any]
     files: list[str]
     truth: NotRequired[dict[str, Any]]
+    # against a contact reference (SPEC 12): force_error (1), interpenetration_max (m), ...
+    contact: NotRequired[dict[str, Any]]
     inputs: NotRequired[dict[str, Any]]
     fingerprint: NotRequired[str]
 

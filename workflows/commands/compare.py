@@ -40,7 +40,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "before they are read (from their datasets' shapes). The metrics are printed as E_n "
         "and E_s (dimensionless) and E_i (m^2 in 2D, m^3 in 3D; SPEC 6), with their keys in "
         "metrics.csv and summary.json (relative_error, surface_error, interior_error; "
-        "summary.json's `metrics` gives each key's symbol and unit).",
+        "summary.json's `metrics` gives each key's symbol and unit). Against a contact "
+        "reference (SPEC 12) also the candidate's interpenetration (m: the largest -g_n over "
+        "its deformed right edge, every step; a metrics.csv column) and, with --needle-force, "
+        "its force error (dimensionless), in summary.json as interpenetration_max and "
+        "force_error.",
         epilog="Exit status: 0 graded; 2 bad input (one line on stderr: an unreadable or "
         "missing file, a symbolic-link loop, series that cannot fit in memory, ...); "
         f"{REFERENCE_DIVERGED} the reference diverged (SPEC 3: a non-finite displacement, or one "
@@ -53,8 +57,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=Path,
         help="reference series (.xdmf, .pvd, .frd or .dat), or truth:CASE, the converged "
         "reference of a SPEC 10 case (rod, rod-nh-s1, rod-nhb-s3, rod-MP2, block-MP1-w0.2, "
-        "block-MP2-w0.2; computed once and cached): the candidate is graded on its own "
-        "mesh at the truth's vertices and quadrature points, and needs every t_i = i h",
+        "block-MP2-w0.2, contact-MP1, contact-MP1-nhb, contact-MP2; computed once and "
+        "cached): the candidate is graded on its own mesh at the truth's vertices and "
+        "quadrature points, and needs every t_i = i h",
     )
     p.add_argument("candidate", type=Path, help="candidate series (.xdmf, .pvd, .frd or .dat)")
     p.add_argument("--out", required=True, type=Path, help="output directory")
@@ -79,6 +84,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "it by the simulated time to rank the run's cost (s per simulated s)",
     )
     p.add_argument(
+        "--needle-force",
+        type=Path,
+        metavar="FILE.csv",
+        help="against a contact reference (SPEC 12: the benchmark contact, or truth:contact-*): "
+        "the candidate's needle force, columns time (s), force_x, force_y (N/m, the force per "
+        "unit thickness the tissue exerts on the needle), one row per step; graded as the "
+        "force error max_i |F - F_ref| / max |F_ref| against the reference's force (a "
+        "truth's, impulse-averaged; our run's contact.csv or export). Without it the force "
+        "error is 'not given'. Refused for any other reference",
+    )
+    p.add_argument(
         "--force",
         action="store_true",
         help="replace a compare folder of ours that holds results of other inputs",
@@ -91,7 +107,8 @@ def main(args: argparse.Namespace) -> int:
     metrics' one-line summaries (with their units). Returns the exit status: 0, or
     REFERENCE_DIVERGED with one line on stderr when the reference diverged (this grading's,
     or that of the complete results kept for the same inputs)."""
-    for path in (args.reference, args.candidate):
+    given = [args.needle_force] if args.needle_force is not None else []
+    for path in (args.reference, args.candidate, *given):
         if not str(path).startswith(TRUTH_PREFIX):
             check_input_path(path)  # a symbolic-link loop: one line, exit 2
     summaries = compare(
@@ -104,6 +121,7 @@ def main(args: argparse.Namespace) -> int:
         label=args.label,
         wall_time=args.wall_time,
         force=args.force,
+        needle_force=args.needle_force,
     )
     if MPI.COMM_WORLD.rank == 0:
         for line in summaries.values():

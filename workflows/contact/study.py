@@ -26,6 +26,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.metrics.compare import summarize
+from tissuebench.metrics.contact import force_error  # SPEC 12's force error (re-exported)
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.io.series import read_on_rank0
@@ -92,16 +93,6 @@ def impulse_average(force: np.ndarray) -> np.ndarray:
     if len(force) > 1:
         out[-1] = (force[-2] + force[-1]) / 2
     return out
-
-
-def force_error(force: np.ndarray, truth: np.ndarray) -> float:
-    """The largest |F - F_truth| over the steps both have, over the largest |F_truth| (SPEC
-    12's force error, dimensionless); force and truth are (steps, 2) N/m."""
-    n = min(len(force), len(truth))
-    if n == 0:
-        return float("nan")
-    scale = np.linalg.norm(truth, axis=1).max()
-    return float(np.linalg.norm(force[:n] - truth[:n], axis=1).max() / scale)
 
 
 @dataclass

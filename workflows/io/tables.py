@@ -93,13 +93,18 @@ def write_metrics_csv(
     times: np.ndarray,
     curves: dict[str, dict[str, np.ndarray]],
     status: dict[str, list[str]],
+    extra: dict[str, dict[str, np.ndarray]] | None = None,
 ) -> None:
     """metrics.csv: for each run label, one row per step; `status` says ok, diverged,
-    reference diverged or missing."""
+    reference diverged or missing. `extra` {label: {column: values per step}}: columns after
+    the status (a contact reference's interpenetration and force, SPEC 12; the same columns
+    for every label), none when it is None."""
+    names = list(next(iter(extra.values()))) if extra else []
     with _staged(path) as f:
         writer = _writer(f)
-        writer.writerow(columns())
+        writer.writerow([*columns(), *names])
         for label, curve in curves.items():
+            more = (extra or {}).get(label, {})
             for i, t in enumerate(times):
                 writer.writerow(
                     [
@@ -108,6 +113,7 @@ def write_metrics_csv(
                         repr(float(t)),
                         *(repr(float(curve[n][i])) for n in METRICS),
                         status[label][i],
+                        *(repr(float(more[n][i])) for n in names),
                     ]
                 )
 

@@ -15,6 +15,9 @@
 - `page`: results/leaderboard/index.html, one self-contained page (inline SVG and a little
   JavaScript, no download);
 - `document`: leaderboard.md, the one-screen summary per case; `figures`: the PNGs;
+- `contact`: a contact case's force error and interpenetration columns (SPEC 12), ours',
+  the simulators' and the users', graded against the truth's force where it is here;
+  `force_figure`: its needle force against time (CASE-force.png);
 - `build`: the whole command, its outputs staged and moved into place as one set.
 
 The cases themselves are BOARDS (workflows/boards.py).

@@ -21,6 +21,7 @@ from tissuebench.workflows.leaderboard.figures import (
     stamp_of,
     unit_of,
 )
+from tissuebench.workflows.leaderboard.force_figure import force_png, plot_force
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
@@ -234,6 +235,10 @@ def main(args: argparse.Namespace) -> int:
             png = out / FOLDER / f"{board.name}.png"
             if not (same and as_drawn_now(png)):  # else still as drawn: seconds saved per case
                 files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
+            if board.benchmark == "contact":  # SPEC 12: the needle force against time
+                files[force_png(out, board)] = lambda tmp, board=board: plot_force(
+                    tmp, board, rows[board.name]
+                )
         every = [r for board in boards for r in rows[board.name]]
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
         files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)

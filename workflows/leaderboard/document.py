@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
-from tissuebench.workflows.leaderboard.record import MARKER
+from tissuebench.workflows.leaderboard.record import FOLDER, MARKER
 from tissuebench.workflows.leaderboard.rows import Board, Row, finite, fmt, md
 
 PAGE = "leaderboard/index.html"
@@ -81,8 +81,13 @@ def case_lines(
         + load_note(board.load)
         + f". [All {len(rows)} runs, the budget and the divisions]({PAGE}#{board.name}).",
         "",
-        f"| source | best run | mesh, dofs | E_i mean ({unit}) | E_i max | s per simulated s |",
-        "|---|---|---|---|---|---|",
+    ]
+    contact = board.benchmark == "contact"  # SPEC 12: two more columns
+    more = " force error | interpenetration (m) |" if contact else ""
+    out += [
+        f"| source | best run | mesh, dofs | E_i mean ({unit}) | E_i max | s per simulated s |"
+        + more,
+        "|---|---|---|---|---|---|" + ("---|---|" if contact else ""),
     ]
     best = best_per_source(rows, truth)
     users = [source for source, _ in best if source.startswith("user ")]
@@ -96,15 +101,36 @@ def case_lines(
         out.append(
             f"| {md(source)} | {md(r.label)}{' (reference)' if r.reference else ''}{status} | "
             f"{mesh}, {r.dofs} | {fmt(e)} | {fmt(emax)} | {fmt(r.cost)} |"
+            + (
+                f" {fmt(r.contact.get('force_error'))} | "
+                f"{fmt(r.contact.get('interpenetration_max'))} |"
+                if contact
+                else ""
+            )
         )
     if hidden:
-        out.append(f"| {len(hidden)} more users' runs | on the page | | | | |")
+        cells = " | |" if contact else ""
+        out.append(f"| {len(hidden)} more users' runs | on the page | | | | |{cells}")
     line = frontier_line(board, frontier, unit) if truth else ""
     if line:
         out += ["", line]
+    if contact:
+        out += ["", contact_line(board, rows)]
     if notes:
         out += ["", *[f"- {md(n)}" for n in notes]]
     return out + [""]
+
+
+def contact_line(board: Board, rows: list[Row]) -> str:
+    """A contact case's line under its table: what its force error is against, and its force
+    figure."""
+    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
+    against = "; ".join(md(h) for h in how if h) or "no run handed its needle force"
+    return (
+        f"Force error (max over the steps of |F - F_ref| / max |F_ref|): {against}. "
+        f"Interpenetration: the largest -g_n over the deformed right edge and the steps (m). "
+        f"The needle force against time: [{board.name}-force.png]({FOLDER}/{board.name}-force.png)."
+    )
 
 
 def markdown(

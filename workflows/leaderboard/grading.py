@@ -46,6 +46,10 @@ if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples
 
 
+CONTACT_MODEL_HOW = (
+    "not measured on a contact case: the contact law's share (a penalty, kappa = 10 for ours, "
+    "against the truth's penalty limit) lies inside the discretisation and algorithm parts"
+)
 STUDY_TRUTHS = {"mesh-sensitivity-rod-MP3": "rod", "mesh-sensitivity-block-MP1": "block-MP1-w0.2"}
 
 
@@ -227,14 +231,17 @@ GRADES = ("errors", "status", "reason", "mesh", "dofs", "truth", "truth_note", "
 
 
 def grades_of(row: Row) -> dict:
-    """What grading a user's row gives it (GRADES), copied."""
-    return {k: json_copy(getattr(row, k)) for k in GRADES}
+    """What grading a user's row gives it (GRADES, and on a contact case its contact
+    columns), copied."""
+    contact = {"contact": dict(row.contact)} if row.contact else {}
+    return {**{k: json_copy(getattr(row, k)) for k in GRADES}, **contact}
 
 
 def take_grades(row: Row, grades: dict) -> None:
     """Put a user's row's grades (grades_of) into it, copied."""
     for k in GRADES:
         setattr(row, k, json_copy(grades[k]))
+    row.contact = dict(grades.get("contact") or {})
 
 
 def json_copy(value):
@@ -313,6 +320,14 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                 continue
             mark_truth_pareto(rows[board.name])
             error_budget(rows[board.name])
+            if board.benchmark == "contact":  # SPEC 12: the force error against the truth's
+                from tissuebench.workflows.leaderboard.contact import grade_forces, truth_force
+
+                force = truth_force(case, truth)
+                grade_forces(rows[board.name], force.force, case, force.own_error)
+                for row in rows[board.name]:
+                    if row.budget:
+                        row.budget["model_how"] = CONTACT_MODEL_HOW
             log(f"{board.name}: graded against the truth {case}")
         del truth
 
@@ -499,6 +514,11 @@ def grade_user_row(board: Board, board_rows: list[Row], row: Row, truth, caches:
         return time.perf_counter() - start
     if row.status == UNGRADED:
         grade_row_reference(board, row, caches)
+    if board.benchmark == "contact" and not row.contact and row.status != UNGRADED:
+        from tissuebench.workflows.leaderboard.contact import user_contact
+
+        series = caches.series(str(row.series), row.series_field)
+        user_contact(board, board_rows, row, series, truth)
     if truth is not None and not row.truth:
         grade_row_truth(truth, row, caches)
     if row.truth:

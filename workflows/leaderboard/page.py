@@ -616,6 +616,7 @@ def division(
                     "user": r.source == "user",
                     "model": model_of(board, r),
                     "meshf": mesh_of(r),
+                    "contact": r.contact,
                 },
             )
         )
@@ -640,14 +641,18 @@ def division(
                         "user": False,
                         "model": board.model,
                         "meshf": f"{f['dofs']:,} dofs",
+                        "contact": {},
                     },
                 )
             )
     entries.sort(key=lambda e: (e[0], e[1]["label"]))
+    contact = board.benchmark == "contact"  # SPEC 12: two more columns
     head = (
         "<tr><th>#</th><th>run</th><th>source</th><th>mesh</th><th>dofs</th>"
         f"<th>E_i mean ({unit})</th><th>E_i max</th><th>s per simulated s</th>"
-        "<th>real time</th></tr>"
+        "<th>real time</th>"
+        + ("<th>force error</th><th>interpenetration (m)</th>" if contact else "")
+        + "</tr>"
     )
 
     def line(k: int, e: dict) -> str:
@@ -660,7 +665,7 @@ def division(
             f'data-mesh="{esc(e["meshf"])}"><td>{rank}</td><td>{esc(e["label"])}{status}</td>'
             f"<td>{esc(e['source'])}</td><td>{esc(e['mesh'])}</td><td>{e['dofs']:,}</td>"
             f"<td>{g(e['mean'])}</td><td>{g(e['max'])}</td><td>{g(e['cost'])}</td>"
-            f"<td>{rt}</td></tr>"
+            f"<td>{rt}</td>" + (contact_cells(e["contact"]) if contact else "") + "</tr>"
         )
 
     ranked = [e for _, e in entries]
@@ -678,6 +683,28 @@ def division(
             f'<table class="rank">{head}{"".join(numbered)}</table></details>'
         )
     return table
+
+
+def contact_cells(contact: dict) -> str:
+    """A contact case's two cells: the force error (its basis as the cell's title) and the
+    interpenetration (m)."""
+    how = contact.get("force_error_how") or ""
+    return (
+        f'<td title="{esc(how)}">{g(contact.get("force_error"))}</td>'
+        f"<td>{g(contact.get('interpenetration_max'))}</td>"
+    )
+
+
+def contact_note(board: Board, rows: list[Row]) -> str:
+    """A contact case's paragraph: what its two columns are, and its force figure."""
+    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
+    against = "; ".join(h for h in how if h) or "no run handed its needle force"
+    return (
+        '<p class="note">Force error: max over the steps of |F - F_ref| / max |F_ref|, F the '
+        f"needle force per unit thickness (N/m): {esc(against)}. Interpenetration: the largest "
+        "-g_n over the deformed right edge and the steps (m). The needle force F_x against time: "
+        f'<a href="{esc(board.name)}-force.png">{esc(board.name)}-force.png</a>.</p>'
+    )
 
 
 # --- the page -----------------------------------------------------------------------------------
@@ -880,6 +907,8 @@ def case_section(
         division(board, rows, frontier, truth, True, unit),
         "</div></div>",
     ]
+    if board.benchmark == "contact":
+        parts.append(contact_note(board, rows))
     if notes:
         parts.append(
             f"<details><summary>notes ({len(notes)})</summary><ul>"

@@ -96,6 +96,8 @@ def check_row(d) -> None:
     _numbers(d.get("errors"), "errors", error_keys())
     _numbers(d.get("truth", {}), "truth")
     _numbers(d.get("budget", {}), "budget")
+    _numbers(d.get("contact", {}), "contact")  # a contact case's row (SPEC 12)
+    _text(d.get("force"), "force", none=True)
     for key in ("pareto", "truth_pareto"):
         _flags(d.get(key, {}), key)
     if not isinstance(d.get("reference", False), bool):
@@ -149,10 +151,15 @@ def row_of(d: dict) -> Row:
 
 def row_record(row: Row) -> dict:
     """A Row as the record holds it: every field (series_hash only where it has one: a user's
-    row, so that a record of our rows reads as before)."""
+    row, and contact and force only on a contact case's row, so that a record of our rows
+    reads as before)."""
     d = asdict(row)
     if d.get("series_hash") is None:
         d.pop("series_hash", None)
+    if not d.get("contact"):
+        d.pop("contact", None)
+    if d.get("force") is None:
+        d.pop("force", None)
     return d
 
 

@@ -58,7 +58,7 @@ from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here a
 )
 from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.limits import step_count
-from tissuebench.workflows.output import MANIFEST, changes
+from tissuebench.workflows.output import MANIFEST, changes, file_hash
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.summary import CaseSummary, read_summary
 
@@ -97,6 +97,11 @@ class Row:
     budget: dict = field(default_factory=dict)  # the error budget (SPEC 10): workflows/leaderboard
     # a user's row: the SHA-256 of its series' files (series_hash), which its grades are of
     series_hash: str | None = None
+    # a contact case's row (SPEC 12; {} on other cases): "force_error" (dimensionless) and
+    # "interpenetration_max" (m), numbers or None, and "force_error_how" (words: against what,
+    # or why none)
+    contact: dict = field(default_factory=dict)
+    force: str | None = None  # a contact case's row: its needle force file (write_force_csv)
 
     @property
     def cost(self) -> float | None:
@@ -228,7 +233,8 @@ def board_case(board: Board) -> dict:
     }
 
 
-DEFAULT_OPTIONS = {"load_scale": 1.0, "needle_width": 0.0}  # an option not given is this
+# an option not given is this (kappa: the contact benchmark's penalty, SPEC 12)
+DEFAULT_OPTIONS = {"load_scale": 1.0, "needle_width": 0.0, "kappa": 10.0}
 
 
 def same_options(a: dict, b: dict) -> bool:
@@ -557,6 +563,7 @@ def user_rows(
             skipped.append(f"{where}: left out: {problem}")
             continue
         assert isinstance(runs, dict)  # a summary with runs: checked above
+        given = user_force(summary)  # a contact case's: the force file compare graded
         for label, run in runs.items():
             problem = run_problem(label, run)
             if problem:
@@ -582,6 +589,7 @@ def user_rows(
                     float(case["end_time"]),
                     "reported by the user",
                     **found,
+                    force=given,
                 )
             )
             folders.append(sub.name)
@@ -732,6 +740,22 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
     return {"series": file, "series_field": field if isinstance(field, str) else None}
 
 
+def user_force(summary: dict) -> str | None:
+    """The needle force file that a user's compare graded (--needle-force, a contact case),
+    where it is still the file compare hashed (its inputs' sha256); None otherwise (the row
+    then has no force error, and says so)."""
+    inputs = summary.get("inputs")
+    given = inputs.get("needle_force") if isinstance(inputs, dict) else None
+    if not isinstance(given, dict) or not isinstance(given.get("file"), str):
+        return None
+    path = Path(given["file"])
+    try:
+        same = path.is_file() and file_hash(path) == given.get("sha256")
+    except OSError:
+        same = False
+    return str(path) if same else None
+
+
 def error_keys() -> list[str]:
     return [f"{name}_{kind}" for name in METRICS for kind in ("max", "mean")]
 
@@ -809,11 +833,19 @@ def fmt(x: float | None, spec: str = ".3g") -> str:
     return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
 
 
+CONTACT_KEYS = ("force_error", "interpenetration_max")  # a contact case's row's columns
+
+
 def write_csv(path: Path, rows: list[Row]) -> None:
+    """leaderboard.csv: every row; with the contact columns (CONTACT_KEYS, then how the force
+    was graded) at the end only when a row of a contact case is among them, empty for the
+    others."""
+    contact = any(r.contact for r in rows)
     names = ["case", "label", "source", "description", "mesh", "dofs", "status", "reason"]
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
     names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
+    names += [*CONTACT_KEYS, "force_error_how"] if contact else []
     write_table(
         path,
         names,
@@ -824,6 +856,14 @@ def write_csv(path: Path, rows: list[Row]) -> None:
             + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
             + ["" if r.truth.get(k) is None else repr(r.truth[k]) for k in TRUTH_KEYS]
             + [r.truth_pareto.get("mean", False), r.truth_pareto.get("max", False)]
+            + (contact_cells(r) if contact else [])
             for r in rows
         ),
     )
+
+
+def contact_cells(r: Row) -> list[str]:
+    """A row's contact cells in leaderboard.csv: force error, interpenetration (m), how the
+    force was graded (empty for a row of another case)."""
+    values = ["" if r.contact.get(k) is None else repr(r.contact[k]) for k in CONTACT_KEYS]
+    return values + [r.contact.get("force_error_how") or ""]

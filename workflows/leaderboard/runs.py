@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
+from tissuebench.workflows.boards import is_contact
+from tissuebench.workflows.leaderboard.contact import external_contact, our_forces
 from tissuebench.workflows.leaderboard.record import FOLDER
 from tissuebench.workflows.leaderboard.rows import (
     Board,
@@ -40,6 +42,8 @@ def run_board(
     before anything runs: read_users); returns (rows, notes)."""
     folder = out / FOLDER / board.name
     reference = run_label("implicit", board.model)
+    contact = is_contact(board)  # SPEC 12: explicit ones sub-step (their step counts the penalty)
+    more = {"substeps": "auto"} if contact else {}
     case = model_case(
         board.name,
         board.benchmark,
@@ -53,14 +57,22 @@ def run_board(
         solver=solver,
         petsc=petsc,
         description=board.description,
+        **more,
     )
     summary = run_case(case, folder / "ours", comm, log, force=True)
     rows: list[Row] = our_rows(board.name, summary)
     for row in rows:
         row.series = str(folder / "ours" / f"{row.label}.xdmf")
-    if board.models == ("linear",):
-        rows += simplex_rows(board, case, folder, summary, comm, log)
     notes = []
+    if contact:
+        if comm.rank == 0:
+            our_forces(folder / "ours", rows, folder / "forces")
+        notes.append(
+            "ours on simplices are not run on a contact case (left out to keep its timing "
+            "session short): the five algorithms on the case's quadrilaterals only"
+        )
+    elif board.models == ("linear",):
+        rows += simplex_rows(board, case, folder, summary, comm, log)
     if board.skip_note:
         notes.append(board.skip_note)
     for name in board.simulators:
@@ -95,6 +107,8 @@ def run_board(
         graded = external_rows(board.name, result)
         for row, run in zip(graded, result["runs"].values(), strict=True):
             row.series, row.series_field = external_series(folder / name, run.get("variant"))
+            if contact:
+                external_contact(row, run, external_force(folder / name, run.get("variant")))
         rows += graded
         for variant, why in (result.get("skipped_variants") or {}).items():
             notes.append(f"{name}:{variant} not posed: {why}")
@@ -135,6 +149,29 @@ def simplex_rows(
     return rows
 
 
+def moved(folder: Path, variant: str, file: str) -> str:
+    """A file that a variant's summary recorded in the folder's partial copy, as it is under
+    the final folder (VARIANT/... on), where it is there or the recorded one is gone."""
+    parts = Path(file).parts
+    if variant in parts:  # .../<partial folder>/VARIANT/...: the same under the final folder
+        at = len(parts) - 1 - parts[::-1].index(variant)
+        there = folder.joinpath(*parts[at:])
+        if there.is_file() or not Path(file).is_file():
+            return str(there)
+    return file
+
+
+def external_force(folder: Path, variant) -> str | None:
+    """The needle force file that a simulator variant handed compare on a contact case, as its
+    summary.json's contact entry records it (None: it handed none). Rank 0 reads."""
+    if not isinstance(variant, str) or not variant:
+        return None
+    summary = read_summary(folder / variant)
+    contact = summary.get("contact") if isinstance(summary, dict) else None
+    file = contact.get("force_file") if isinstance(contact, dict) else None
+    return moved(folder, variant, file) if isinstance(file, str) and file else None
+
+
 def external_series(folder: Path, variant) -> tuple[str | None, str | None]:
     """The series file (and its field) that a simulator variant's compare graded, as its
     summary.json (FOLDER/VARIANT/summary.json) records it; the file was recorded in the
@@ -147,10 +184,4 @@ def external_series(folder: Path, variant) -> tuple[str | None, str | None]:
     file = recorded.get("series")
     if file is None:
         return None, None
-    parts = Path(file).parts
-    if variant in parts:  # .../<partial folder>/VARIANT/...: the same under the final folder
-        at = len(parts) - 1 - parts[::-1].index(variant)
-        moved = folder.joinpath(*parts[at:])
-        if moved.is_file() or not Path(file).is_file():
-            file = str(moved)
-    return file, recorded.get("series_field")
+    return moved(folder, variant, file), recorded.get("series_field")

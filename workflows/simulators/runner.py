@@ -45,6 +45,16 @@ class SimulatorError(UserError):
     """A simulator or variant that cannot run here or does not pose the benchmark."""
 
 
+NO_CONTACT = "cannot pose a rigid tool in contact here"  # a module without CONTACT = True
+
+
+def poses_contact(sim) -> bool:
+    """Whether a simulator module poses an export with a rigid tool in contact (SPEC 12): it
+    says so with the module attribute CONTACT = True. One that does not is never run on such
+    an export, lest it pose it as if the needle were absent."""
+    return getattr(sim, "CONTACT", False) is True
+
+
 def label_of(simulator: str, variant: str) -> str:
     """How tables name a variant: SIMULATOR:VARIANT."""
     return f"{simulator}:{variant}"
@@ -82,6 +92,11 @@ def run_variant(
     output against reference into folder, and return its entry (see the module docstring).
     A failed run or an output that compare refuses is an entry with status "failed"."""
     sim = get_simulator(simulator)
+    contact = None
+    if comm.rank == 0 and data is not None and getattr(data, "contact", None) is not None:
+        from tissuebench.workflows.contact.grading import exported_reference
+
+        contact = exported_reference(data)  # its force: our reference's, as the export holds
 
     def run():
         work = folder / "work"
@@ -126,6 +141,8 @@ def run_variant(
                 label=label,
                 wall_time=result.wall_time_s,
                 folder_of_ours=True,
+                needle_force=result.force,
+                contact=contact,
             )
             graded = comm.bcast(read_compare_summary(folder) if comm.rank == 0 else None, root=0)
         except UserError as exc:
@@ -193,6 +210,11 @@ def run_external(
     data, bench, _ = build(
         benchmark, mesh_size, options, material, model, h, steps, plane, "dynamic", comm
     )
+    in_contact = comm.bcast(
+        getattr(data, "contact", None) is not None if comm.rank == 0 else None, root=0
+    )
+    if in_contact and not poses_contact(sim):  # SPEC 12: not posed as if the needle were absent
+        raise SimulatorError(f"{simulator}: {NO_CONTACT}")
     chosen = comm.bcast(
         choose_variants(simulator, data, variants) if comm.rank == 0 else None, root=0
     )

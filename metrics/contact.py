@@ -1,0 +1,103 @@
+"""What SPEC 12 grades of a candidate besides its displacement: its interpenetration with the
+rigid needle (from its own series, whatever mesh it is on) and the error of the needle force
+it reports.
+
+The interpenetration at a step is the largest -g_n (m, 0 where nothing passes into the needle)
+over the candidate's right edge: its nodes whose reference X lies at the domain's right end
+(within 1e-9 of its size), deformed (x = X + u, the in-plane x and y), and SAMPLES points along
+each straight deformed segment between consecutive edge nodes sorted by Y, as our own runs
+measure it (solvers/contact.py Measures). A 3D slab one element thick (a simulator that has no
+plane strain) has its edge nodes on several z layers: each layer is one chain, taken in x, y.
+g_n is meshes/contact.py's signed distance to the half-stadium at c(t_i).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from tissuebench.meshes.contact import RADIUS, signed_distance
+
+SAMPLES = 9  # points a deformed edge segment (both ends included), as solvers/contact.py
+EDGE_TOLERANCE = 1e-9  # of the domain's size: a node with X this close to its right end is on it
+
+
+def edge_chains(points: np.ndarray, right: float, size: float) -> list[np.ndarray]:
+    """The candidate's right edge as chains of node indices: nodes with |X - right| <=
+    EDGE_TOLERANCE * size (m), grouped by their z (3D; rounded to the same tolerance) and
+    sorted by Y within each group. [] when no node is on it."""
+    points = np.asarray(points, dtype=float)
+    tol = EDGE_TOLERANCE * size
+    on = np.flatnonzero(np.abs(points[:, 0] - right) <= tol)
+    if len(on) == 0:
+        return []
+    if points.shape[1] < 3:
+        layers = [on]
+    else:
+        z = np.round(points[on, 2] / max(tol, 1e-300)).astype(np.int64)
+        layers = [on[z == v] for v in np.unique(z)]
+    return [layer[np.argsort(points[layer, 1], kind="stable")] for layer in layers]
+
+
+def edge_interpenetration(
+    deformed: Sequence[np.ndarray], centre: np.ndarray, radius: float = RADIUS
+) -> float:
+    """The largest -g_n (m, >= 0) over the deformed chains (each (k, 2), m, in edge order),
+    sampled at SAMPLES points a segment, against the needle centred at `centre` (m). NaN when a
+    point is not finite."""
+    s = np.linspace(0.0, 1.0, SAMPLES)[:, None, None]
+    worst = 0.0
+    for chain in deformed:
+        chain = np.asarray(chain, dtype=float)
+        if not np.isfinite(chain).all():
+            return float("nan")
+        if len(chain) == 1:
+            sampled = chain
+        else:
+            sampled = ((1 - s) * chain[None, :-1] + s * chain[None, 1:]).reshape(-1, 2)
+        g = signed_distance(sampled, centre, radius)
+        worst = max(worst, float(-g.min()))
+    return worst
+
+
+def interpenetration_curve(
+    points: np.ndarray,
+    displacements: Sequence[np.ndarray],
+    times: np.ndarray,
+    centre: Callable[[float], np.ndarray],
+    right: float = 1.0,
+    size: float = 1.0,
+    radius: float = RADIUS,
+) -> np.ndarray:
+    """The interpenetration (m) at each step of a series: points (n, d) m, displacements one
+    (n, d) array (m) per time of `times` (s), `centre(t)` the needle's centre (m); `right`
+    (m) the reference X of the contact edge and `size` (m) the domain's. NaN at a step with a
+    non-finite displacement on the edge. ValueError when no node lies on the edge."""
+    chains = edge_chains(points, right, size)
+    if not chains:
+        raise ValueError(
+            f"no node of the candidate lies on the contact edge x = {right:g} m (within "
+            f"{EDGE_TOLERANCE:g} of the domain's size): its interpenetration cannot be measured"
+        )
+    points = np.asarray(points, dtype=float)
+    curve = np.full(len(times), np.nan)
+    for i, (t, u) in enumerate(zip(times, displacements, strict=False)):
+        u = np.asarray(u, dtype=float)
+        x = points[:, :2] + u[:, :2]
+        curve[i] = edge_interpenetration(
+            [x[c] for c in chains], np.asarray(centre(float(t))), radius
+        )
+    return curve
+
+
+def force_error(force: np.ndarray, reference: np.ndarray) -> float:
+    """SPEC 12's force error: the largest |F - F_ref| over the steps both have, over the largest
+    |F_ref| (dimensionless); force and reference (steps, 2) N/m. NaN when they share no step
+    or a compared force is not finite."""
+    force, reference = np.asarray(force, dtype=float), np.asarray(reference, dtype=float)
+    n = min(len(force), len(reference))
+    if n == 0:
+        return float("nan")
+    scale = np.linalg.norm(reference, axis=1).max()
+    return float(np.linalg.norm(force[:n] - reference[:n], axis=1).max() / scale)

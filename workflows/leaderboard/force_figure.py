@@ -1,0 +1,96 @@
+"""A contact case's force figure (SPEC 12): the needle force F_x (N/m) against time of every
+run that hands its force (ours from contact.csv, a simulator's from its force file), beside the
+truth's with its own error as a band where the truth is computed here (leaderboard/
+CASE-force.png). Rank 0."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from tissuebench.workflows.leaderboard.contact import truth_force
+from tissuebench.workflows.leaderboard.rows import Board, Row, plain
+
+
+def force_png(out: Path, board: Board) -> Path:
+    """Where a contact case's force figure goes: OUT/leaderboard/CASE-force.png (beside the
+    page, index.html, which links it)."""
+    from tissuebench.workflows.leaderboard.record import FOLDER
+
+    return out / FOLDER / f"{board.name}-force.png"
+
+
+def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
+    """F_x against t of each row with a readable force file (ours solid, the simulators'
+    dashed, a run that did not finish to where it ended), and the truth's (black, with its
+    own error as a grey band) where it is in the cache; a row whose file is missing is named
+    in the title's note."""
+    from matplotlib.figure import Figure
+
+    from tissuebench.workflows.io.tables import read_force_csv
+    from tissuebench.workflows.leaderboard.figures import STAMP, drawing_code
+
+    fig = Figure(figsize=(10, 5.4), layout="constrained")
+    ax = fig.subplots()
+    force = truth_force(board.truth) if board.truth else None
+    if force is not None:
+        h = board_h(board, rows)
+        t = np.arange(len(force.force)) * h
+        band = force.own_error * np.linalg.norm(force.force, axis=1).max()
+        fx = force.force[:, 0]
+        ax.fill_between(t, fx - band, fx + band, color="0.82", lw=0)
+        ax.plot(t, fx, "k-", lw=2.2, label=f"truth {board.truth} (band: its own error)")
+    missing = []
+    # ours with the case's model only (every model of ours on a nonlinear case: 25 curves)
+    shown = [r for r in rows if r.force and (r.source != "tissuebench" or of_model(r, board))]
+    others = sum(1 for r in rows if r.force and r not in shown)
+    for k, row in enumerate(shown):
+        try:
+            times, f = read_force_csv(Path(str(row.force)))
+        except (OSError, ValueError):
+            missing.append(row.label)
+            continue
+        ours = row.source == "tissuebench"
+        ax.plot(
+            times,
+            f[:, 0],
+            "-" if ours else "--",
+            lw=2.4 if row.reference else 1.0,
+            zorder=3 if row.reference else 2,  # on top: the others are graded against it
+            alpha=0.75 if row.reference else 1.0,
+            color=f"C{k % 10}",
+            label=plain(row.label) + (" (reference)" if row.reference else ""),
+        )
+    untold = [r.label for r in rows if r.contact and not r.force]
+    ax.set_xlabel("time t (s)")
+    ax.set_ylabel("needle force F_x (N/m)")
+    title = f"{board.name}: the force the tissue exerts on the rigid needle"
+    if force is None:
+        title += " (no truth force here)"
+    ax.set_title(title, fontsize=10)
+    note = []
+    if untold:
+        note.append("hand no force: " + ", ".join(plain(x) for x in untold))
+    if others:
+        note.append(f"{others} runs of ours with other models: in leaderboard.csv")
+    if missing:
+        note.append("force file not found: " + ", ".join(plain(x) for x in missing))
+    if note:
+        ax.text(0.01, 0.01, "; ".join(note)[:200], transform=ax.transAxes, fontsize=7)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right", ncol=2)
+    fig.savefig(path, format="png", dpi=110, metadata={STAMP: drawing_code()})
+
+
+def board_h(board: Board, rows: list[Row]) -> float:
+    """The case's time step h (s): the benchmark's (the boards keep it)."""
+    from tissuebench.meshes import get_entry
+
+    return float(get_entry(board.benchmark).dt)
+
+
+def of_model(row: Row, board: Board) -> bool:
+    """Whether a row of ours runs the case's model (its label ALGORITHM, or ALGORITHM+MODEL)."""
+    model = row.label.partition("+")[2] or "linear"
+    return model == board.model
