@@ -34,7 +34,7 @@ Measured (contact-MP1, Drake 1.58.0, 2 shared cores), against our implicit on th
 (kappa = 10): N = 20, 10 s: E_n time mean 0.53 (max 1.4, at the first steps), E_i max
 1.3e-2 m^2; F_x(2 s) 42.8 N/m against our 34.5, F_x(10 s) 31.2 against 29.6, F_y up to
 4.5 N/m (the split's asymmetry; the tip node drifts 0.013 m in y); interpenetration 4.3e-3 m
-(ours 1.3e-2 m); 41 s wall time (our implicit 3.7 s).
+(ours 1.3e-2 m); 41-61 s wall time (our implicit 3.7 s), two runs on the shared cores.
 """
 
 from __future__ import annotations

@@ -36,6 +36,8 @@ t = 1/3, 2/3 and 1 s; the node at (1, 0.5), alone on the disc's apex, slides off
 (u_y = -0.022 m at t = 1 s, 0 in ours by symmetry: frictionless vertex contact on a curved
 tool), its u_x -0.066 m against our -0.070; interpenetration 0.029 m (ours 0.017 m); 4.8 s
 for the 30 steps (Warp's kernels cached; compiling them cold takes 13-45 s).
+N = 20 for 10 s: E_n time mean 0.23 (max 0.82, at the first steps), E_i max 4.7e-3 m^2,
+interpenetration 2.0e-2 m (ours 1.3e-2 m), 148 s wall time (our implicit 3.7 s).
 """
 
 from __future__ import annotations
