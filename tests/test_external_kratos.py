@@ -215,3 +215,15 @@ def test_what_is_posed_and_what_fails(rod, tmp_path, monkeypatch):
     with h5py.File(tmp_path / "blow" / "kratos.h5") as f:
         assert np.all(np.isnan(f[f"/Function/displacement/{data.steps}"][...]))
         assert np.all(f["/Function/displacement/0"][...] == 0)
+
+
+def test_the_contact_benchmark_is_not_posed_and_says_why():
+    """A contact export (SPEC 12) gets no Kratos variant (the block's would pose it without
+    its needle) and CONTACT_NOTE as the reason; no CONTACT flag for the runner."""
+    data, _, _ = build(
+        "contact", 4, {"kappa": 10.0, "load_scale": 1.0}, get_material("MP1"), "linear", H, 2,
+        "strain", "dynamic", MPI.COMM_WORLD,
+    )  # fmt: skip
+    assert kr.variants(data) == {}
+    assert kr.skipped(data) == {"all": kr.CONTACT_NOTE}
+    assert not getattr(kr, "CONTACT", False)
