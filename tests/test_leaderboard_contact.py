@@ -15,7 +15,6 @@ import types
 import numpy as np
 import pytest
 
-from tissuebench.workflows.boards import CONTACT_OPTIONS
 from tissuebench.workflows.io.tables import write_force_csv
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import runs
@@ -53,7 +52,7 @@ def board_out(tmp_path_factory):
     fakes = {"mirror": simulator("mirror", True), "plain": simulator("plain", False)}
     board = Board(
         "contact-tiny", "contact", "MP1", "linear", mesh_size=4, end_time=0.5,
-        options=dict(CONTACT_OPTIONS), simulators=("mirror", "plain"),
+        options={"kappa": 10.0, "load_scale": 1.0}, simulators=("mirror", "plain"),
         description="contact, N = 4, 0.5 s",
     )  # fmt: skip
     out = tmp_path_factory.mktemp("board") / "results"

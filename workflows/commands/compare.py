@@ -8,6 +8,7 @@ from typing import Any, cast
 from mpi4py import MPI
 
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
+from tissuebench.solvers.truth.cases import CASES
 from tissuebench.workflows.grading import MAX_LABEL, compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
 from tissuebench.workflows.summary import read_compare_summary
@@ -56,8 +57,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "reference",
         type=Path,
         help="reference series (.xdmf, .pvd, .frd or .dat), or truth:CASE, the converged "
-        "reference of a SPEC 10 case (rod, rod-nh-s1, rod-nhb-s3, rod-MP2, block-MP1-w0.2, "
-        "block-MP2-w0.2, contact-MP1, contact-MP1-nhb, contact-MP2; computed once and "
+        f"reference of a SPEC 10 case ({', '.join(CASES)}; computed once and "
         "cached): the candidate is graded on its own mesh at the truth's vertices and "
         "quadrature points, and needs every t_i = i h",
     )
