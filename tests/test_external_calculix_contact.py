@@ -94,13 +94,14 @@ def graded(data, bench, material, run, folder: Path) -> tuple[float, float]:
 @needs_ccx
 def test_static_contact_against_ours_and_in_equilibrium(tmp_path):
     """Against our quasi-static on the same mesh (contact-MP1, s = 1, to t = 2 s), two contact
-    discretisations (CalculiX: node to surface; ours: the penalty along the whole edge):
-    measured, the needle force at t = 2 s 24 % (N = 10) and 11 % (N = 20) below ours (3 % at
-    N = 40), so the test asks for 15 % at N = 20 and for the gap to close from N = 10; the
-    displacement's E_i max at N = 20 below 20 % of the zero field's. At every step of the
-    static run the needle's x force equals the fixed edges' reactions (the block's
-    equilibrium, which the two RF sums of CalculiX must meet apart from each other) within
-    2 %."""
+    discretisations (CalculiX: node to surface, the block's nodes kept out of the needle; ours:
+    the penalty along the whole edge, between the nodes too). Measured: the needle force at
+    t = 2 s 23 % (N = 10), 14 % (N = 20) and 3.5 % (N = 40) below ours, E_i max 21 %, 16 % and
+    4 % of the zero field's: the test asks for the brief's 15 % on the force at N = 20, for
+    the gap to close from N = 10 to 20, and for E_i max at N = 20 below 20 % of the zero
+    field's. At every step the needle's x force equals the fixed edges' reactions (the static
+    block's equilibrium, which CalculiX's RF of the band and of the edges must meet apart)
+    within 1e-4 of the largest force (the .frd prints six digits; measured 3e-6)."""
     gaps = {}
     for n in (10, 20):
         data, bench, material = contact(n, STOP, "static")
@@ -114,7 +115,7 @@ def test_static_contact_against_ours_and_in_equilibrium(tmp_path):
         _, _, _, _, rf, _ = read_frd(work / "job.frd", ("FORC",))
         fixed = np.unique(np.concatenate(list(data.node_sets.values())))
         reaction = np.array([r[fixed, 0].sum() for r in rf])
-        assert np.abs(force[1:, 0] - reaction).max() <= 0.02 * np.abs(force[:, 0]).max()
+        assert np.abs(force[1:, 0] - reaction).max() <= 1e-4 * np.abs(force[:, 0]).max()
         e_run, e_zero = graded(data, bench, material, run, tmp_path / f"g{n}")
         ours = np.asarray(data.reference["contact"]["force"])
         assert force[STOP, 0] > 0 and abs(force[STOP, 1]) < 1e-6 * force[STOP, 0]
