@@ -71,7 +71,7 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     ax.set_title(title, fontsize=10)
     note = []
     if untold:
-        note.append("hand no force: " + ", ".join(plain(x) for x in untold))
+        note.append("no needle force reported by " + ", ".join(plain(x) for x in untold))
     if others:
         note.append(f"{others} runs of ours with other models: in leaderboard.csv")
     if missing:
