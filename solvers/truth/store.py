@@ -647,13 +647,30 @@ def size_of(samples: TruthSamples) -> float:
     )
 
 
+def penalty_part(h: dict) -> float | None:
+    """A contact truth's distance to its penalty's limit (m^2; SPEC 12), from the finest
+    level's run at the half step with k and with 10 k (penalty_check): their E_i max
+    difference d over 0.9, the error of k if it falls as 1/k (e(k) - e(10 k) = 0.9 e(k)).
+    SPEC 12 asks d to be under a tenth of the truth's own error; where it is not, it is
+    counted in that error as a third part beside space and time (judge). None where the check
+    was not made at the half step (or not made at all)."""
+    if "penalty_step" not in h or "penalty_difference" not in h:
+        return None
+    return float(max(h["penalty_difference"])) / 0.9
+
+
 def judge(samples: TruthSamples) -> None:
     """Set the truth's SPEC 10 target in its own_error: "size" (size_of), "target" =
-    TARGET_FRACTION x size and "meets_target" (its own E_i max at most the target). Taken of
-    the samples each time they are read, so a truth cached under an older target is judged
-    by today's."""
+    TARGET_FRACTION x size and "meets_target" (its own E_i max at most the target), a contact
+    truth's own E_i max being space + time + its penalty's part (penalty_part). Taken of the
+    samples each time they are read, so a truth cached under an older target is judged by
+    today's."""
     own = samples.own_error
     size = size_of(samples)
+    penalty = penalty_part(samples.hierarchy)
+    if penalty is not None and "space" in own and "time" in own:  # SPEC 12: counted in
+        own["penalty"] = penalty
+        own["interior_error_max"] = own["space"] + own["time"] + penalty
     total = own.get("interior_error_max")
     own["size"] = size
     own["target"] = TARGET_FRACTION * size
