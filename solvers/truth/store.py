@@ -116,16 +116,18 @@ def levels_of(case: str, quick: bool = False) -> tuple[int, ...]:
     return entry.quick_truth_levels if quick else entry.truth_levels
 
 
-def expected_seconds(case: str, quick: bool = False) -> float:
+def expected_seconds(case: str, quick: bool = False, now: bool = True) -> float:
     """About how long the first computation of a case takes here, s (one rank): its time
     measured on the quiet machine of EXPECTED_SECONDS scaled by this machine's speed and load
-    now (core/speed.py); a case not measured (a benchmark registered from elsewhere) takes ten
-    times its quick estimate."""
+    now (core/speed.py; not `now`: as measured, for a report that must not change with the
+    load); a case not measured (a benchmark registered from elsewhere) takes ten times its
+    quick estimate."""
     from tissuebench.meshes import get_entry
 
     factor = 5.0 if CASES[case][2] in VOLUMETRIC else 1.0  # neo-Hookean: about x 5
     quick_seconds = get_entry(CASES[case][0]).quick_truth_seconds * factor
-    return scaled(quick_seconds if quick else EXPECTED_SECONDS.get(case, 10 * quick_seconds))
+    seconds = quick_seconds if quick else EXPECTED_SECONDS.get(case, 10 * quick_seconds)
+    return scaled(seconds) if now else seconds
 
 
 def _versions() -> dict:

@@ -327,13 +327,18 @@ def case_line(case: str) -> str:
     return line
 
 
-def fallback_words(case: str) -> list[str]:
-    """The cases taken in place of a case that does not converge (solvers/truth/fallbacks.py),
-    in a line, or none."""
+def fallback_words(case: str, computed: bool = True) -> list[str]:
+    """The cases taken in place of a case that does not converge (solvers/truth/fallbacks.py,
+    which records the evidence), in a line, or none; `computed`: whether this report shows that
+    evidence itself."""
     taken = [f"{c} (s = {scale:g})" for c, (source, scale) in FALLBACKS.items() if source == case]
     if not taken:
         return []
-    return [f"SPEC 12 takes it at a smaller load instead: {', '.join(taken)}, below.", ""]
+    said = "" if computed else "When last computed its levels did not converge (fallbacks.py): "
+    return [
+        f"{said}SPEC 12 takes it at a smaller load instead, {', '.join(taken)}, below.",
+        "",
+    ]
 
 
 def section(case: str, s: dict | None, quick: bool) -> list[str]:
@@ -350,13 +355,15 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
                 + ", ".join(f"{fmt(t, 2)} s at {sizes[k]}" for k, t in enumerate(per) if t)
                 + " (the first steps, on a machine shared with other jobs: an upper bound)."
             )
-        minutes = expected_seconds(case) / 60
+        minutes = expected_seconds(case, now=False) / 60  # as measured: the file stays put
         divisor = STEP_DIVISOR.get(case, 1)
         return lines + [
             f"Not yet computed: `tissuebench truth {case}` takes about {minutes:.0f} min on "
-            f"one core here (levels {', '.join(map(str, sizes))}, {300 * divisor} steps each "
+            f"one quiet core of a machine like this one (levels "
+            f"{', '.join(map(str, sizes))}, {300 * divisor} steps each "
             f"and {600 * divisor} at half the step on the finest).{measured}",
             "",
+            *fallback_words(case, computed=False),
         ]
     inp, h, own = s["inputs"], s["hierarchy"], s["own_error"]
     levels = h["levels"]
