@@ -254,6 +254,12 @@ def paper_section(folder: Path) -> list[str]:
             f"contact half-width {100 * r['a_error']:+.2f} % (SPEC 12 asks 1 % and 2 %).",
             "",
         ]
+    lines += [
+        "The outside simulators with their own contact, graded against the same truths at "
+        "N = 10, 20 and 40, are on the leaderboard's contact boards ([leaderboard.md]"
+        "(leaderboard.md), with the needle force against time per board).",
+        "",
+    ]
     table = folder / "contact.csv"
     if not table.is_file():
         return lines
