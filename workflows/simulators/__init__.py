@@ -21,9 +21,10 @@ One module per simulator, with a small fixed interface (as benchopt's solvers):
 
 - `CONTACT = True` (optional module attribute): it poses a rigid tool in contact (SPEC 12:
   the export's `contact` block, the needle of the benchmark "contact") in its variants. A
-  module without it is never run on such an export (runner.py: SimulatorError "cannot pose a
-  rigid tool in contact here", which the leaderboard shows as the simulator skipped), lest it
-  pose the export as if the needle were absent. A module with it says in `skipped()` which
+  module without it is never run on such an export (runner.py: SimulatorError with its
+  `CONTACT_NOTE`, a line on why not, or "cannot pose a rigid tool in contact here", which the
+  leaderboard shows as the simulator skipped), lest it pose the export as if the needle were
+  absent. A module with it says in `skipped()` which
   variants cannot pose the contact and why, and hands its needle force as
   `ExternalRun.force` (io/tables.py write_force_csv), which compare grades as the force
   error; its interpenetration is graded from its series.

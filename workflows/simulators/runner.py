@@ -45,7 +45,8 @@ class SimulatorError(UserError):
     """A simulator or variant that cannot run here or does not pose the benchmark."""
 
 
-NO_CONTACT = "cannot pose a rigid tool in contact here"  # a module without CONTACT = True
+# a module without CONTACT = True, unless it says why in its CONTACT_NOTE
+NO_CONTACT = "cannot pose a rigid tool in contact here"
 
 
 def poses_contact(sim) -> bool:
@@ -214,7 +215,7 @@ def run_external(
         getattr(data, "contact", None) is not None if comm.rank == 0 else None, root=0
     )
     if in_contact and not poses_contact(sim):  # SPEC 12: not posed as if the needle were absent
-        raise SimulatorError(f"{simulator}: {NO_CONTACT}")
+        raise SimulatorError(f"{simulator}: {getattr(sim, 'CONTACT_NOTE', NO_CONTACT)}")
     chosen = comm.bcast(
         choose_variants(simulator, data, variants) if comm.rank == 0 else None, root=0
     )
