@@ -204,7 +204,8 @@ def contact_board(case: str, n: int) -> Board:
     if nhb:  # every model of ours on the main board, the reference's elsewhere (their cost)
         models = tuple(MODELS) if n == CONTACT_MAIN else (model,)
         how += "" if n == CONTACT_MAIN else "; ours with neo-hookean-barrier only at this size"
-    variants, skip = {}, ""
+    variants: dict[str, tuple[str, ...]] = {}
+    skip = ""
     if n > CONTACT_MAIN:
         variants, skip = {"newton": ()}, CONTACT_NEWTON_NOTE
     words = CONTACT_WORDS.format(depth=0.16 * scale, s=scale)

@@ -104,9 +104,10 @@ def plot_folded(path: Path, samples: TruthSamples) -> tuple[float, int, float]:
         cell_array, np.full(len(cells), pv.CellType.HEXAHEDRON, dtype=np.uint8), vertices + u
     )
     grid.cell_data["smallest corner J"] = corner
-    near = grid.extract_cells(np.flatnonzero(vertices[cells].mean(axis=1)[:, 0] < CLAMP_VIEW))
+    inside = vertices[cells].mean(axis=1)[:, 0] < CLAMP_VIEW
+    near = grid.extract_cells([int(c) for c in np.flatnonzero(inside)])
     folded = int((corner < FOLDED).sum())
-    plotter = pv.Plotter(off_screen=True, window_size=(1000, 640))
+    plotter = pv.Plotter(off_screen=True, window_size=[1000, 640])
     plotter.add_mesh(
         near,
         scalars="smallest corner J",
@@ -121,8 +122,9 @@ def plot_folded(path: Path, samples: TruthSamples) -> tuple[float, int, float]:
         f"{folded} cells with a corner J < {FOLDED:g} (dark), on the compressed lower edges",
         font_size=10,
     )
-    plotter.view_vector((0.5, -0.6, 1.0), viewup=(0.0, 1.0, 0.0))
-    plotter.reset_camera()
+    # pyvista's stubs type these as unbound wrappers: the calls are pyvista's own examples
+    plotter.view_vector((0.5, -0.6, 1.0), viewup=(0.0, 1.0, 0.0))  # type: ignore[arg-type]
+    plotter.reset_camera()  # type: ignore[call-arg]
     plotter.camera.zoom(1.25)
     plotter.screenshot(str(path))
     plotter.close()
