@@ -114,7 +114,7 @@ def plot_folded(path: Path, samples: TruthSamples) -> tuple[float, int, float]:
         cmap="inferno",
         clim=(float(min(corner.min(), 0.0)), 1.0),
         show_edges=True,
-        scalar_bar_args={"title": "smallest corner J", "vertical": True},
+        scalar_bar_args={"title": "corner J", "vertical": True},
     )
     plotter.add_text(
         f"{samples.case}, finest level (n = {samples.hierarchy['levels'][-1]}), "
