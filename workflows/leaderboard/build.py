@@ -21,7 +21,11 @@ from tissuebench.workflows.leaderboard.figures import (
     stamp_of,
     unit_of,
 )
-from tissuebench.workflows.leaderboard.force_figure import force_png, plot_force
+from tissuebench.workflows.leaderboard.force_figure import (
+    force_drawing_code,
+    force_png,
+    plot_force,
+)
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
@@ -239,7 +243,8 @@ def main(args: argparse.Namespace) -> int:
             # SPEC 12: the needle force against time, drawn again as the case's figure is (its
             # force files are in the case's folder, which git does not keep: a fresh clone's
             # render keeps the committed figure of the same rows)
-            if board.benchmark == "contact" and not (same and as_drawn_now(force)):
+            drawn_now = unchanged(force) and stamp_of(force) == force_drawing_code()
+            if board.benchmark == "contact" and not (same and drawn_now):
                 files[force] = lambda tmp, board=board: plot_force(tmp, board, rows[board.name])
         every = [r for board in boards for r in rows[board.name]]
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")

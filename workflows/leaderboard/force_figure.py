@@ -13,6 +13,16 @@ from tissuebench.workflows.leaderboard.contact import truth_force
 from tissuebench.workflows.leaderboard.rows import Board, Row, plain
 
 
+def force_drawing_code() -> str:
+    """The SHA-256 of the code that draws a force figure (the case figures' code and this
+    module), stamped into it: a figure drawn by other code is drawn again."""
+    import hashlib
+
+    from tissuebench.workflows.leaderboard.figures import drawing_code
+
+    return hashlib.sha256((drawing_code() + Path(__file__).read_text()).encode()).hexdigest()
+
+
 def force_png(out: Path, board: Board) -> Path:
     """Where a contact case's force figure goes: OUT/leaderboard/CASE-force.png (beside the
     page, index.html, which links it)."""
@@ -29,9 +39,9 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     from matplotlib.figure import Figure
 
     from tissuebench.workflows.io.tables import read_force_csv
-    from tissuebench.workflows.leaderboard.figures import STAMP, drawing_code
+    from tissuebench.workflows.leaderboard.figures import STAMP
 
-    fig = Figure(figsize=(10, 5.4), layout="constrained")
+    fig = Figure(figsize=(11.5, 5.4), layout="constrained")
     ax = fig.subplots()
     force = truth_force(board.truth) if board.truth else None
     if force is not None:
@@ -56,9 +66,9 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
             times,
             f[:, 0],
             "-" if ours else "--",
-            lw=2.4 if row.reference else 1.0,
+            lw=2.4 if row.reference else (1.0 if ours else 0.8),
             zorder=3 if row.reference else 2,  # on top: the others are graded against it
-            alpha=0.75 if row.reference else 1.0,
+            alpha=0.75 if row.reference or not ours else 1.0,  # a simulator's may chatter
             color=f"C{k % 10}",
             label=plain(row.label) + (" (reference)" if row.reference else ""),
         )
@@ -79,8 +89,8 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     if note:
         ax.text(0.01, 0.01, "; ".join(note)[:200], transform=ax.transAxes, fontsize=7)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right", ncol=2)
-    fig.savefig(path, format="png", dpi=110, metadata={STAMP: drawing_code()})
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside: no curve hidden
+    fig.savefig(path, format="png", dpi=110, metadata={STAMP: force_drawing_code()})
 
 
 def board_h(board: Board, rows: list[Row]) -> float:
