@@ -51,6 +51,7 @@ def test_creased_needs_falling_j_and_levels_moving_apart():
     assert not creased({"min_jacobian": level, "level_differences": [[1e-3], [2e-3]]})
 
 
+@pytest.mark.serial  # draws two files in one folder: one process
 def test_crease_figures_count_the_squashed_cells(tmp_path: Path):
     """A 4^3 grid of the unit cube whose vertices at z = 0.25 with x <= 0.5 and y <= 0.25 (six
     of them) are pulled down by 0.235 m: every cell of the bottom layer with one of them as a
