@@ -92,6 +92,7 @@ def graded(data, bench, material, run, folder: Path) -> tuple[float, float]:
 
 
 @needs_ccx
+@pytest.mark.serial  # runs ccx in a folder of its own: one process
 def test_static_contact_against_ours_and_in_equilibrium(tmp_path):
     """Against our quasi-static on the same mesh (contact-MP1, s = 1, to t = 2 s), two contact
     discretisations (CalculiX: node to surface, the block's nodes kept out of the needle; ours:
@@ -127,6 +128,7 @@ def test_static_contact_against_ours_and_in_equilibrium(tmp_path):
 
 
 @needs_ccx
+@pytest.mark.serial  # runs ccx in a folder of its own: one process
 def test_dynamic_contact_is_not_posed(tmp_path):
     """CalculiX 2.20 stops the dynamic deck (DYNAMIC_REFUSED): the variants offer only the
     quasi-static one (the load history by *STATIC) and skipped says why; if a later CalculiX
