@@ -46,8 +46,7 @@ from tissuebench.workflows.contact.grading import (
     ContactReference,
     contact_grades,
     force_columns,
-    is_contact_benchmark,
-    reference_benchmark,
+    is_contact_reference,
 )
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
@@ -169,12 +168,7 @@ def compare(
     check_label(label, candidate)
     wall = check_wall_time(wall_time)
     case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
-    in_contact = comm.bcast(  # rank 0's `contact` (the external runner gives it there)
-        (contact is not None or is_contact_benchmark(reference_benchmark(reference, case)))
-        if comm.rank == 0
-        else None,
-        root=0,
-    )
+    in_contact = is_contact_reference(reference, case, contact, comm)
     if needle_force is not None and not in_contact:
         raise GradingError(
             "--needle-force is for a contact reference (SPEC 12: the benchmark contact, or "
@@ -349,16 +343,7 @@ def summary_of(g: Grading, reference, candidate, wall_time: float | None) -> Com
     if grades is not None:  # SPEC 12: a contact reference's two readings (absent otherwise)
         entry.update(grades.entry())
         metrics = {**metrics, **CONTACT_METRICS}
-        contact = {
-            "contact": {
-                **grades.entry(),
-                "force_given": grades.force is not None,
-                "force_file": grades.force_file,
-                "force_reference": grades.force_source,
-                "reference_force_own_error": grades.own_error,
-                "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},
-            }
-        }
+        contact = {"contact": grades.summary()}
     return {
         "kind": "compare",
         "schema_version": SCHEMA_VERSION,

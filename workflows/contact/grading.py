@@ -108,6 +108,17 @@ class ContactGrades:
             "interpenetration_max": value(self.interpenetration_max),
         }
 
+    def summary(self) -> dict:
+        """summary.json's `contact` block (compare: workflows/grading.py's summary_of)."""
+        return {
+            **self.entry(),
+            "force_given": self.force is not None,
+            "force_file": self.force_file,
+            "force_reference": self.force_source,
+            "reference_force_own_error": self.own_error,
+            "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},
+        }
+
 
 def is_contact_benchmark(benchmark: object) -> bool:
     return benchmark == BENCHMARK
@@ -265,6 +276,20 @@ def reference_benchmark(reference: str | Path, case: str | None) -> str | None:
         return folder_fingerprint(Path(reference)).get("benchmark")
     except Exception:  # anything a file can hold: the folder says nothing
         return None
+
+
+def is_contact_reference(
+    reference: str | Path, case: str | None, contact: ContactReference | None, comm
+) -> bool:
+    """Whether compare's reference poses contact (SPEC 12): `contact` given (the external
+    runner gives its export's, on rank 0), or a truth, run folder or export of the benchmark
+    "contact"; rank 0's answer on every rank. Collective."""
+    return comm.bcast(
+        (contact is not None or is_contact_benchmark(reference_benchmark(reference, case)))
+        if comm.rank == 0
+        else None,
+        root=0,
+    )
 
 
 def contact_grades(
