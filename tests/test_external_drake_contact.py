@@ -4,9 +4,6 @@ one-element slab of P1 tetrahedra pushed by the rigid needle on a prismatic join
 own implicit with penalty contact on the same grid (kappa = 100, so that our penalty's own
 interpenetration, 9e-3 m, is not the difference). Serial; about 5 s."""
 
-from mpi4py import MPI
-
-import h5py
 import numpy as np
 import pytest
 
@@ -15,13 +12,12 @@ from tissuebench.workflows.simulators import drake as dk
 if dk.available() is not None:
     pytest.skip(dk.available(), allow_module_level=True)
 
-from tissuebench.solvers.materials import get_material  # noqa: E402
+from contact_setup import contact_case, series  # noqa: E402
+
 from tissuebench.workflows.io.tables import read_force_csv  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.simulators import drake_contact as dc  # noqa: E402
 from tissuebench.workflows.simulators import mujoco_contact as mc  # noqa: E402
 
-H = 1 / 30  # s
 STEPS = 60  # 2 s: the needle stops 0.16 m deep
 
 
@@ -29,16 +25,7 @@ STEPS = 60  # 2 s: the needle stops 0.16 m deep
 def contact(tmp_path_factory):
     """(Exported contact-MP1 of mesh size 8, 60 steps, kappa 100; our implicit's displacement
     (steps + 1, N, 3) m and its `reference` record with the needle force)."""
-    material = get_material("MP1")
-    data, bench, _ = build(
-        "contact", 8, {"kappa": 100.0, "load_scale": 1.0}, material, "linear", H, STEPS,
-        "strain", "dynamic", MPI.COMM_WORLD,
-    )  # fmt: skip
-    path = tmp_path_factory.mktemp("ours") / "ours.xdmf"
-    info = run_reference(data, bench, material, path, log=lambda *a: None)
-    with h5py.File(path.with_suffix(".h5")) as f:
-        U = np.array([f[f"/Function/displacement/{i}"][...] for i in range(STEPS + 1)])
-    return data, U, info
+    return contact_case(tmp_path_factory.mktemp("ours"), 100.0, STEPS)
 
 
 @pytest.mark.serial
@@ -47,8 +34,7 @@ def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
     assert dk.CONTACT and "linear" in dk.variants(data) and dk.skipped(data) == {}
     result = dk.run(data, "linear", tmp_path)
     assert result.status == "ok", result.reason
-    with h5py.File(tmp_path / "drake.h5") as f:
-        U = np.array([f[f"/Function/displacement/{i}"][...] for i in range(STEPS + 1)])
+    U = series(tmp_path / "drake.xdmf", STEPS)
     # the fixed edges stay fixed (Drake's fixed constraints to a reset body, module docstring)
     edges = (data.nodes[:, 0] < 1e-9) | (data.nodes[:, 1] < 1e-9) | (data.nodes[:, 1] > 1 - 1e-9)
     assert np.abs(U[:, edges]).max() < 1e-6

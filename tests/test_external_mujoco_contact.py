@@ -4,9 +4,6 @@ one-element slab pushed by the mocap needle, against our own implicit with penal
 on the same grid (kappa = 100, so that our penalty's own interpenetration, 3e-3 m, is not the
 difference). Serial; about 2 s."""
 
-from mpi4py import MPI
-
-import h5py
 import numpy as np
 import pytest
 
@@ -15,12 +12,11 @@ from tissuebench.workflows.simulators import mujoco as mj
 if mj.available() is not None:
     pytest.skip(mj.available(), allow_module_level=True)
 
-from tissuebench.solvers.materials import get_material  # noqa: E402
+from contact_setup import contact_case, series  # noqa: E402
+
 from tissuebench.workflows.io.tables import read_force_csv  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.simulators import mujoco_contact as mc  # noqa: E402
 
-H = 1 / 30  # s
 STEPS = 30  # 1 s: the needle 0.08 m deep, before MuJoCo's SVK inverts a tetrahedron (1.9 s)
 
 
@@ -28,16 +24,7 @@ STEPS = 30  # 1 s: the needle 0.08 m deep, before MuJoCo's SVK inverts a tetrahe
 def contact(tmp_path_factory):
     """(Exported contact-MP1 of mesh size 8, 30 steps, kappa 100; our implicit's displacement
     (steps + 1, N, 3) m and its `reference` record with the needle force)."""
-    material = get_material("MP1")
-    data, bench, _ = build(
-        "contact", 8, {"kappa": 100.0, "load_scale": 1.0}, material, "linear", H, STEPS,
-        "strain", "dynamic", MPI.COMM_WORLD,
-    )  # fmt: skip
-    path = tmp_path_factory.mktemp("ours") / "ours.xdmf"
-    info = run_reference(data, bench, material, path, log=lambda *a: None)
-    with h5py.File(path.with_suffix(".h5")) as f:
-        U = np.array([f[f"/Function/displacement/{i}"][...] for i in range(STEPS + 1)])
-    return data, U, info
+    return contact_case(tmp_path_factory.mktemp("ours"), 100.0, STEPS)
 
 
 @pytest.mark.serial
@@ -47,8 +34,7 @@ def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
     result = mj.run(data, "euler-10", tmp_path)
     assert result.status == "ok", result.reason
     assert result.force is not None
-    with h5py.File(tmp_path / "mujoco.h5") as f:
-        U = np.array([f[f"/Function/displacement/{i}"][...] for i in range(STEPS + 1)])
+    U = series(tmp_path / "mujoco.xdmf", STEPS)
     # the nodal relative error, |U - U_ours| / |U_ours| over all nodes, from t = 1/3 s on:
     # measured 0.31-0.35 (MuJoCo's SVK tetrahedra and element-hull contact against our Q1
     # linear with a penalty at quadrature points); a needle passing through the tissue leaves

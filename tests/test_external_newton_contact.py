@@ -4,9 +4,6 @@ one-element VBD slab pushed by the kinematic needle, against our own implicit wi
 contact on the same grid (kappa = 10, from which Newton's particle penalty is derived).
 Serial; about 10 s with Warp's kernels cached (up to a minute compiling them)."""
 
-from mpi4py import MPI
-
-import h5py
 import numpy as np
 import pytest
 
@@ -15,12 +12,11 @@ from tissuebench.workflows.simulators import newton as nw
 if nw.available() is not None:
     pytest.skip(nw.available(), allow_module_level=True)
 
-from tissuebench.solvers.materials import get_material  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
+from contact_setup import contact_case, series  # noqa: E402
+
 from tissuebench.workflows.simulators import mujoco_contact as mc  # noqa: E402
 from tissuebench.workflows.simulators import newton_contact as nc  # noqa: E402
 
-H = 1 / 30  # s
 STEPS = 30  # 1 s: the needle 0.08 m deep
 
 
@@ -28,16 +24,7 @@ STEPS = 30  # 1 s: the needle 0.08 m deep
 def contact(tmp_path_factory):
     """(Exported contact-MP1 of mesh size 8, 30 steps, kappa 10; our implicit's displacement
     (steps + 1, N, 3) m and its `reference` record)."""
-    material = get_material("MP1")
-    data, bench, _ = build(
-        "contact", 8, {"kappa": 10.0, "load_scale": 1.0}, material, "linear", H, STEPS,
-        "strain", "dynamic", MPI.COMM_WORLD,
-    )  # fmt: skip
-    path = tmp_path_factory.mktemp("ours") / "ours.xdmf"
-    info = run_reference(data, bench, material, path, log=lambda *a: None)
-    with h5py.File(path.with_suffix(".h5")) as f:
-        U = np.array([f[f"/Function/displacement/{i}"][...] for i in range(STEPS + 1)])
-    return data, U, info
+    return contact_case(tmp_path_factory.mktemp("ours"), 10.0, STEPS)
 
 
 @pytest.mark.serial
@@ -47,8 +34,7 @@ def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
     result = nw.run(data, "vbd-10", tmp_path)
     assert result.status == "ok", result.reason
     assert result.force is None  # Newton reports no contact force (module docstring)
-    with h5py.File(tmp_path / "newton.h5") as f:
-        U = np.array([f[f"/Function/displacement/{i}"][...] for i in range(STEPS + 1)])
+    U = series(tmp_path / "newton.xdmf", STEPS)
     # the nodal relative error |U - U_ours| / |U_ours| at t = 1 s: measured 0.38 (VBD's
     # unconverged steps, stable neo-Hookean tetrahedra, vertex-only contact); a needle that
     # passes through the tissue leaves it still (error 1)
