@@ -55,7 +55,13 @@ from tissuebench.workflows.simulators.drake import (
 from tissuebench.workflows.simulators.drake import (
     VARIANTS as ROD_VARIANTS,
 )
-from tissuebench.workflows.simulators.mujoco_contact import MESH, planar, slab, tool
+from tissuebench.workflows.simulators.mujoco_contact import (
+    MESH,
+    planar,
+    slab,
+    slab_problem,
+    tool,
+)
 from tissuebench.workflows.simulators.newton import tet_volumes
 
 if TYPE_CHECKING:
@@ -83,15 +89,9 @@ def posed(data: Exported) -> str | None:
         return "not a contact benchmark"
     if data.procedure != "dynamic":
         return "Drake steps its deformable bodies in time only; no static procedure"
-    if data.dim != 2 or data.plane != "strain" or data.cell_type != "quadrilateral":
-        return "posed as a one-element slab of the plane-strain quadrilateral block only"
     if not any(model_of(data) in spec[1] for spec in ROD_VARIANTS.values()):
         return f"no Drake counterpart of the {data.model} model"
-    if tool(data).get("shape", {}).get("kind") != "half-stadium":
-        return "the needle's shape is not the half-stadium"
-    if any(np.any(np.abs(np.asarray(x)) > 0) for m in data.motions.values() for x in m):
-        return "a moving constrained set has no counterpart here"
-    return None
+    return slab_problem(data, "a moving constrained set has no counterpart here")
 
 
 def variants(data: Exported) -> dict[str, str]:

@@ -114,21 +114,30 @@ def tool(data: Exported) -> dict:
     return data.contact
 
 
+def slab_problem(data: Exported, moving: str) -> str | None:
+    """Why a contact export cannot be posed as the one-element slab of its block that MuJoCo,
+    Newton and Drake pose (one line; `moving`: the simulator's words for a moving constrained
+    set), None when it can."""
+    if data.dim != 2 or data.plane != "strain" or data.cell_type != "quadrilateral":
+        return "posed as a one-element slab of the plane-strain quadrilateral block only"
+    if tool(data).get("shape", {}).get("kind") != "half-stadium":
+        return "the needle's shape is not the half-stadium"
+    if any(np.any(np.abs(np.asarray(x)) > 0) for m in data.motions.values() for x in m):
+        return moving
+    return None
+
+
 def posed(data: Exported) -> str | None:
     """None when this module poses the contact export, else why not (one line)."""
     if data.contact is None:
         return "not a contact benchmark"
     if data.procedure != "dynamic":
         return "MuJoCo steps dynamics only; the static procedure has no counterpart"
-    if data.dim != 2 or data.plane != "strain" or data.cell_type != "quadrilateral":
-        return "posed as a one-element slab of the plane-strain quadrilateral block only"
     if data.model not in MODELS:
         return f"no MuJoCo counterpart of the {data.model} model"
-    if data.contact.get("shape", {}).get("kind") != "half-stadium":
-        return "the needle's shape is not the half-stadium"
-    if any(np.any(np.abs(np.asarray(x)) > 0) for m in data.motions.values() for x in m):
-        return "a moving constrained set has no counterpart in a flex's jointless bodies"
-    return None
+    return slab_problem(
+        data, "a moving constrained set has no counterpart in a flex's jointless bodies"
+    )
 
 
 def variants(data: Exported) -> dict[str, str]:

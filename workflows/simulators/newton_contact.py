@@ -54,6 +54,7 @@ from tissuebench.workflows.simulators.mujoco_contact import (
     fixed_nodes,
     planar,
     slab,
+    slab_problem,
     tool,
 )
 from tissuebench.workflows.simulators.newton import (
@@ -97,15 +98,9 @@ def posed(data: Exported) -> str | None:
         return "not a contact benchmark"
     if data.procedure != "dynamic":
         return "Newton integrates in time only; the static procedure has no counterpart"
-    if data.dim != 2 or data.plane != "strain" or data.cell_type != "quadrilateral":
-        return "posed as a one-element slab of the plane-strain quadrilateral block only"
     if data.model not in MODELS:
         return f"no Newton counterpart of the {data.model} model"
-    if tool(data).get("shape", {}).get("kind") != "half-stadium":
-        return "the needle's shape is not the half-stadium"
-    if any(np.any(np.abs(np.asarray(x)) > 0) for m in data.motions.values() for x in m):
-        return "a moving constrained set has no counterpart here"
-    return None
+    return slab_problem(data, "a moving constrained set has no counterpart here")
 
 
 def variants(data: Exported) -> dict[str, str]:
