@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.simulators import ExternalRun, given
+from tissuebench.workflows.simulators import ExternalRun
 
 JOB = "job"
 SERIES = "calculix.xdmf"  # the block's displacement at every t_i, t_0 = 0 included
@@ -72,6 +72,7 @@ def variants(data) -> dict[str, str]:
     if data.model not in MODELS:
         return {}
     from tissuebench.workflows.io.calculix_contact import SIGMA_INF
+    from tissuebench.workflows.simulators import calculix  # the deck's materials, as there
 
     k = float(data.contact["penalty"]["k"])
     flags = ", NLGEOM" if data.model != "linear" else ""
@@ -87,19 +88,8 @@ def variants(data) -> dict[str, str]:
         "a rigid band of CPE4 moved by *BOUNDARY, *CONTACT PAIR NODE TO SURFACE (the block's "
         "edge x = 1 the slave), frictionless, PRESSURE-OVERCLOSURE=LINEAR with k = "
         f"{k:.5g} Pa/m (the export's penalty kappa E / h_e) and sigma_inf = k x {SIGMA_INF:g} m; "
-        + elastic(data)
+        + calculix.elastic(data)
     }
-
-
-def elastic(data) -> str:
-    m = data.material
-    if data.model == "neo-hookean":
-        kappa = m.lmbda + 2 * m.mu / 3
-        return (
-            f"*HYPERELASTIC, NEO HOOKE with C10 = mu/2 = {m.mu / 2:.5g} Pa, D1 = 2/kappa = "
-            f"{2 / kappa:.5g} 1/Pa of {given(m)}"
-        )
-    return f"*ELASTIC with the export's {given(m)}"
 
 
 def skipped(data) -> dict[str, str]:
