@@ -404,6 +404,19 @@ def extent_of(nodes: np.ndarray) -> float:
     return float(np.max(nodes.max(axis=0) - nodes.min(axis=0)))
 
 
+def check_step(values: np.ndarray, i: int, h: float, limit: float) -> None:
+    """Raise Diverged at step i (t = i h, h in s) where the nodal displacements `values` (m)
+    are not finite or one is beyond `limit` (m: DIVERGENCE_FACTOR x the domain's extent)."""
+    peak = float(np.max(np.linalg.norm(values, axis=1)))
+    if not math.isfinite(peak):
+        raise Diverged(f"diverged at step {i} (t = {i * h:.6g} s): non-finite displacement")
+    if peak > limit:
+        raise Diverged(
+            f"diverged at step {i} (t = {i * h:.6g} s): largest nodal displacement "
+            f"{peak:.3g} m > {DIVERGENCE_FACTOR:g} x the domain's extent"
+        )
+
+
 def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     """Run one variant in workdir, serially: write workdir/sfepy.xdmf (the displacement in m
     at every t_i up to the last step run, then one NaN step where it diverged or failed) and
@@ -438,14 +451,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
         i = int(ts.step)
         values = variables["u"]().reshape(N, dim)
         last = i
-        peak = float(np.max(np.linalg.norm(values, axis=1)))
-        if not math.isfinite(peak):
-            raise Diverged(f"diverged at step {i} (t = {i * h:.6g} s): non-finite displacement")
-        if peak > limit:
-            raise Diverged(
-                f"diverged at step {i} (t = {i * h:.6g} s): largest nodal displacement "
-                f"{peak:.3g} m > {DIVERGENCE_FACTOR:g} x the domain's extent"
-            )
+        check_step(values, i, h, limit)
         U[i, :, :dim] = values
 
     saved = output.output_function, output.level

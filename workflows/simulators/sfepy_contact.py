@@ -45,7 +45,6 @@ points on each edge between two nodes (as ours).
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -428,16 +427,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
                 )
         values = variables["u"]().reshape(2 * N, 3)[:N, :2]
         last = i
-        peak = float(np.max(np.linalg.norm(values, axis=1)))
-        if not math.isfinite(peak):
-            raise base.Diverged(
-                f"diverged at step {i} (t = {i * h:.6g} s): non-finite displacement"
-            )
-        if peak > limit:
-            raise base.Diverged(
-                f"diverged at step {i} (t = {i * h:.6g} s): largest nodal displacement "
-                f"{peak:.3g} m > {base.DIVERGENCE_FACTOR:g} x the domain's extent"
-            )
+        base.check_step(values, i, h, limit)
         U[i, :, :2] = values
         F[i] = sum(term_force(t) for t in terms)[:2] / SLAB
         depth[i] = interpenetration(nodes, values, edge, centres[i], radius)
