@@ -151,6 +151,9 @@ def next_line(board: Board | None, out: Path, fmt: str) -> str:
     run = f"ccx -i {job}; " if fmt == "inp" else "run your simulator; "
     series = f"{job}.frd" if fmt == "inp" else "YOUR_SERIES"
     grade = f"tissuebench compare {reference_path(out)} {series}"
+    if board is not None and board.benchmark == "contact":  # SPEC 12: the force, if you have it
+        series += " [--needle-force YOUR_FORCE.csv]"
+        grade = f"tissuebench compare {reference_path(out)} {series}"
     if board is None:
         return f"next: {run}{grade} --out {job.name}-graded"
     return (
