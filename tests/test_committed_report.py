@@ -46,3 +46,39 @@ def test_the_contact_section_is_what_the_committed_contact_results_give():
     assert (RESULTS / "contact" / "hertz.json").is_file()
     report = (RESULTS / "README.md").read_text()
     assert "\n".join(paper_section(RESULTS / "contact")) in report
+
+
+def test_the_crease_section_is_what_the_committed_record_gives():
+    """SPEC 10: results/README.md's section on the large rod's fold, written again from the
+    committed crease.json (tissuebench truth), stands in it word for word, and its figures
+    are committed."""
+    from tissuebench.workflows.reports.sweep import readme_section
+
+    section = readme_section(RESULTS / "crease" / "crease.json")
+    assert section, "results/crease/crease.json is not committed"
+    assert "\n".join(section) in (RESULTS / "README.md").read_text()
+    for line in section:
+        if line.startswith("!["):
+            assert (RESULTS / line.split("](")[1].rstrip(")")).is_file(), line
+
+
+def test_the_committed_leaderboard_figures_are_what_the_code_draws():
+    """Issue 44: every committed leaderboard figure carries the stamp of today's drawing code,
+    so a user's first `tissuebench leaderboard` draws none of them again (a change to the
+    drawing code must come with the figures it draws); and each board's figure is there."""
+    from tissuebench.workflows.leaderboard.figures import drawing_code, stamp_of
+    from tissuebench.workflows.leaderboard.force_figure import force_drawing_code
+
+    folder = RESULTS / "leaderboard"
+    figures = sorted(folder.glob("*.png"))
+    assert len(figures) >= 10
+    stale = [
+        p.name
+        for p in figures
+        if stamp_of(p) != (force_drawing_code() if p.stem.endswith("-force") else drawing_code())
+    ]
+    assert not stale, f"drawn by other code (tissuebench leaderboard --out results): {stale}"
+    from tissuebench.workflows.boards import BOARDS
+
+    missing = [b.name for b in BOARDS if not (folder / f"{b.name}.png").is_file()]
+    assert not missing, f"no figure (tissuebench leaderboard --out results --rerun): {missing}"

@@ -87,3 +87,42 @@ def test_crease_figures_count_the_squashed_cells(tmp_path: Path):
     assert drawn["least_corner_J"] == pytest.approx(0.06)
     assert corner_jacobians(vertices, cells, u).max() == pytest.approx(1.94)
     assert drawn["t"] == 1.0 and FOLDED == 0.1
+
+
+def sweep_summary(smallest: list[float], meets: bool) -> dict:
+    """A truth summary of the sweep with these levels' smallest J (each reached at t = 2 s of
+    a 3 s run at h = 1 s) and whether it meets the target."""
+    series = [[1.0, 0.9, s, s] for s in smallest]
+    return {
+        "hierarchy": {
+            "h": 1.0,
+            "levels": [2, 4, 8],
+            "min_jacobian": series,
+            "level_differences": [[2e-4], [5e-5]],
+        },
+        "own_error": {"interior_error_max": 1e-5 if meets else 5e-5, "target": 2e-5,
+                      "meets_target": meets},
+    }  # fmt: skip
+
+
+def test_sweep_takes_the_largest_load_that_meets_and_says_where_the_rest_folded():
+    """SPEC 10's sweep: s = 2 folds on n = 4 (its J below 0.1 from t = 2 s) and misses the
+    target, s = 1.75 does not fold but misses, s = 1.5 meets, s = 1.25 is not computed: L = 1.5,
+    and truth.md's table says each of it."""
+    from tissuebench.workflows.reports.sweep import chosen, folded, sweep_lines
+
+    summaries = {
+        "rod-nhb-s2": sweep_summary([0.6, 0.05, 0.01], False),
+        "rod-nhb-s1.75": sweep_summary([0.6, 0.5, 0.4], False),
+        "rod-nhb-s1.5": sweep_summary([0.7, 0.6, 0.55], True),
+    }
+    assert folded(summaries["rod-nhb-s2"]["hierarchy"]) == (4, 2.0)
+    assert folded(summaries["rod-nhb-s1.75"]["hierarchy"]) is None
+    assert chosen(summaries) == "rod-nhb-s1.5"
+    text = "\n".join(sweep_lines(summaries))
+    assert "| 2 | rod-nhb-s2 | 0.6, 0.05, 0.01 | n = 4 at t = 2 s |" in text
+    assert "| 1.25 | rod-nhb-s1.25 | not computed |" in text
+    assert "**rod-nhb-s1.5**" in text
+    summaries["rod-nhb-s1.5"]["own_error"]["meets_target"] = False
+    assert chosen(summaries) is None
+    assert "no truth yet" in "\n".join(sweep_lines(summaries))

@@ -1,5 +1,9 @@
 """The truth cases that SPEC 10 and 12 take where a case's hierarchy does not converge.
 
+SPEC 10: the large rod (rod-nhb-s3) creases, so its truth is taken at the largest load scale of
+2, 1.75, 1.5 and 1.25 whose hierarchy meets the target (rod-nhb-sL); each is posed on the
+levels graded toward the clamped face's edges (graded_rod, as rod-MP2's), at the truth's h.
+
 SPEC 12: a contact case that does not meet SPEC 10's target is taken at s = 0.5, then 0.25.
 contact-MP2 (nu = 0.495) does not converge at s = 1 (results/truth.md: its finest level's run
 at h lies E_i max 3.9e-3 m^2 from the level below, its own half step and its 10 k run alike,
@@ -11,10 +15,24 @@ a case added there would make every cached truth be computed again; a case's own
 benchmark, material, model, load scale) are in its key either way (store.inputs).
 """
 
-from tissuebench.solvers.truth.cases import GRADED, STEP_DIVISOR, graded_contact, register_case
+from tissuebench.meshes.rod import SIZE as ROD_SIZE
+from tissuebench.solvers.truth.cases import (
+    GRADED,
+    STEP_DIVISOR,
+    graded_contact,
+    graded_rod,
+    register_case,
+)
 
 # case -> (the case it falls back from, its load scale s)
 FALLBACKS = {"contact-MP2-s0.5": ("contact-MP2", 0.5)}
+# SPEC 10's sweep below the fold, in its order of preference
+ROD_SWEEP = (2.0, 1.75, 1.5, 1.25)
+for _s in ROD_SWEEP:
+    _case = f"rod-nhb-s{_s:g}"
+    FALLBACKS[_case] = ("rod-nhb-s3", _s)
+    register_case(_case, "rod", "MP3", "neo-hookean-barrier", load_scale=_s)
+    GRADED[_case] = lambda x: graded_rod(x, ROD_SIZE)
 
 register_case("contact-MP2-s0.5", "contact", "MP2", "linear", load_scale=0.5)
 GRADED["contact-MP2-s0.5"] = graded_contact

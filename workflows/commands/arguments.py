@@ -27,6 +27,20 @@ def positive(text: str) -> float:
     return value
 
 
+def truth_case(text: str, all_too: bool = False) -> str:
+    """A SPEC 10 truth case named on the command line (or "all" where `all_too`), checked as
+    the arguments are parsed: a name the command would refuse is refused there, in one line."""
+    from tissuebench.solvers.truth.store import check_case
+
+    if all_too and text == "all":
+        return text
+    try:
+        check_case(text)
+    except UserError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return text
+
+
 def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--solver", default="direct", help=f"linear solver: {', '.join(SOLVERS)} (default direct)"

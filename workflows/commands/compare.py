@@ -55,7 +55,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "reference",
-        type=Path,
+        type=reference_arg,
         help="reference series (.xdmf, .pvd, .frd or .dat), or truth:CASE, the converged "
         f"reference of a SPEC 10 case ({', '.join(CASES)}; computed once and "
         "cached): the candidate is graded on its own mesh at the truth's vertices and "
@@ -139,6 +139,18 @@ def main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return REFERENCE_DIVERGED
+
+
+def reference_arg(text: str) -> Path:
+    """The reference argument: a series file, or truth:CASE with CASE checked as the arguments
+    are parsed (a case without a truth is refused there, in one line)."""
+    from tissuebench.metrics.truth import truth_case
+
+    try:
+        truth_case(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return Path(text)
 
 
 def reference_divergence(summaries: dict[str, str], out: Path) -> str | None:

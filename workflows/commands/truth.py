@@ -21,6 +21,7 @@ it never replaces a full truth.md (--force does).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import time
@@ -59,9 +60,12 @@ from tissuebench.solvers.truth.store import (
     load_cached,
     truth_samples,
 )
+from tissuebench.workflows.commands.arguments import truth_case
 from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_set
 from tissuebench.workflows.reports.crease import FOLDED, crease_figures
+from tissuebench.workflows.reports.sweep import record as sweep_record
+from tissuebench.workflows.reports.sweep import sweep_lines
 from tissuebench.workflows.truth_jobs import compute_in_parallel
 
 if TYPE_CHECKING:
@@ -87,6 +91,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "cases",
         nargs="+",
         metavar="CASE",
+        type=lambda text: truth_case(text, all_too=True),
         help=f"one or more of {', '.join(CASES)}, or all",
     )
     p.add_argument(
@@ -323,7 +328,9 @@ def case_line(case: str) -> str:
     needle = f", needle width w = {width} m" if width is not None else ""
     line = f"{benchmark}, {material}, {model}, load scale s = {scale}{needle}"
     if case in FALLBACKS:  # SPEC 10/12: taken where its own case does not converge
-        line += f"; the fallback of {FALLBACKS[case][0]}, whose levels do not converge (SPEC 12)"
+        source = FALLBACKS[case][0]
+        spec = "SPEC 12" if CASES[source][0] == "contact" else "SPEC 10, graded toward the clamp"
+        line += f"; the fallback of {source}, whose levels do not converge ({spec})"
     return line
 
 
@@ -336,7 +343,8 @@ def fallback_words(case: str, computed: bool = True) -> list[str]:
         return []
     said = "" if computed else "When last computed its levels did not converge (fallbacks.py): "
     return [
-        f"{said}SPEC 12 takes it at a smaller load instead, {', '.join(taken)}, below.",
+        f"{said}SPEC {12 if CASES[case][0] == 'contact' else 10} takes it at a smaller load "
+        f"instead, {', '.join(taken)}, below.",
         "",
     ]
 
@@ -536,6 +544,7 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
             f"{'yes' if own['meets_target'] else 'no'} |"
         )
     lines.append("")
+    lines += sweep_lines(summaries)
     for case in CASES:
         lines += section(case, summaries.get(case), quick)
     return "\n".join(lines)
@@ -612,12 +621,16 @@ def main(args: argparse.Namespace) -> int:
 
     def write():  # one set: both staged with the manifest, then renamed (a full disk: the old)
         text = markdown(summaries, args.quick, names, comm.size, session)
-        write_set(
-            {
-                out / f"{NAME}.csv": lambda tmp: write_csv(tmp, csv_rows(summaries)),
-                out / f"{NAME}.md": lambda tmp: tmp.write_text(text + "\n"),
-            }
-        )
+        files = {
+            out / f"{NAME}.csv": lambda tmp: write_csv(tmp, csv_rows(summaries)),
+            out / f"{NAME}.md": lambda tmp: tmp.write_text(text + "\n"),
+        }
+        fold = None if args.quick else sweep_record(summaries)
+        if fold is not None:  # what results/README.md says of the fold (tissuebench paper)
+            files[out / CREASE / "crease.json"] = lambda tmp: tmp.write_text(
+                json.dumps(fold, indent=1) + "\n"
+            )
+        write_set(files)
 
     collective(comm, write, out)
     interrupt.will_write([])

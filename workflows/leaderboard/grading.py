@@ -24,6 +24,8 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.core import interrupt
+from tissuebench.solvers.truth.fallbacks import FALLBACKS
+from tissuebench.workflows.boards import BOARDS
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.record import FOLDER
 from tissuebench.workflows.leaderboard.rows import (
@@ -298,10 +300,22 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                 )
             continue
         if not np.isfinite(own_error(truth)):  # its levels do not converge: no yardstick
+            taken = sorted(
+                {
+                    f"{b.truth} (case {b.name})"
+                    for b in BOARDS
+                    if FALLBACKS.get(b.truth or "", ("",))[0] == case
+                }
+            )
+            instead = (
+                f"; its truth is taken at a smaller load instead: {', '.join(taken)}"
+                if taken
+                else ""
+            )
             for board in mine:
                 board.truth_note = (
                     f"{case}: computed, but its levels do not converge and it states no own "
-                    f"error (tissuebench truth {case}): no truth columns."
+                    f"error (results/truth.md){instead}: no truth columns."
                 )
             continue
         for board in mine:

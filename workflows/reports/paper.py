@@ -19,6 +19,7 @@ from tissuebench.workflows.reports.common import (
 )
 from tissuebench.workflows.reports.figures import shape_rows, shown_steps, static_label
 from tissuebench.workflows.reports.large_deformation import large_deformation, model_case_section
+from tissuebench.workflows.reports.sweep import readme_section
 from tissuebench.workflows.reports.truth import truth_section
 from tissuebench.workflows.summary import CaseSummary
 
@@ -208,6 +209,7 @@ def paper_report(
         from tissuebench.workflows.reports.frontier import answer
 
         parts += answer(read_rows(out / "frontier" / "frontier.csv"))
+    parts += readme_section(out / "crease" / "crease.json")  # SPEC 10, tissuebench truth
     if (out / "contact").is_dir():  # SPEC 12, tissuebench hertz and tissuebench contact
         from tissuebench.workflows.contact.report import paper_section
 
