@@ -22,6 +22,7 @@ from tissuebench.workflows.commands.arguments import (
     positive,
     scheme_options,
 )
+from tissuebench.workflows.run_truth import truth_lines
 from tissuebench.workflows.study import model_case, run_case
 
 
@@ -100,6 +101,8 @@ def main(args: argparse.Namespace) -> int:
         substeps=substeps,
     )
     summary = run_case(case, args.out, force=args.force)
+    for line in truth_lines(summary, args.out):  # SPEC 10: the error against the physics
+        print(line)
     if MPI.COMM_WORLD.rank == 0 and not summary.skipped:
         print(f"results in {args.out}")
     return 0

@@ -1,0 +1,54 @@
+"""`tissuebench run` says each run's error against the truth (issue 44: the MP2 Q1 rod, 50 %
+too stiff against the truth, scored 0 against implicit on its own grid): the truth case a run
+poses (workflows/run_truth.py), and the printed E_i, which is compare's against the truth."""
+
+import dataclasses
+import json
+from pathlib import Path
+
+import pytest
+from helpers import tissuebench
+
+from tissuebench.solvers.materials import get_material
+from tissuebench.solvers.truth.store import is_cached
+from tissuebench.workflows.run_truth import truth_of
+
+pytestmark = pytest.mark.serial  # command lines run as subprocesses
+
+
+def test_the_truth_a_run_poses():
+    """The case of the run's benchmark, material (every property), model, load scale and needle
+    width; the mesh, the scheme and our contact penalty do not change the physics."""
+    mp2, mp3, mp1 = (get_material(m) for m in ("MP2", "MP3", "MP1"))
+    assert truth_of("rod", mp3, "linear", {}) == "rod"
+    assert truth_of("rod", mp2, "linear", {}) == "rod-MP2"
+    assert truth_of("rod", mp3, "neo-hookean-barrier", {"load_scale": 3.0}) == "rod-nhb-s3"
+    assert truth_of("rod", mp3, "neo-hookean-barrier", {"load_scale": 1.5}) == "rod-nhb-s1.5"
+    assert truth_of("rod", mp3, "neo-hookean", {"load_scale": 3.0}) is None
+    assert truth_of("block", mp1, "linear", {}) is None  # a point needle: no truth
+    assert truth_of("block", mp1, "linear", {"needle_width": 0.2}) == "block-MP1-w0.2"
+    assert truth_of("contact", mp1, "linear", {"kappa": 100.0}) == "contact-MP1"
+    softer = dataclasses.replace(mp3, E=6000.0)  # a user's material named like ours is not ours
+    assert truth_of("rod", softer, "linear", {}) is None
+
+
+def test_run_prints_compare_s_error_against_the_truth(tmp_path: Path):
+    """On the paper's rod for 6 steps: where the truth `rod` is cached, run's line for
+    explicit-lumped gives compare truth:rod's E_i max to its three digits; where it is not,
+    run says so and names the command that computes it."""
+    out = tmp_path / "rod"
+    done = tissuebench(
+        "run", "rod", "--out", out, "--algorithms", "implicit,explicit-lumped", "--end-time", "0.2"
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    said = [line for line in done.stdout.splitlines() if "against the truth" in line]
+    if not is_cached("rod"):
+        assert any("not cached here (`tissuebench truth rod`" in line for line in said), said
+        return
+    (line,) = [line for line in said if line.startswith("explicit-lumped:")]
+    graded = tmp_path / "graded"
+    compared = tissuebench("compare", "truth:rod", out / "explicit-lumped.xdmf", "--out", graded)
+    assert compared.returncode == 0, compared.stderr[-2000:]
+    summary = json.loads((graded / "summary.json").read_text())
+    peak = summary["runs"]["explicit-lumped"]["interior_error_max"]
+    assert f"E_i max {peak:.3g}," in line, (line, peak)
