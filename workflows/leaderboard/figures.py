@@ -96,6 +96,8 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
                 ax.axhline(
                     band, ls=":", color="0.5", lw=1, label=f"the truth's own E_i max {band:.2g}"
                 )
+    for ax in axes.flat:  # where: in the title (the rows' timing session's machine)
+        ax.set_xlabel("wall time per simulated second (s/s)")
     legend: dict = {}  # one entry per label, from every panel
     for ax in axes.flat:
         for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
@@ -108,6 +110,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
         fontsize=8,
     )
     title = textwrap.wrap(f"{board.name}: {board.description}", 150)
+    title.append(f"wall times measured on {board.machine or machine()}")
     if not_shown:
         title += textwrap.wrap(
             f"not shown (failed or diverged): {', '.join(plain(r.label) for r in not_shown)}",
@@ -200,7 +203,6 @@ def _panel(
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("wall time per simulated second (s/s), this machine")
     ax.set_ylabel(ylabel, fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     return labels

@@ -84,30 +84,80 @@ LABEL_STEP = 9  # points: how far a label moves down (then up) from one that it 
 
 
 def place_labels(fig, ax, labels: list[tuple[str, tuple[float, float]]]) -> None:
-    """Annotate each point (text, (x, y)) beside it, moving a label that would cover one
-    placed before it down or up by LABEL_STEP points until it is clear (at most 6 tries each
-    way; then it stays where it covers least). The axes' layout is settled first."""
+    """Annotate each point (text, (x, y)) beside it, right of it or else left of it, moving a
+    label that would cover a label placed before it, a plotted point or the axes' edge down or
+    up by LABEL_STEP points until it is clear (at most 6 tries each way and side; then it stays
+    where it covers least, joined to its point by a thin line). The axes' layout is settled
+    first."""
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
-    placed: list[Any] = []  # the placed labels' boxes
+    frame = ax.get_window_extent(renderer)
+    placed: list[Any] = list(_marker_boxes(ax))  # what a label must not cover
     for text, xy in labels:
         offsets = [4 + k * LABEL_STEP * sign for k in range(7) for sign in (-1, 1)][1:]
         best = None
         for dy in offsets:
-            note = ax.annotate(text, xy, textcoords="offset points", xytext=(4, dy), fontsize=7)
-            box = note.get_window_extent(renderer)
-            cover = sum(
-                max(0.0, min(box.x1, b.x1) - max(box.x0, b.x0))
-                * max(0.0, min(box.y1, b.y1) - max(box.y0, b.y0))
-                for b in placed
-            )
-            if best is None or cover < best[0]:
-                if best is not None:
-                    best[1].remove()
-                best = (cover, note, box)
-            else:
-                note.remove()
-            if cover == 0:
+            for side in (1, -1):
+                note = ax.annotate(
+                    text,
+                    xy,
+                    textcoords="offset points",
+                    xytext=(4 * side, dy),
+                    ha="left" if side > 0 else "right",
+                    fontsize=7,
+                )
+                box = note.get_window_extent(renderer)
+                cover = sum(_overlap(box, b) for b in placed)
+                cover += box.width * box.height - _overlap(box, frame)  # outside the axes
+                if best is None or cover < best[0]:
+                    if best is not None:
+                        best[1].remove()
+                    best = (cover, note, box, dy)
+                else:
+                    note.remove()
+                if cover == 0:
+                    break
+            if best is not None and best[0] == 0:
                 break
         assert best is not None  # offsets is not empty
+        cover, note, box, dy = best
+        if abs(dy) > LABEL_STEP:  # moved away from its point: drawn again, a line joining them
+            xytext, ha = note.xyann, note.get_ha()
+            note.remove()
+            ax.annotate(
+                text,
+                xy,
+                textcoords="offset points",
+                xytext=xytext,
+                ha=ha,
+                fontsize=7,
+                arrowprops={"arrowstyle": "-", "color": "0.6", "lw": 0.5, "shrinkA": 0},
+            )
         placed.append(best[2])
+
+
+def _overlap(a, b) -> float:
+    """The area (display units squared) two boxes share."""
+    return max(0.0, min(a.x1, b.x1) - max(a.x0, b.x0)) * max(0.0, min(a.y1, b.y1) - max(a.y0, b.y0))
+
+
+def _marker_boxes(ax, half: float = 4.0) -> list:
+    """Boxes (display units, 2 half wide) about every point plotted in ax as a marker."""
+    from matplotlib.transforms import Bbox
+
+    points = []
+    for collection in ax.collections:
+        offsets = collection.get_offsets()
+        if len(offsets):
+            points.append(collection.get_offset_transform().transform(offsets))
+    for line in ax.lines:
+        if line.get_marker() not in (None, "None", "", " "):
+            xy = line.get_xydata()
+            if len(xy):
+                points.append(line.get_transform().transform(xy))
+    return [
+        Bbox([[x - half, y - half], [x + half, y + half]])
+        for block in points
+        for x, y in block
+        if np.isfinite(x) and np.isfinite(y)
+    ]
