@@ -158,3 +158,20 @@ def test_bad_arrays_are_refused_in_one_line(tmp_path):
             tb.grade("ref.xdmf", **given, out=tmp_path / "out", **options)
         assert "\n" not in str(raised.value), change
     assert not (tmp_path / "out").exists()  # nothing written for bad input
+
+
+def test_bad_export_options_are_refused_in_one_line(tmp_path):
+    cases = [
+        (dict(benchmark="liver"), "unknown benchmark 'liver'"),
+        (dict(out=tmp_path / "rod.vtu"), "export_case writes a .json"),
+        (dict(foo=1.0), "unknown option 'foo'"),
+        (dict(needle_width=0.1), "rod takes no option 'needle_width' (its options: load_scale)"),
+        (dict(material="MP9"), "unknown material 'MP9'"),
+        (dict(dt=-1.0), "expected a positive number of seconds"),
+    ]
+    for change, said in cases:
+        given = {"benchmark": "rod", "out": tmp_path / "rod.json"} | change
+        with pytest.raises(UserError, match=re.escape(said)) as raised:
+            tb.export_case(given.pop("benchmark"), given.pop("out"), **given)
+        assert "\n" not in str(raised.value), change
+    assert list(tmp_path.iterdir()) == []  # nothing written for bad input

@@ -72,7 +72,7 @@ def export_case(
     series beside it (OUT-stem.reference.xdmf + .h5, the reference that grade() takes);
     `force` replaces files of an earlier export. Returns the case as arrays (read_case of
     OUT) on every rank. Collective."""
-    from tissuebench.meshes import BENCHMARKS
+    from tissuebench.meshes import BENCHMARKS, get_entry
     from tissuebench.workflows.commands.arguments import posed
     from tissuebench.workflows.output import collective
     from tissuebench.workflows.posing import export
@@ -86,6 +86,12 @@ def export_case(
         raise ExportError(
             f"export_case: unknown option {unknown[0]!r}; the benchmarks' options are "
             f"{', '.join(sorted(known))}"
+        )
+    takes = get_entry(benchmark).options  # MeshError (one line) for an unknown benchmark
+    if set(options) - set(takes):
+        raise ExportError(
+            f"export_case: {benchmark} takes no option {sorted(set(options) - set(takes))[0]!r} "
+            f"(its options: {', '.join(takes) or 'none'})"
         )
     text = {k: None if v is None else str(v) for k, v in (("dt", dt), ("end_time", end_time))}
     bench = posed(
