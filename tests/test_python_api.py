@@ -6,7 +6,8 @@ cannot go stale without this test failing. Its toy solver is our implicit's seri
 1.01, so E_n is 0.01 at every step (||0.01 u|| / ||u||): a number known beforehand. The same
 arrays are then written by another writer (meshio's XDMF) and graded by the command line's
 compare (cli.main): every number of the API's compare folder must equal the command's to
-round-off, against the reference and, where its truth is cached here, against the truth. The
+round-off, against the reference and, where its truth is cached here, against the truth. On
+tetrahedra with the same nodes (its own mesh, graded across meshes) E_n is 0.01 again. The
 API's folder must be a user's row for the leaderboard (rows.user_rows reads it, leaving nothing
 out), the same arrays again are skipped, and other arrays over the series are refused in one
 line.
@@ -103,6 +104,15 @@ def test_the_readme_block_grades_as_compare_does(tmp_path, monkeypatch, capsys):
     assert skipped == [] and [r.label for r in rows] == ["toy"]
     assert Path(rows[0].series) == (tmp_path / graded.series).resolve()
     assert rows[0].wall_time_s == 0.5
+
+    # its own mesh: the same nodes and values on tetrahedra (six per hexahedron about its 0-6
+    # diagonal, conforming across the grid's faces); E_n is taken at the reference's nodes,
+    # where the candidate is its nodal values again: 0.01 on any mesh with those nodes
+    split = [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]]
+    tets = case.cells[:, split].reshape(-1, 4)
+    own = tb.grade("rod.reference.xdmf", case.nodes, tets, "tetra", case.times, u, out="tets")
+    assert own.summary["candidate"]["mesh"]["cell_type"] == "tetrahedron"
+    assert own.metrics["relative_error_max"] == pytest.approx(0.01, rel=1e-9)
 
     # the same arrays again: the series kept, compare skips the complete folder
     again = tb.grade(
