@@ -31,12 +31,12 @@ test: setup
 
 # mypy on the package, configured in pyproject.toml ([tool.mypy]). The code folders install as
 # tissuebench.* through pyproject's package-dir, which mypy cannot map: .typecheck/ holds a
-# tissuebench package whose subpackages are links to those folders, one per package-dir entry.
+# tissuebench package whose subpackages are links to those folders, one per package-dir entry,
+# and whose __init__.py is a link to the package's own (package-dir's "tissuebench").
 typecheck: setup
 	rm -rf .typecheck
 	mkdir -p .typecheck/tissuebench
-	touch .typecheck/tissuebench/__init__.py
-	$(BIN)/python -c 'import os, tomllib; dirs = tomllib.load(open("pyproject.toml", "rb"))["tool"]["setuptools"]["package-dir"]; [os.symlink(os.path.abspath(d), os.path.join(".typecheck", *name.split("."))) for name, d in dirs.items()]'
+	$(BIN)/python -c 'import os, tomllib; dirs = tomllib.load(open("pyproject.toml", "rb"))["tool"]["setuptools"]["package-dir"]; [os.symlink(os.path.abspath(d), os.path.join(".typecheck", *name.split("."))) for name, d in dirs.items() if name != "tissuebench"]; [os.symlink(os.path.abspath(os.path.join(d, "__init__.py")), ".typecheck/tissuebench/__init__.py") for name, d in dirs.items() if name == "tissuebench"]'
 	$(BIN)/mypy
 
 bench: setup
