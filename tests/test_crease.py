@@ -126,3 +126,17 @@ def test_sweep_takes_the_largest_load_that_meets_and_says_where_the_rest_folded(
     summaries["rod-nhb-s1.5"]["own_error"]["meets_target"] = False
     assert chosen(summaries) is None
     assert "no truth yet" in "\n".join(sweep_lines(summaries))
+
+
+def test_sweep_says_where_a_computation_failed():
+    """A sweep case whose Newton failed (store.record_failure's record) is in the table with
+    its level, time and smallest J, and is not taken as L."""
+    from tissuebench.workflows.reports.sweep import chosen, sweep_lines
+
+    failure = {"level": 8, "t": 4.3, "error": "truth: Newton did not converge at t = 4.3 s (-6)",
+               "smallest_J": 0.08, "smallest_J_at": [0.01, 0.0, 0.0],
+               "levels_done_smallest_J": [0.6, 0.5]}  # fmt: skip
+    text = "\n".join(sweep_lines({}, {"rod-nhb-s2": failure}))
+    assert "| 2 | rod-nhb-s2 | 0.6, 0.5, then: Newton fails on n = 8 at t = 4.3 s" in text
+    assert "smallest J before it 0.08 at X = (0.010, 0.000, 0.000) m" in text
+    assert chosen({}) is None

@@ -239,6 +239,55 @@ def cache_dir() -> Path:
     return Path(root) / "truth"
 
 
+def failure_path(case: str, quick: bool = False) -> Path:
+    """The record of a case's last computation that failed (record_failure), beside its
+    cache file: CASE[-quick]-FINGERPRINT.failed.json."""
+    return cache_path(case, quick).with_suffix(".failed.json")
+
+
+def record_failure(
+    case: str, quick: bool, n: int, truth: Truth, info: dict, err: Exception, comm: MPI.Comm
+) -> None:
+    """Keep, as evidence, where a case's computation failed (a Newton solve that does not
+    converge: SPEC 10's sweep below the fold records it): the level n, the time of the step
+    that failed (s), the error, the smallest J of the last converged state and where (a
+    neo-Hookean truth), and the levels computed before it with their smallest J. Collective;
+    rank 0 writes. Cleared by the next computation that succeeds (_compute_and_store)."""
+    jacobian = truth._jacobian() if truth._jacobian is not None else None  # collective
+    t = float(truth.t.value)
+    if comm.rank != 0:
+        return
+    record = {
+        "case": case,
+        "fingerprint": fingerprint_of(case, quick),
+        "level": n,
+        "t": t,
+        "error": " ".join(str(err).split())[:300],
+        "smallest_J": None if jacobian is None else float(jacobian[0]),
+        "smallest_J_at": None if jacobian is None else np.asarray(jacobian[1]).tolist(),
+        "levels_done": list(info["levels"]),
+        "levels_done_smallest_J": [float(min(v)) for v in info.get("min_jacobian", [])],
+        "wall": list(info["wall"]),
+        "when": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+    }
+    try:
+        path = failure_path(case, quick)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(record, indent=1) + "\n")
+    except OSError:
+        pass  # evidence only: the error itself is raised either way
+
+
+def load_failure(case: str, quick: bool = False) -> dict | None:
+    """The failure record of a case for today's inputs (record_failure), or None."""
+    path = failure_path(case, quick)
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return record if record.get("fingerprint") == fingerprint_of(case, quick) else None
+
+
 def cache_path(case: str, quick: bool = False) -> Path:
     """The cache file of a case's truth: CASE[-quick]-FINGERPRINT.npz."""
     key = fingerprint_of(case, quick)
@@ -504,7 +553,11 @@ def compute(
     previous = None
     for n in levels_of(case, quick):
         truth, bench = case_truth(case, n, comm)
-        run = _timed_run(truth, bench.dt / k, k * steps, k, f"{case} n={n}", comm)
+        try:
+            run = _timed_run(truth, bench.dt / k, k * steps, k, f"{case} n={n}", comm)
+        except RuntimeError as err:  # Newton failed: where and how, kept as evidence
+            record_failure(case, quick, n, truth, info, err, comm)
+            raise
         wall = comm.allreduce(run.wall, op=MPI.MAX)
         info["levels"].append(n)
         info["dofs"].append(run.dofs)
@@ -1007,5 +1060,6 @@ def _compute_and_store(case, quick, comm, log, say, path, problem) -> TruthSampl
 
     if comm.rank == 0:
         store()
+        failure_path(case, quick).unlink(missing_ok=True)  # computed now: no failure stands
     comm.barrier()
     return samples

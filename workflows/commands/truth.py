@@ -46,7 +46,7 @@ from tissuebench.solvers.truth.cases import (
     STEP_DIVISOR,
 )
 from tissuebench.solvers.truth.estimate import estimate_error
-from tissuebench.solvers.truth.fallbacks import FALLBACKS
+from tissuebench.solvers.truth.fallbacks import FALLBACKS, ROD_SWEEP
 from tissuebench.solvers.truth.store import (
     MEASURED_STEP_SECONDS,
     QUICK_STEPS,
@@ -58,6 +58,7 @@ from tissuebench.solvers.truth.store import (
     is_cached,
     levels_of,
     load_cached,
+    load_failure,
     truth_samples,
 )
 from tissuebench.workflows.commands.arguments import truth_case
@@ -65,7 +66,7 @@ from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_set
 from tissuebench.workflows.reports.crease import FOLDED, crease_figures
 from tissuebench.workflows.reports.sweep import record as sweep_record
-from tissuebench.workflows.reports.sweep import sweep_lines
+from tissuebench.workflows.reports.sweep import sweep_case, sweep_lines
 from tissuebench.workflows.truth_jobs import compute_in_parallel
 
 if TYPE_CHECKING:
@@ -349,6 +350,13 @@ def fallback_words(case: str, computed: bool = True) -> list[str]:
     ]
 
 
+def sweep_failures(summaries: dict) -> dict:
+    """The failure records (store.load_failure) of SPEC 10's sweep cases not computed."""
+    cases = [sweep_case(s) for s in ROD_SWEEP]
+    found = {case: load_failure(case) for case in cases if case not in summaries}
+    return {case: record for case, record in found.items() if record is not None}
+
+
 def section(case: str, s: dict | None, quick: bool) -> list[str]:
     lines = [f"## {case}", "", case_line(case) + ".", ""]
     if s is None:
@@ -544,7 +552,7 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
             f"{'yes' if own['meets_target'] else 'no'} |"
         )
     lines.append("")
-    lines += sweep_lines(summaries)
+    lines += sweep_lines(summaries, sweep_failures(summaries))
     for case in CASES:
         lines += section(case, summaries.get(case), quick)
     return "\n".join(lines)
@@ -625,7 +633,7 @@ def main(args: argparse.Namespace) -> int:
             out / f"{NAME}.csv": lambda tmp: write_csv(tmp, csv_rows(summaries)),
             out / f"{NAME}.md": lambda tmp: tmp.write_text(text + "\n"),
         }
-        fold = None if args.quick else sweep_record(summaries)
+        fold = None if args.quick else sweep_record(summaries, sweep_failures(summaries))
         if fold is not None:  # what results/README.md says of the fold (tissuebench paper)
             files[out / CREASE / "crease.json"] = lambda tmp: tmp.write_text(
                 json.dumps(fold, indent=1) + "\n"

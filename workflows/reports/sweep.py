@@ -44,9 +44,23 @@ def chosen(summaries: dict) -> str | None:
     return None
 
 
-def sweep_lines(summaries: dict) -> list[str]:
-    """truth.md's section on the sweep ([] when none of its cases is computed)."""
-    if not any(sweep_case(s) in summaries for s in ROD_SWEEP):
+def failure_words(failure: dict) -> str:
+    """A failed computation of the sweep in words: which level failed when, its smallest J."""
+    j = failure.get("smallest_J")
+    at = failure.get("smallest_J_at") or []
+    where = f" at X = ({', '.join(f'{x:.3f}' for x in at)}) m" if at else ""
+    smallest = "" if j is None else f"; smallest J before it {j:.3g}{where}"
+    return (
+        f"Newton fails on n = {failure['level']} at t = {failure['t']:.3g} s "
+        f"({failure['error'].removeprefix('truth: ')}){smallest}"
+    )
+
+
+def sweep_lines(summaries: dict, failures: dict | None = None) -> list[str]:
+    """truth.md's section on the sweep ([] when none of its cases is computed or failed);
+    failures: {case: store.load_failure's record} of the cases whose computation failed."""
+    failures = failures or {}
+    if not any(sweep_case(s) in summaries or sweep_case(s) in failures for s in ROD_SWEEP):
         return []
     lines = [
         "## rod-nhb-sL: the large rod below the fold (SPEC 10)",
@@ -64,6 +78,14 @@ def sweep_lines(summaries: dict) -> list[str]:
     for s in ROD_SWEEP:
         case = sweep_case(s)
         summary = summaries.get(case)
+        if summary is None and case in failures:
+            f = failures[case]
+            done = ", ".join(f"{j:.3g}" for j in f["levels_done_smallest_J"])
+            lines.append(
+                f"| {s:g} | {case} | {done}, then: {failure_words(f)} | "
+                f"{'n = ' + str(f['level']) + ' fails' if f['level'] else ''} | | n/a | | no |"
+            )
+            continue
         if summary is None:
             lines.append(f"| {s:g} | {case} | not computed | | | | | |")
             continue
@@ -91,7 +113,7 @@ def sweep_lines(summaries: dict) -> list[str]:
     return lines
 
 
-def record(summaries: dict) -> dict | None:
+def record(summaries: dict, failures: dict | None = None) -> dict | None:
     """What results/README.md says of the fold (crease.json, written by `tissuebench truth`):
     the creased case's levels (smallest J, when and where), its figures, and the sweep's rows;
     None while the creased case is not computed."""
@@ -106,8 +128,9 @@ def record(summaries: dict) -> dict | None:
     sweep = []
     for s in ROD_SWEEP:
         other = summaries.get(sweep_case(s))
+        failure = (failures or {}).get(sweep_case(s))
         if other is None:
-            sweep.append({"s": s, "case": sweep_case(s), "computed": False})
+            sweep.append({"s": s, "case": sweep_case(s), "computed": False, "failed": failure})
             continue
         fold = folded(other["hierarchy"])
         sweep.append(
@@ -137,7 +160,10 @@ def readme_section(path: Path) -> list[str]:
     rows = []
     for row in r["sweep"]:
         if not row["computed"]:
-            rows.append(f"s = {row['s']:g}: not computed")
+            failed = row.get("failed")
+            rows.append(
+                f"s = {row['s']:g}: " + (failure_words(failed) if failed else "not computed")
+            )
             continue
         fold = row["folded"]
         rows.append(
