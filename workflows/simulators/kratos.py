@@ -91,9 +91,9 @@ Kratos's cost per step is its assembly and a fresh SparseLU factorisation (COLAM
 the 3D system at every step: at n = 12 the hexahedra took 18 minutes here (the tetrahedra 7),
 so only the trapezoidal hexahedra and tetrahedra were run there.
 
-Not posed: the static procedure, and the nonlinear models (Kratos's HyperElastic3DLaw is the
-ln J neo-Hookean psi = mu/2 (I_1 - 3) - mu ln J + lambda/2 (ln J)^2, not the SPEC's, and
-issue 27 asks for the linear model of Kratos only).
+The rod's neo-hookean and svk (SPEC 8): TotalLagrangian elements, Kratos's hyperelastic laws
+and its Newton loop, kratos_nonlinear.py (Kratos's neo-Hookean is the ln J form, not the
+SPEC's). Not posed: the static procedure, the other models.
 
 A run diverges as SPEC section 3 says (a displacement not finite or beyond 100 x the largest
 extent, checked at every t_i): NaN from there on, status "failed". Kratos raising (a singular
@@ -112,6 +112,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
+from tissuebench.workflows.simulators import kratos_nonlinear as kn
 
 if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
@@ -220,8 +221,10 @@ def variants(data: Exported) -> dict[str, str]:
     the linear model's dynamic procedure; none for a contact export (CONTACT_NOTE)."""
     if data.contact is not None:
         return {}
-    if data.procedure != "dynamic" or data.model != "linear":
+    if data.procedure != "dynamic" or data.model not in ("linear", *kn.LAWS):
         return {}
+    if data.model in kn.LAWS:
+        return {} if kn.skipped(data, VARIANTS).get("all") else kn.variants(data, VARIANTS)
     element = {"hexahedron": ("hex8", "tet4"), "quadrilateral": ("quad4",)}.get(data.cell_type, ())
     elastic = f"YOUNG_MODULUS, POISSON_RATIO: the export's {given(data.material)}"
     return {name: f"{spec[4]}; {elastic}" for name, spec in VARIANTS.items() if spec[0] in element}
@@ -233,9 +236,11 @@ def skipped(data: Exported) -> dict[str, str]:
         return {"all": CONTACT_NOTE}
     if data.procedure != "dynamic":
         return {"all": "posed here with Kratos's dynamic solver only; the static procedure is not"}
+    if data.model in kn.LAWS:
+        return kn.skipped(data, VARIANTS)
     if data.model != "linear":
-        return {"all": f"the {data.model} model is not posed in Kratos here (its hyperelastic "
-                "law is the ln J neo-Hookean, not the SPEC's): linear only"}  # fmt: skip
+        return {"all": f"the {data.model} model is not posed in Kratos here (linear, "
+                f"{', '.join(kn.LAWS)} only)"}  # fmt: skip
     if not variants(data):
         return {"all": f"no Kratos element posed here for {data.cell_type} cells"}
     return {}
@@ -283,16 +288,21 @@ def write_input(
     m = data.material
     nodes = np.asarray(data.nodes, dtype=np.float64)
     fixed, motion = constrained(data)
-    law = "LinearElastic3DLaw"
-    if data.dim == 2:
+    law, element, newton = "LinearElastic3DLaw", MESHES[element_key][0], [0.0, 0.0, 0.0]
+    if data.model in kn.LAWS:  # rtol, atol (N), iterations: kratos_nonlinear.py
+        law, element = kn.LAWS[data.model][0], kn.ELEMENTS[element_key]
+        floor = kn.newton_floor(nodes, np.asarray(cells), m.E, m.nu)
+        newton = [kn.NEWTON_RTOL, floor, float(kn.NEWTON_MAX_IT)]
+    elif data.dim == 2:
         law = "LinearElasticPlaneStress2DLaw" if data.plane == "stress" else (
             "LinearElasticPlaneStrain2DLaw")  # fmt: skip
     np.savez(
         path,
         nodes=nodes,
         cells=cells,
-        element=MESHES[element_key][0],
+        element=element,
         law=law,
+        newton=np.array(newton),
         clamped=fixed,
         motion=motion,
         gravity=np.asarray(data.gravity, dtype=np.float64),
@@ -388,6 +398,16 @@ def simulate(source: Path, target: Path) -> None:
         }"""
     )
     settings["domain_size"].SetInt(dim)
+    rtol, atol, iterations = (float(x) for x in p["newton"])
+    if rtol > 0:  # a nonlinear model: Newton (kratos_nonlinear.py)
+        import KratosMultiphysics.ConstitutiveLawsApplication as laws
+
+        settings["analysis_type"].SetString("non_linear")
+        settings["move_mesh_flag"].SetBool(True)  # the TL elements' F reads x = X + u
+        settings.AddEmptyValue("convergence_criterion").SetString("residual_criterion")
+        settings.AddEmptyValue("residual_relative_tolerance").SetDouble(rtol)
+        settings.AddEmptyValue("residual_absolute_tolerance").SetDouble(atol)
+        settings.AddEmptyValue("max_iteration").SetInt(int(iterations))
     settings["time_stepping"]["time_step"].SetDouble(h)
     settings.AddEmptyValue("scheme_type").SetString(str(p["scheme"]))
     settings.AddEmptyValue("damp_factor_m").SetDouble(float(p["damp_factor_m"]))
@@ -410,7 +430,7 @@ def simulate(source: Path, target: Path) -> None:
     props.SetValue(KM.DENSITY, rho)
     props.SetValue(KM.THICKNESS, 1.0)  # 2D: per metre of depth, as the SPEC's plane problems
     props.SetValue(KM.COMPUTE_LUMPED_MASS_MATRIX, bool(p["lumped"]))
-    props.SetValue(KM.CONSTITUTIVE_LAW, getattr(SMA, str(p["law"]))())
+    props.SetValue(KM.CONSTITUTIVE_LAW, getattr(laws if rtol > 0 else SMA, str(p["law"]))())
     element = str(p["element"])
     for c, cell in enumerate(cells):
         part.CreateNewElement(element, c + 1, [int(k) + 1 for k in cell], props)
@@ -456,12 +476,14 @@ def simulate(source: Path, target: Path) -> None:
         prescribe(i, (0,))
         solver.Predict()
         prescribe(i, rates)
-        solver.SolveSolutionStep()
+        converged = solver.SolveSolutionStep()
         prescribe(i, rates)
         solver.FinalizeSolutionStep()
         u = np.array(read.GetSolutionStepValuesVector(part.Nodes, KM.DISPLACEMENT, 0, 3))
         u = u.reshape(-1, 3)
-        if not np.all(np.isfinite(u)):
+        if not converged:
+            diverged, reason = i, f"Newton did not converge in {int(iterations)} iterations"
+        elif not np.all(np.isfinite(u)):
             diverged, reason = i, "a displacement is not finite"
         elif np.linalg.norm(u, axis=1).max() > limit:
             diverged, reason = i, f"a displacement exceeds {DIVERGED:g} x the domain's extent"

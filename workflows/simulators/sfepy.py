@@ -1,5 +1,6 @@
 """SfePy (https://sfepy.org) as an outside simulator: an exported benchmark (workflows/
-exporting.py, `Exported`) posed as linear elastodynamics in SfePy's own terms and integrated by
+exporting.py, `Exported`) posed as elastodynamics (linear, or the rod's neo-hookean and svk
+total Lagrangian: below) in SfePy's own terms and integrated by
 its elastodynamics time steppers (sfepy.solvers.ts_solvers: ts.newmark, ts.generalized_alpha,
 ts.bathe, ts.central_difference, ts.velocity_verlet), in process.
 
@@ -23,6 +24,10 @@ How it is posed (SPEC sections 1-3):
   factorisation kept across steps; SfePy's reduced ("active only") vectors, so that the
   constrained values enter the free equations as known terms.
 
+The nonlinear models of SPEC section 8 (neo-hookean, svk) on a 3D mesh: SfePy's total
+Lagrangian hyperelastic terms, each the SPEC's energy exactly, by its implicit steppers with a
+Newton loop (sfepy_nonlinear.py).
+
 The contact benchmark (SPEC 12: an export with a `contact` block) is posed with SfePy's rigid
 contact terms by sfepy_contact.py, to which variants, skipped and run hand it (CONTACT).
 
@@ -45,6 +50,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from tissuebench.workflows.simulators import ExternalRun, given
+from tissuebench.workflows.simulators import sfepy_nonlinear as nl
 
 if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
@@ -121,13 +127,18 @@ def available() -> str | None:
 
 def variants(data: Exported) -> dict[str, str]:
     """The variants that pose the export faithfully: every SfePy elastodynamics stepper for a
-    dynamic export of the linear model; none for the static procedure or another model. A
-    contact export: sfepy_contact.py's."""
+    dynamic export of the linear model, the implicit ones for a 3D dynamic export of a model
+    in NONLINEAR; none for the static procedure or another model. A contact export:
+    sfepy_contact.py's."""
     if data.contact is not None:
         from tissuebench.workflows.simulators import sfepy_contact
 
         return sfepy_contact.variants(data)
-    if data.model != "linear" or data.procedure != "dynamic":
+    if data.procedure != "dynamic" or skipped(data).get("all"):
+        return {}
+    if data.model in nl.NONLINEAR:
+        return nl.variants(data, {name: spec[3] for name, spec in VARIANTS.items()})
+    if data.model != "linear":
         return {}
     plane = f", plane {data.plane or 'strain'}" if data.dim == 2 else ""
     elastic = f"D = stiffness_from_youngpoisson of the export's {given(data.material)}{plane}"
@@ -140,10 +151,13 @@ def skipped(data: Exported) -> dict[str, str]:
         from tissuebench.workflows.simulators import sfepy_contact
 
         return sfepy_contact.skipped(data)
-    if data.model != "linear":
-        return {"all": f"the {data.model} model is not posed in SfePy here (linear only)"}
+    posed = ", ".join(["linear", *nl.NONLINEAR])
+    if data.model != "linear" and data.model not in nl.NONLINEAR:
+        return {"all": f"the {data.model} model is not posed in SfePy here ({posed} only)"}
     if data.procedure != "dynamic":
         return {"all": "SfePy's elastodynamics steppers pose the dynamic procedure only"}
+    if data.model in nl.NONLINEAR:
+        return nl.skipped(data, list(VARIANTS))
     return {}
 
 
@@ -311,10 +325,15 @@ def build_problem(data: Exported, variant: str, workdir: Path):
 
     D = stiffness_from_youngpoisson(dim, m.E, m.nu, plane=data.plane or "strain")
     lumped = mass == "lumped"
+    nonlinear = data.model in nl.NONLINEAR
+    mu = m.E / (2 * (1 + m.nu))  # Pa, SPEC section 1
+    lam = m.E * m.nu / ((1 + m.nu) * (1 - 2 * m.nu))  # Pa
     solid = Material(
         "solid",
         values={
             "D": D,
+            "mu": mu,
+            "K": lam + 2 * mu / 3,  # Pa: the SPEC's kappa
             "beta_D": m.beta * D,
             "rho": m.rho,
             "alpha_rho": m.alpha * m.rho,
@@ -344,7 +363,8 @@ def build_problem(data: Exported, variant: str, workdir: Path):
         terms = terms + term("dw_lin_elastic(solid.beta_D, dv, du)", dv=dv, du=du)
     if m.alpha == 0 and m.beta == 0:  # keeps du in the equations, as SfePy's examples do
         terms = terms + term("dw_zero(dv, du)", dv=dv, du=du)
-    terms = terms + term("dw_lin_elastic(solid.D, v, u)", v=v, u=u)
+    for elastic in nl.NONLINEAR[data.model][0] if nonlinear else ("dw_lin_elastic(solid.D, v, u)",):
+        terms = terms + term(elastic, v=v, u=u)
     if np.any(force != 0):
         terms = terms - Term.new("dw_volume_lvf(load.f, v)", integral, omega, load=load, v=v)
     equations = Equations([Equation("balance_of_forces", terms)])
@@ -377,20 +397,31 @@ def build_problem(data: Exported, variant: str, workdir: Path):
     problem.set_bcs(ebcs=Conditions(bcs))
     problem.set_ics(Conditions([]))
 
-    ls = ScipyDirect({"method": "superlu", "use_presolve": True})
-    # one exact solve per step (the problem is linear); eps_a = 0 so that no step is skipped
-    # for a small initial residual
-    nls = Newton(
-        {"i_max": 1, "eps_a": 0.0, "eps_r": 1.0, "lin_red": None},
-        lin_solver=ls,
-        status=IndexedStruct(),
-    )
+    ls = ScipyDirect({"method": "superlu", "use_presolve": not nonlinear})
+    if nonlinear:
+        newton = nl.newton_options(problem, integral)
+    else:  # one exact solve per step (the problem is linear); eps_a = 0 so that no step is
+        # skipped for a small initial residual
+        newton = {"i_max": 1, "eps_a": 0.0, "eps_r": 1.0}
+
+    class NewtonStatus(IndexedStruct):
+        """SfePy's Newton status that keeps a failed solve's condition (1: no convergence in
+        i_max iterations, 2: line search failed) until the step hook reads it."""
+
+        failed = 0
+
+        def __setitem__(self, key, value):
+            super().__setitem__(key, value)
+            if key == "condition" and value != 0 and not self.failed:
+                self.failed = int(value)
+
+    nls = Newton({**newton, "lin_red": None}, lin_solver=ls, status=NewtonStatus())
     conf = {
         "t0": 0.0,
         "t1": float(data.times[-1]),
         "dt": None,
         "n_step": data.steps + 1,
-        "is_linear": True,
+        "is_linear": not nonlinear,
         "var_names": {"u": "u", "du": "du", "ddu": "ddu"},
         "verbose": False,
         **params,
@@ -430,11 +461,12 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
         return sfepy_contact.run(data, variant, workdir)
     if variant not in VARIANTS:
         raise ValueError(f"unknown SfePy variant {variant!r}: use one of {', '.join(VARIANTS)}")
-    if not variants(data):
-        raise ValueError(
-            f"SfePy runs the linear model's dynamic procedure only, not {data.model} "
-            f"{data.procedure}"
-        )
+    offered = variants(data)
+    if not offered:
+        why = skipped(data).get("all", f"{data.model} {data.procedure} is not posed")
+        raise ValueError(f"SfePy cannot run this export: {why}")
+    if variant not in offered:
+        raise ValueError(f"SfePy's {variant} is not run here: {skipped(data)[variant]}")
     sfepy = sfepy_modules()
     from sfepy.base.base import output
 
@@ -444,6 +476,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     U[:, :, :dim] = np.nan  # NaN from a divergence on; a 2D mesh's third component is 0
     limit = DIVERGENCE_FACTOR * extent_of(data.nodes)
     last, status, reason, diverged = -1, "ok", None, False
+    nonlinear = data.model in nl.NONLINEAR
 
     def record(pb, ts, variables):
         """SfePy's step hook: keep u at step ts.step (m), stop at a divergence."""
@@ -452,6 +485,12 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
         values = variables["u"]().reshape(N, dim)
         last = i
         check_step(values, i, h, limit)
+        failed = nonlinear and pb.solver.nls.status.failed  # the linear run's Newton: 1 solve
+        if failed and i > 0:
+            what = f"in {nl.NEWTON_MAX_IT} iterations" if failed == 1 else "(line search failed)"
+            raise Diverged(
+                f"diverged at step {i} (t = {i * h:.6g} s): Newton did not converge {what}"
+            )
         U[i, :, :dim] = values
 
     saved = output.output_function, output.level
