@@ -120,8 +120,8 @@ def test_sweep_takes_the_largest_load_that_meets_and_says_where_the_rest_folded(
     assert folded(summaries["rod-nhb-s1.75"]["hierarchy"]) is None
     assert chosen(summaries) == "rod-nhb-s1.5"
     text = "\n".join(sweep_lines(summaries))
-    assert "| 2 | rod-nhb-s2 | 0.6, 0.05, 0.01 | n = 4 at t = 2 s |" in text
-    assert "| 1.25 | rod-nhb-s1.25 | not computed |" in text
+    assert "| 2 | rod-nhb-s2 | graded | 0.6, 0.05, 0.01 | n = 4 at t = 2 s |" in text
+    assert "| 1.25 | rod-nhb-s1.25 | graded | not computed |" in text
     assert "**rod-nhb-s1.5**" in text
     summaries["rod-nhb-s1.5"]["own_error"]["meets_target"] = False
     assert chosen(summaries) is None
@@ -137,6 +137,11 @@ def test_sweep_says_where_a_computation_failed():
                "smallest_J": 0.08, "smallest_J_at": [0.01, 0.0, 0.0],
                "levels_done_smallest_J": [0.6, 0.5]}  # fmt: skip
     text = "\n".join(sweep_lines({}, {"rod-nhb-s2": failure}))
-    assert "| 2 | rod-nhb-s2 | 0.6, 0.5, then: Newton fails on n = 8 at t = 4.3 s" in text
+    assert "| 2 | rod-nhb-s2 | graded | 0.6, 0.5, then: Newton fails on n = 8 at t = 4.3 s" in text
     assert "smallest J before it 0.08 at X = (0.010, 0.000, 0.000) m" in text
     assert chosen({}) is None
+    # every graded load fails; the uniform levels' truth meets: it is taken, and said to be
+    uniform = {"rod-nhb-s1.5-uniform": sweep_summary([0.7, 0.6, 0.55], True)}
+    text = "\n".join(sweep_lines(uniform, {"rod-nhb-s2": failure}))
+    assert "| 1.5 | rod-nhb-s1.5-uniform | uniform | 0.7, 0.6, 0.55 | no |" in text
+    assert "**rod-nhb-s1.5-uniform** meets it" in text

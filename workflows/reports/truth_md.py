@@ -25,7 +25,7 @@ from tissuebench.solvers.truth.cases import (
     STEP_DIVISOR,
 )
 from tissuebench.solvers.truth.estimate import estimate_error
-from tissuebench.solvers.truth.fallbacks import FALLBACKS, ROD_SWEEP
+from tissuebench.solvers.truth.fallbacks import FALLBACKS
 from tissuebench.solvers.truth.store import (
     MEASURED_STEP_SECONDS,
     TARGET_FRACTION,
@@ -36,7 +36,7 @@ from tissuebench.solvers.truth.store import (
 )
 from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.reports.crease import FOLDED
-from tissuebench.workflows.reports.sweep import sweep_case, sweep_lines
+from tissuebench.workflows.reports.sweep import sweep_cases, sweep_lines
 
 if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples
@@ -266,7 +266,7 @@ def fallback_words(case: str, computed: bool = True) -> list[str]:
 
 def sweep_failures(summaries: dict) -> dict:
     """The failure records (store.load_failure) of SPEC 10's sweep cases not computed."""
-    cases = [sweep_case(s) for s in ROD_SWEEP]
+    cases = sweep_cases()
     found = {case: load_failure(case) for case in cases if case not in summaries}
     return {case: record for case, record in found.items() if record is not None}
 
