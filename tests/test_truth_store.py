@@ -311,3 +311,30 @@ def test_the_target_is_a_fraction_of_the_truths_size():
     samples.own_error["interior_error_max"] = 2 * 0.002 * size
     store.judge(samples)
     assert samples.own_error["meets_target"] is False
+
+
+def test_a_failed_computation_is_kept_as_evidence_for_todays_inputs(tmp_path, monkeypatch):
+    """store.record_failure keeps where a case failed (its level, the time of the step, the
+    last state's smallest J and where) under today's inputs' key, load_failure reads it back,
+    and a record written for other inputs is not read."""
+    from types import SimpleNamespace
+
+    from mpi4py import MPI
+
+    from tissuebench.solvers.truth import store
+
+    monkeypatch.setenv("TISSUEBENCH_CACHE", str(tmp_path))
+    truth = SimpleNamespace(
+        _jacobian=lambda: (0.07, np.array([0.04, 0.001, 0.001])), t=SimpleNamespace(value=4.3)
+    )
+    info = {"levels": [2, 4], "wall": [1.0, 2.0], "min_jacobian": [[1.0, 0.7], [1.0, 0.2]]}
+    err = RuntimeError("truth: Newton did not converge at t = 4.3 s (-6)")
+    store.record_failure("rod-nhb-s2", False, 8, truth, info, err, MPI.COMM_SELF)
+    got = store.load_failure("rod-nhb-s2")
+    assert got is not None
+    assert (got["level"], got["t"], got["smallest_J"]) == (8, 4.3, 0.07)
+    assert got["levels_done_smallest_J"] == [0.7, 0.2]
+    assert store.load_failure("rod-nhb-s1.75") is None
+    path = store.failure_path("rod-nhb-s2")
+    path.write_text(path.read_text().replace(got["fingerprint"], "another"))
+    assert store.load_failure("rod-nhb-s2") is None
