@@ -182,6 +182,36 @@ def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, 
     }
 
 
+def clone_results() -> Path | None:
+    """The results/ folder of the clone tissuebench runs from (an editable install, `make
+    setup` or `pip install -e .`: the package's source tree is the repository, whose
+    results/ holds the committed leaderboard.json), found from the package's own path; None
+    when it holds no record (an installed copy of the package)."""
+    import tissuebench.workflows
+
+    found = Path(tissuebench.workflows.__file__).resolve().parent.parent / "results"
+    return found if (found / RECORD).is_file() else None
+
+
+def record_folder(out: Path, results: Path | None = None) -> Path:
+    """The folder whose leaderboard.json the leaderboard renders from: `results` when given
+    (--results; LeaderboardError, one line, when it holds no record), else OUT when it holds
+    one, else the clone's results/ (clone_results), else OUT (which has none: the caller says
+    so). Wherever the user stands, `--out results` in a folder of their own renders the
+    committed record with their rows, written to OUT; the record's folder is only read."""
+    if results is not None:
+        if not (results / RECORD).is_file():
+            raise LeaderboardError(
+                f"--results {results}: no leaderboard record ({RECORD}) there; name a folder "
+                "that holds one (a clone's results/), or leave --results out"
+            )
+        return results
+    if (out / RECORD).is_file():
+        return out
+    clone = clone_results()
+    return clone if clone is not None else out
+
+
 def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
     """The record OUT/leaderboard.json as (boards, {case: rows}, {case: notes}); None when there
     is none. Every case and row is checked for type and range (check_board, check_row) before
