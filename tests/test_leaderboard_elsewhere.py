@@ -6,6 +6,7 @@ here the choice of record, its one-line refusal, and a render from a copy of the
 results/ with nothing to grade (seconds: every figure of the same rows is copied)."""
 
 import argparse
+import csv
 import hashlib
 from pathlib import Path
 
@@ -78,6 +79,14 @@ def test_a_render_from_a_copy_of_the_committed_results_leaves_it_unchanged(tmp_p
     theirs = (copy / "leaderboard.md").read_text().splitlines()
     heads = [line for line in theirs if line.startswith("## ")]
     assert heads and heads == [line for line in mine if line.startswith("## ")]
+    # issue 44, item 5: rod-MP2's explicit-lumped diverged, and its budget and row say so
+    with open(out / "leaderboard.csv", newline="") as f:
+        table = {(r["case"], r["label"]): r for r in csv.DictReader(f)}
+    lumped = table.get(("rod-MP2", "explicit-lumped"))
+    if lumped is not None and lumped["status"] == "diverged":
+        assert lumped["errors_over"] == "the steps before it diverged"
+        html = (out / "leaderboard" / "index.html").read_text()
+        assert "explicit-lumped (diverged)</text>" in html  # its line in rod-MP2's budget
     # the same rows: each figure as drawn by today's code is the record's, copied
     for png in sorted((copy / "leaderboard").glob("*.png")):
         if build.as_drawn_now(png):

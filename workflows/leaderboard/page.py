@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, cast
 
 from tissuebench.workflows.io.tables import CSVError, ends_whole, read_rows
+from tissuebench.workflows.leaderboard.budget import covers, marked
 from tissuebench.workflows.leaderboard.figures import sessions_line
 from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite, one_line
 
@@ -147,7 +148,8 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
     b = row.budget
     if b:
         parts = ", ".join(f"{p} {g(b.get(p))}" for p in ("total", "discretisation", "algorithm"))
-        lines.append(f"budget (time-mean E_i, {unit}): {parts}, model {g(b.get('model'))}")
+        over = "" if row.status == "ok" else f", over {covers(row.status)}"
+        lines.append(f"budget (time-mean E_i, {unit}{over}): {parts}, model {g(b.get('model'))}")
     lines.append(
         f"cost: {g(row.cost)} s per simulated s (wall {g(row.wall_time_s)} s over "
         f"{g(row.end_time)} s)"
@@ -552,7 +554,7 @@ def budget_plot(board: Board, rows: list[Row], unit: str) -> str:
         y = head + row_h * i + row_h / 2
         src = source_of(r)
         b = r.budget
-        lines = [r.label] + [
+        lines = [marked(r.label, r.status)] + [
             f"{p}: {g(b.get(p))}" + (f" ({b[p + '_how']})" if b.get(p + "_how") else "")
             for p in parts
         ]
@@ -563,7 +565,7 @@ def budget_plot(board: Board, rows: list[Row], unit: str) -> str:
             f'<rect x="0" y="{y - row_h / 2:.1f}" width="{right}" height="{row_h}" '
             f'class="{"odd" if i % 2 else "even"}"/>'
             f'<text x="{left - 8}" y="{y + 4:.1f}" class="tick" text-anchor="end">'
-            f"{esc(r.label[:44])}</text>"
+            f"{esc(marked(r.label[:44], r.status, short=True))}</text>"
         )
         xs = [px(b[p]) for p in parts if finite(b.get(p))]
         if xs:
@@ -658,7 +660,7 @@ def division(
     def line(k: int, e: dict) -> str:
         rt = "yes" if finite(e["cost"]) and e["cost"] <= REAL_TIME else "-"
         rank = str(k) if e["ranks"] else "-"
-        status = "" if e["status"] == "ok" else f" ({esc(e['status'])})"
+        status = "" if e["status"] == "ok" else f" ({esc(e['status'])}: over {covers(e['status'])})"
         return (
             f'<tr class="f{" userrow" if e["user"] else ""}" data-case="{esc(board.name)}" '
             f'data-source="{esc(e["facet"])}" data-model="{esc(e["model"])}" '

@@ -837,11 +837,15 @@ CONTACT_KEYS = ("force_error", "interpenetration_max")  # a contact case's row's
 
 
 def write_csv(path: Path, rows: list[Row]) -> None:
-    """leaderboard.csv: every row; with the contact columns (CONTACT_KEYS, then how the force
-    was graded) at the end only when a row of a contact case is among them, empty for the
-    others."""
+    """leaderboard.csv: every row, with what its errors cover (errors_over: every step, or
+    the steps before it diverged or failed, budget.covers); with the contact columns
+    (CONTACT_KEYS, then how the force was graded) at the end only when a row of a contact
+    case is among them, empty for the others."""
     contact = any(r.contact for r in rows)
+    from tissuebench.workflows.leaderboard.budget import covers
+
     names = ["case", "label", "source", "description", "mesh", "dofs", "status", "reason"]
+    names += ["errors_over"]  # what its errors cover: every step, or those before it stopped
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
     names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
@@ -851,6 +855,7 @@ def write_csv(path: Path, rows: list[Row]) -> None:
         names,
         (
             [r.case, r.label, r.source, r.description, r.mesh, r.dofs, r.status, r.reason or ""]
+            + [covers(r.status)]
             + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
             + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
             + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]
