@@ -67,7 +67,8 @@ def test_scheme_help_on_nonlinear_models_is_the_rule_applied():
 
     def options(scheme: str, models: list[str], algorithms: list[str]):
         args = argparse.Namespace(scheme=scheme, substeps="1")
-        return scheme_options(args, 3, {}, models, algorithms)
+        cell = SCHEMES[scheme].cells[-1]  # hexahedron or tetrahedron: one it takes
+        return scheme_options(args, 3, {"cell": cell}, models, algorithms)
 
     nh = ["linear", "neo-hookean"]
     assert options("mean-dilatation", nh, ["explicit-lumped"]) is not None
