@@ -63,7 +63,8 @@ def source_of(row: Row) -> str:
 
 def model_of(board: Board, row: Row) -> str:
     """The elastic model a row ran with: ours name it after +, the simulators were given
-    the case's simulator model, a user was posed the case's."""
+    the case's simulator model, a user's is the one stated to compare (--model), else the
+    case's, as posed."""
     if row.source == "tissuebench":
         return (
             row.label.split(" ")[0].split("+", 1)[1]
@@ -71,7 +72,7 @@ def model_of(board: Board, row: Row) -> str:
             else ("linear")
         )
     if row.source == "user":
-        return board.model
+        return row.model or board.model
     return board.simulator_model or board.model
 
 
@@ -132,7 +133,9 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
         f"source: {row.source}" + (" (tissuebench)" if row.source == "user" else ""),
         f"mesh: {'the case' + chr(39) + 's own' if row.mesh == 'reference' else row.mesh}; "
         f"{row.dofs:,} dofs",
-        f"model: {model_of(board, row)}; status: {row.status}"
+        f"model: {model_of(board, row)}"
+        + (" (the case's: not stated to compare)" if row.source == "user" and not row.model else "")
+        + f"; status: {row.status}"
         + (f" ({row.reason})" if row.reason else ""),
         f"against the reference: E_i mean {g(ref.get(E_I + '_mean'))}, max "
         f"{g(ref.get(E_I + '_max'))} {unit}; E_n max {g(ref.get(E_N + '_max'))}",

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from tissuebench.core.errors import UserError
+from tissuebench.solvers.models import MODELS
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
 
 FOLDER = "leaderboard"
@@ -88,6 +89,9 @@ def check_row(d) -> None:
         )
     for key in ("reason", "group", "series", "series_field", "truth_note", "series_hash"):
         _text(d.get(key), key, none=True)
+    model = d.get("model")  # a user's row's stated model
+    if model is not None and model not in MODELS:
+        raise Invalid(f"model {one_line(repr(model))[:40]} is not one of {', '.join(MODELS)}")
     dofs = d.get("dofs")
     if not isinstance(dofs, int) or isinstance(dofs, bool) or dofs < 0:
         raise Invalid(f"dofs {one_line(repr(dofs))[:40]} is not a whole number >= 0")
@@ -151,8 +155,8 @@ def row_of(d: dict) -> Row:
 
 def row_record(row: Row) -> dict:
     """A Row as the record holds it: every field (series_hash only where it has one: a user's
-    row, and contact and force only on a contact case's row, so that a record of our rows
-    reads as before)."""
+    row, model only where its user stated one, and contact and force only on a contact case's
+    row, so that a record of our rows reads as before)."""
     d = asdict(row)
     if d.get("series_hash") is None:
         d.pop("series_hash", None)
@@ -160,6 +164,8 @@ def row_record(row: Row) -> dict:
         d.pop("contact", None)
     if d.get("force") is None:
         d.pop("force", None)
+    if d.get("model") is None:
+        d.pop("model", None)
     return d
 
 

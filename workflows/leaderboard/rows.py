@@ -102,6 +102,7 @@ class Row:
     # or why none)
     contact: dict = field(default_factory=dict)
     force: str | None = None  # a contact case's row: its needle force file (write_force_csv)
+    model: str | None = None  # a user's row: its model as stated to compare (None: the case's)
 
     @property
     def cost(self) -> float | None:
@@ -558,7 +559,7 @@ def user_rows(
         found: dict = {}
         if problem is None:
             found = candidate_of(summary, sub)
-            problem = series_problem(summary, found)
+            problem = series_problem(summary, found) or model_problem(summary)
         if problem:
             skipped.append(f"{where}: left out: {problem}")
             continue
@@ -736,8 +737,24 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
 
         file = candidate_file(cast("CompareSummary", summary), folder) or file
     assert isinstance(cand, dict)  # file came from it
-    field = cand.get("field")
-    return {"series": file, "series_field": field if isinstance(field, str) else None}
+    field, model = cand.get("field"), cand.get("model")  # model: as its user stated it
+    return {
+        "series": file,
+        "series_field": field if isinstance(field, str) else None,
+        "model": model if isinstance(model, str) else None,
+    }
+
+
+def model_problem(summary: dict) -> str | None:
+    """Why a compare summary's stated candidate model cannot be taken (None: it states none,
+    or one of solvers.MODELS)."""
+    from tissuebench.solvers.models import MODELS
+
+    cand = summary.get("candidate")
+    model = cand.get("model") if isinstance(cand, dict) else None
+    if model is None or (isinstance(model, str) and model in MODELS):
+        return None
+    return f"its candidate's model {one_line(repr(model))[:40]} is not one of {', '.join(MODELS)}"
 
 
 def user_force(summary: dict) -> str | None:
