@@ -30,6 +30,7 @@ def digest(folder: Path) -> dict[str, str]:
     }
 
 
+@pytest.mark.serial  # files in tmp_path, which the ranks of mpiexec share
 def test_the_record_is_outs_the_clones_or_the_one_named(tmp_path, monkeypatch):
     out = tmp_path / "mywork" / "results"
     if COMMITTED.is_file():  # an editable install from this clone: its results/ is found
