@@ -17,6 +17,7 @@ from tissuebench.workflows.io.exported import CHANGES, SCHEMA_VERSION, read_json
 from tissuebench.workflows.posing import export
 
 ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.serial  # files in tmp_path, which mpiexec's ranks share
 ADDED = ["description", "geometry", "constraint_semantics", "damping", "model_law", "algorithm",
          "metrics", "truth"]  # fmt: skip
 
