@@ -42,6 +42,7 @@ def test_what_the_errors_cover():
     assert marked("explicit-lumped", "diverged", short=True) == "explicit-lumped (diverged)"
 
 
+@pytest.mark.serial  # leaderboard.csv in tmp_path, which mpiexec's ranks share
 def test_the_budget_and_the_ranks_say_it_diverged(tmp_path):
     ours = rows()
     svg = page.budget_plot(BOARD, ours, "m^3")
