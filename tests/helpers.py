@@ -30,10 +30,13 @@ def job(argv: list, ranks: int = 1) -> tuple[list[str], dict]:
     return cmd, env
 
 
-def tissuebench(*args, ranks: int = 1, timeout: int = 600) -> subprocess.CompletedProcess:
-    """`tissuebench args...` in a fresh job (under mpiexec with `ranks` > 1)."""
+def tissuebench(
+    *args, ranks: int = 1, timeout: int = 600, cwd: Path | None = None
+) -> subprocess.CompletedProcess:
+    """`tissuebench args...` in a fresh job (under mpiexec with `ranks` > 1), in folder `cwd`
+    (default: this process's)."""
     cmd, env = job(["-m", "tissuebench.workflows.cli", *args], ranks)
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=cwd)
 
 
 def run_script(script, *args, ranks=1, timeout=600):

@@ -10,7 +10,7 @@ from tissuebench.workflows.leaderboard.budget import budget_rows, plot_budget
 
 
 def row(label, **budget):
-    return SimpleNamespace(label=label, budget=budget)
+    return SimpleNamespace(label=label, status="ok", budget=budget)
 
 
 def test_rows_drawn_are_those_with_a_measured_total_ordered_by_it():

@@ -63,9 +63,13 @@ def copy(recorded, tmp_path):
 
 
 def test_no_record_says_how_to_make_one(tmp_path, monkeypatch):
+    from tissuebench.workflows.leaderboard import record
+
+    monkeypatch.setattr(record, "clone_results", lambda: None)  # no clone's record either
     with pytest.raises(leaderboard.LeaderboardError) as err:
         run(tmp_path / "new", monkeypatch)
     assert "--rerun" in str(err.value) and "\n" not in str(err.value)
+    assert "--results DIR" in str(err.value)
     with pytest.raises(leaderboard.LeaderboardError, match="no such case; name some of rod-a"):
         run(tmp_path / "new", monkeypatch, rerun=["rod-x"])
 

@@ -93,7 +93,11 @@ def test_an_older_relative_candidate_path_is_taken_from_the_compare_folder(tmp_p
     assert candidate_file({"candidate": {}}, folder) is None
     # the leaderboard's rows take it so (ranking.candidate_of with the compare folder)
     row = ranking.candidate_of({"candidate": {"file": "cand.xdmf", "field": "u"}}, folder)
-    assert row == {"series": str(folder.resolve() / "cand.xdmf"), "series_field": "u"}
+    assert row == {
+        "series": str(folder.resolve() / "cand.xdmf"),
+        "series_field": "u",
+        "model": None,
+    }
 
 
 def test_metrics_are_named_with_their_units(tmp_path):

@@ -51,10 +51,11 @@ from tissuebench.workflows.contact.grading import (
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
 from tissuebench.workflows.output import RunFolder, collective, file_hash
-from tissuebench.workflows.summary import (
+from tissuebench.workflows.summary import (  # candidate_file: read here by others
     SCHEMA_VERSION,
     SUMMARY,
     CompareSummary,
+    candidate_file,  # noqa: F401
     dumps,
     kind_of,
     read_case_summary,
@@ -145,6 +146,7 @@ def compare(
     folder_of_ours: bool = False,
     needle_force: str | Path | None = None,
     contact: ContactReference | None = None,
+    model: str | None = None,
 ) -> dict[str, str]:
     """Grade the candidate series against the reference series (XDMF, PVD, CalculiX .frd or
     .dat), write out_dir/metrics.csv, metrics.png and summary.json, and return the one-line
@@ -164,7 +166,13 @@ def compare(
     `contact` given, as the external runner gives its export's) grades the candidate's
     interpenetration too and, with `needle_force` (the candidate's force file), its force
     error (workflows/contact/grading.py); `needle_force` against any other reference is
-    refused in one line."""
+    refused in one line. `model`: the candidate's elastic model as its user states it (one of
+    solvers.MODELS), in summary.json's candidate and inputs; the leaderboard's row and its
+    error budget take it (none: the reference's)."""
+    from tissuebench.solvers.models import MODELS
+
+    if model is not None and model not in MODELS:
+        raise GradingError(f"--model {model}: not an elastic model; one of {', '.join(MODELS)}")
     check_label(label, candidate)
     wall = check_wall_time(wall_time)
     case = truth_case(reference, reference_field)  # `truth:CASE`: SPEC 10's truth (None: a file)
@@ -220,6 +228,7 @@ def compare(
                 wall,
                 truth,
                 needle_force,
+                model,
             ),
         )
         if folder.prepare(inputs, force) == "complete":
@@ -229,6 +238,8 @@ def compare(
             }
         g = grading()
         summary = summary_of(g, reference, candidate, wall)
+        if model is not None:  # as stated by the user (absent: the reference's)
+            summary["candidate"]["model"] = model
         summary["inputs"], summary["fingerprint"] = inputs, fingerprint(inputs)
         with folder.writing() as tmp:
             collective(comm, lambda: write_grading(tmp, g, summary), folder.path)
@@ -260,11 +271,12 @@ def compare_inputs(
     wall,
     truth=None,
     needle_force=None,
+    model=None,
 ):
     """Every input that changes a compare folder's numbers (rank 0: it reads the files); for a
     truth (rank 0's TruthSamples), its case and the fingerprint of its inputs; the candidate's
-    needle force file when given (absent otherwise, so that other folders keep their
-    fingerprint)."""
+    needle force file and its stated model when given (absent otherwise, so that other folders
+    keep their fingerprint)."""
     from importlib.metadata import version
 
     if truth is not None:
@@ -275,6 +287,8 @@ def compare_inputs(
     if needle_force is not None:
         path = Path(needle_force)
         given = {"needle_force": {"file": str(path.resolve()), "sha256": file_hash(path)}}
+    if model is not None:
+        given["model"] = model
     return {
         **given,
         "command": "compare",
@@ -287,26 +301,6 @@ def compare_inputs(
         "wall_time_s": wall,
         "tissuebench": version("tissuebench"),
     }
-
-
-def candidate_file(summary: CompareSummary, folder: str | Path) -> str | None:
-    """The candidate series file that the compare summary.json in `folder` records, as a path
-    found from any working folder: as recorded when absolute (summary_of records it so); for
-    a summary of an older compare, which recorded it as typed, the absolute path of its
-    inputs (`inputs.candidate.file`), else the recorded path taken relative to `folder`.
-    None when it records none."""
-    cand = summary.get("candidate")
-    file = cand.get("file") if isinstance(cand, dict) else None
-    if not isinstance(file, str) or not file:
-        return None
-    if Path(file).is_absolute():
-        return file
-    inputs = summary.get("inputs")
-    read = inputs.get("candidate") if isinstance(inputs, dict) else None
-    resolved = read.get("file") if isinstance(read, dict) else None
-    if isinstance(resolved, str) and Path(resolved).is_absolute():
-        return resolved
-    return str(Path(folder).resolve() / file)
 
 
 def none_if_nan(x):

@@ -499,3 +499,23 @@ def write_summary(folder: Path, summary: Summary | dict[str, Any]) -> None:
 def write_case_summary(folder: Path, summary: CaseSummary) -> None:
     """Write `summary` as `folder`/summary.json (the text study has always written)."""
     write_summary(folder, summary)
+
+
+def candidate_file(summary: CompareSummary, folder: str | Path) -> str | None:
+    """The candidate series file that the compare summary.json in `folder` records, as a path
+    found from any working folder: as recorded when absolute (summary_of records it so); for
+    a summary of an older compare, which recorded it as typed, the absolute path of its
+    inputs (`inputs.candidate.file`), else the recorded path taken relative to `folder`.
+    None when it records none."""
+    cand = summary.get("candidate")
+    file = cand.get("file") if isinstance(cand, dict) else None
+    if not isinstance(file, str) or not file:
+        return None
+    if Path(file).is_absolute():
+        return file
+    inputs = summary.get("inputs")
+    read = inputs.get("candidate") if isinstance(inputs, dict) else None
+    resolved = read.get("file") if isinstance(read, dict) else None
+    if isinstance(resolved, str) and Path(resolved).is_absolute():
+        return resolved
+    return str(Path(folder).resolve() / file)

@@ -138,10 +138,11 @@ def budget_on_mesh(
     """A user row's error budget parts beyond its total (SPEC 10), time-mean E_i in m^gdim,
     from our implicit run here on the row's own mesh (read from its series, row.series, unless
     `user` is that series read already): discretisation, I(M', truth's model) against the
-    truth; algorithm, the row against I(M', m) with m the case's model (board.model: a user's
-    own model, if another, stays in this part); model, I(M', m) against I(M', truth's model),
-    0 when m is the truth's. Each part's `_how` says how it was measured; where our implicit
-    cannot run on that mesh, every part is None and discretisation_how says why in one line.
+    truth; algorithm, the row against I(M', m) with m the row's model (row.model, as its user
+    stated it to compare with --model, else the case's, board.model); model, I(M', m) against
+    I(M', truth's model), 0 when m is the truth's. Each part's `_how` says how it was
+    measured; where our implicit cannot run on that mesh, every part is None and
+    discretisation_how says why in one line.
 
     `cache`, a dict the caller keeps: what depends on the mesh and the case only (our runs on
     the mesh, the discretisation and model parts, or why our implicit cannot run there) is
@@ -158,6 +159,7 @@ def budget_on_mesh(
     assert row.series is not None  # a user row with its series (the caller's condition)
     case = board_case(board)
     real = CASES[board.truth][2] if board.truth in CASES else board.model
+    mine = row.model or board.model  # the row's model: stated to compare, else the case's
 
     def mean(curve) -> float | None:
         value = float(summarize(curve)[1])
@@ -174,7 +176,7 @@ def budget_on_mesh(
     def on_its_mesh(user: Series) -> tuple[dict, dict]:
         """Our runs on the user's mesh and the parts they give (discretisation, model)."""
         runs = {}
-        for model in dict.fromkeys((real, board.model)):
+        for model in dict.fromkeys((real, mine)):
             runs[model] = implicit_on(
                 user,
                 board.benchmark,
@@ -186,10 +188,10 @@ def budget_on_mesh(
             )
         graded = grade_truth(truth, runs[real], MPI.COMM_SELF, surface=False, located=located)
         parts = {"discretisation": mean(graded.curves[E_I])}
-        if board.model == real:
+        if mine == real:
             parts["model"] = 0.0
         else:
-            between = grade_series(runs[real], runs[board.model], MPI.COMM_SELF, surface=False)
+            between = grade_series(runs[real], runs[mine], MPI.COMM_SELF, surface=False)
             parts["model"] = mean(between.curves[E_I])
         return runs, parts
 
@@ -200,7 +202,7 @@ def budget_on_mesh(
             board.benchmark,
             board.material,
             real,
-            board.model,
+            mine,
             repr(sorted(board.options.items())),
             case["h"],
             case["steps"],
@@ -218,7 +220,7 @@ def budget_on_mesh(
             raise found
         runs, parts = found
         # E_i only: E_s (surface=False) is most of a grading's cost and no part of the budget
-        against = grade_series(runs[board.model], user, MPI.COMM_SELF, surface=False)
+        against = grade_series(runs[mine], user, MPI.COMM_SELF, surface=False)
         parts = {**parts, "algorithm": mean(against.curves[E_I])}
     except Exception as exc:  # anything a file or a run can do: this row's parts are not known
         return failed(exc)
@@ -228,10 +230,10 @@ def budget_on_mesh(
         "algorithm": parts["algorithm"],
         "model": parts["model"],
         "discretisation_how": f"our {REFERENCE} ({real}) run here on its mesh, {nodes:,} nodes",
-        "algorithm_how": f"against our {REFERENCE} ({board.model}) on its mesh",
+        "algorithm_how": f"against our {REFERENCE} ({mine}) on its mesh",
         "model_how": (
-            f"none: the case's model, {real}, is the truth's"
-            if board.model == real
-            else f"our {REFERENCE} {board.model} against {real} on its mesh"
+            f"none: its model, {real}, is the truth's"
+            if mine == real
+            else f"our {REFERENCE} {mine} against {real} on its mesh"
         ),
     }

@@ -121,11 +121,41 @@ def add_shape_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+# what --mesh-size is on each benchmark: its letter, the grid's cells per axis as multiples of
+# it, and what else it must be (the meshes' own docstrings; mesh_size_help)
+GRIDS = {
+    "block": ("N", (1, 1), "quadrilaterals", "N even: the needle's end on a node"),
+    "rod": ("n", (2, 1, 1), "hexahedra", ""),
+    "contact": ("N", (1, 1), "quadrilaterals", "N even"),
+}
+
+
+def mesh_size_help(benchmarks: dict[str, Entry]) -> str:
+    """--mesh-size's help: on each benchmark what its size gives (the grid's cells, their
+    size in m, its default), and the simplices' meshes."""
+    said = []
+    for name, e in benchmarks.items():
+        if name not in GRIDS:
+            said.append(f"{name}: {e.mesh_size} by default")
+            continue
+        letter, counts, cells, rule = GRIDS[name]
+        grid = " x ".join(f"{k if k > 1 else ''}{letter}" for k in counts)
+        size = f"{e.cell_size(1):g}/{letter} m"
+        said.append(
+            f"{name}: {grid} {cells} of {size}{'; ' + rule if rule else ''} "
+            f"(default {letter} = {e.mesh_size})"
+        )
+    return (
+        f"the mesh's size, per benchmark: {'; '.join(said)}. With --cell triangle or "
+        "tetrahedron each cell is split into simplices (--mesh structured) or gmsh meshes the "
+        "body at that spacing (unstructured)"
+    )
+
+
 def add_benchmark_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entry]) -> None:
     """--mesh-size, --cell, --mesh, and every benchmark's own options (numbers) as --name,
     from the registry."""
-    sizes = ", ".join(f"{name} {e.mesh_size}" for name, e in benchmarks.items())
-    p.add_argument("--mesh-size", type=int, help=f"mesh size (default: {sizes})")
+    p.add_argument("--mesh-size", type=int, help=mesh_size_help(benchmarks))
     add_shape_options(p)
     takers: dict[str, list[str]] = {}
     helps: dict[str, str] = {}
@@ -255,7 +285,8 @@ def add_scheme_options(p: argparse.ArgumentParser) -> None:
         metavar="K|auto",
         help="explicit schemes take K sub-steps of h/K per step h, or the fewest with h/K <= "
         "0.9 x their measured critical step (auto); reported at every h, the cost counts every "
-        "sub-step (default 1)",
+        "sub-step (default 1); refused when --algorithms names no explicit scheme (an implicit "
+        "step takes no sub-steps)",
     )
 
 

@@ -8,6 +8,7 @@ from typing import Any, cast
 from mpi4py import MPI
 
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
+from tissuebench.solvers.models import MODELS
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.workflows.grading import MAX_LABEL, compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
@@ -84,6 +85,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "it by the simulated time to rank the run's cost (s per simulated s)",
     )
     p.add_argument(
+        "--model",
+        choices=list(MODELS),
+        help="the candidate's elastic model, as you state it (recorded in summary.json): the "
+        "leaderboard's row says it, and its error budget runs our implicit with it on the "
+        "candidate's mesh (the model part: it against the truth's model; the algorithm part: "
+        "your run against it). Default: the model of the case the reference poses",
+    )
+    p.add_argument(
         "--needle-force",
         type=Path,
         metavar="FILE.csv",
@@ -122,6 +131,7 @@ def main(args: argparse.Namespace) -> int:
         wall_time=args.wall_time,
         force=args.force,
         needle_force=args.needle_force,
+        model=args.model,
     )
     if MPI.COMM_WORLD.rank == 0:
         for line in summaries.values():

@@ -147,16 +147,25 @@ def case_line(board: Board | None) -> str:
 
 def next_line(board: Board | None, out: Path, fmt: str) -> str:
     """One line: the commands that grade a run of the export (and rank it, for a case)."""
-    job = out.with_suffix("")
+    from tissuebench.workflows.leaderboard.record import clone_results
+
+    job = out.absolute().with_suffix("")  # absolute: the lines run from any folder
     run = f"ccx -i {job}; " if fmt == "inp" else "run your simulator; "
     series = f"{job}.frd" if fmt == "inp" else "YOUR_SERIES"
-    grade = f"tissuebench compare {reference_path(out)} {series}"
+    grade = f"tissuebench compare {reference_path(out.absolute())} {series}"
     if board is not None and board.benchmark == "contact":  # SPEC 12: the force, if you have it
         series += " [--needle-force YOUR_FORCE.csv]"
-        grade = f"tissuebench compare {reference_path(out)} {series}"
+        grade = f"tissuebench compare {reference_path(out.absolute())} {series}"
     if board is None:
         return f"next: {run}{grade} --out {job.name}-graded"
+    clone = clone_results()
+    record = (
+        f"the leaderboard renders the record of {clone} with your row into it"
+        if clone is not None
+        else "the leaderboard renders a clone's record, named with --results DIR, into it"
+    )
     return (
         f"next: {run}{grade} --out results/leaderboard/{board.name}/user/NAME --label NAME "
-        "--wall-time SECONDS; tissuebench leaderboard --out results"
+        "--wall-time SECONDS; tissuebench leaderboard --out results (these two in the same "
+        f"folder, any: its results/ is yours, and {record})"
     )

@@ -10,7 +10,7 @@ from mpi4py import MPI
 from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
 from tissuebench.meshes.benchmark import shape_options
 from tissuebench.meshes.gmshio import check_positive_int
-from tissuebench.workflows.commands.arguments import add_shape_options
+from tissuebench.workflows.commands.arguments import add_shape_options, mesh_size_help
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate
 from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
@@ -23,7 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description="Build a benchmark's mesh with gmsh and save it (.msh) for inspection.",
     )
     p.add_argument("benchmark", help=" or ".join(BENCHMARKS))
-    p.add_argument("--mesh-size", type=int, help="mesh size (default: the benchmark's)")
+    p.add_argument("--mesh-size", type=int, help=mesh_size_help(BENCHMARKS))
     add_shape_options(p)
     p.add_argument(
         "--out", required=True, type=Path, help="the .msh file to write (a new one, unless --force)"

@@ -33,6 +33,7 @@ from tissuebench.solvers.stability import (
     system_end,
     system_for,
 )
+from tissuebench.workflows.commands.arguments import mesh_size_help
 from tissuebench.workflows.output import check_writable, collective, write_owned
 
 EXPLICIT = explicit_schemes()
@@ -48,9 +49,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--material", default=None, help="MP1, MP2, MP3 or a .toml file (default: the benchmark's)"
     )
-    p.add_argument(
-        "--mesh-size", type=int, default=None, help="mesh size (default: the benchmark's)"
-    )
+    p.add_argument("--mesh-size", type=int, help=mesh_size_help(BENCHMARKS))
     p.add_argument("--out", default="results", help="output directory (default: results)")
     p.add_argument(
         "--margin",

@@ -78,6 +78,15 @@ JSON alone. One object:
   the deformed surface) and "units" (paths within `contact`, also in `units` as "contact.*").
 
 `read_json` returns the same `Exported` that was written (nodes, cells, sets, motions, ...).
+
+Changes (CHANGES; a reader of another version is refused in one line that names them)
+-------------------------------------------------------------------------------------
+- Version 2 (from version 1): `probe` was [x, y, z] and is {"point": [x, y, z], "meaning":
+  words} (read `probe["point"]`); `units` was {"length": "m", "time": "s", "mass": "kg",
+  "stress": "Pa"} and is the unit of every number by its path; `body_force` gained
+  "meaning" and each constraint its "region". Added: `description`, `geometry`,
+  `constraint_semantics`, `damping`, `model_law`, `algorithm`, `metrics`, `truth`. Every
+  other field keeps its name, shape and meaning.
 """
 
 from __future__ import annotations
@@ -93,6 +102,12 @@ from tissuebench.metrics.series import InputError
 from tissuebench.solvers.materials import Material
 
 SCHEMA = "tissuebench.benchmark"
+# what each version changed from the one before, in one line (the docstring's Changes)
+CHANGES = {
+    2: 'probe [x, y, z] became {"point": [x, y, z], "meaning": ...} (read probe["point"]), '
+    "units became the unit of every number by its path, and geometry, constraint_semantics, "
+    "damping, model_law, algorithm, metrics and truth were added",
+}
 SCHEMA_VERSION = 2
 ZERO = 1e-300  # a motion whose every value is at most this (m, m/s) is no motion
 
@@ -412,10 +427,19 @@ def read_json(path: str | Path) -> Exported:
         ) from None
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
         raise InputError(f'{path}: not a {SCHEMA} JSON (no "schema": "{SCHEMA}")')
-    if doc.get("version") != SCHEMA_VERSION:
+    version = doc.get("version")
+    if version != SCHEMA_VERSION:
+        changed = [
+            f"version {k}: {CHANGES[k]}"
+            for k in sorted(CHANGES)
+            if isinstance(version, int) and not isinstance(version, bool) and version < k
+        ]
+        said = f" ({'; '.join(changed)})" if changed else ""
+        given = " ".join(repr(version).split())[:40]
         raise InputError(
-            f"{path}: {SCHEMA} version {doc.get('version')!r}; this tissuebench reads version "
-            f"{SCHEMA_VERSION} only: export the benchmark again with `tissuebench export`"
+            f"{path}: {SCHEMA} version {given}; this tissuebench reads "
+            f"version {SCHEMA_VERSION} only{said}: export the benchmark again with "
+            "`tissuebench export`"
         )
     try:
         dim = int(doc["dimension"])

@@ -3,7 +3,8 @@ the truth, its total error (against the truth) beside the parts it splits into: 
 discretisation (our implicit on the run's mesh against the truth), the algorithm (the run
 against our implicit on its mesh) and the model; time-mean E_i, in m^3 (3D) or m^2 (2D), on
 a log axis. A part that is zero, or could not be measured, is said in words instead of a bar.
-Rank 0 only.
+A run that did not finish (diverged, failed) is marked so wherever its budget is shown
+(marked): its numbers are over the steps before it stopped. Rank 0 only.
 """
 
 from __future__ import annotations
@@ -35,7 +36,33 @@ class BudgetRow(Protocol):
     """What the figure reads of a leaderboard row (workflows/leaderboard/rows.py's Row)."""
 
     label: str
+    status: str
     budget: dict
+
+
+STOPPED = {  # what a run's errors cover when it did not finish its steps, by its status
+    "diverged": "the steps before it diverged",
+    "failed": "the steps before it failed",
+    "reference diverged": "the steps before the reference diverged",
+}
+
+
+def covers(status: str) -> str:
+    """What a row's errors and budget (time means and maxima over its steps) cover: "every
+    step" for a run that finished (status ok); a diverged or failed run's are over the steps
+    before it stopped, and are no measure of the run as a whole."""
+    if status == "ok":
+        return "every step"
+    return STOPPED.get(status, f"what was graded ({status})")
+
+
+def marked(label: str, status: str, short: bool = False) -> str:
+    """A row's label where its errors or budget are shown: as it is for a run that finished,
+    else with its status and, unless short, what its numbers cover ("explicit-lumped
+    (diverged: over the steps before it diverged)")."""
+    if status == "ok":
+        return label
+    return f"{label} ({status})" if short else f"{label} ({status}: over {covers(status)})"
 
 
 def measured(value: float | None) -> TypeGuard[float]:
@@ -80,7 +107,7 @@ def plot_budget(path: Path, title: str, rows: list[BudgetRow], unit: str) -> boo
                 ax.text(floor, y, f"  {part}: {said}", va="center", fontsize=6, color=COLOURS[part])
     ax.set_xscale("log")
     ax.set_ylim(-0.5, len(kept) - 0.5)
-    ax.set_yticks(range(len(kept)), [r.label for r in kept], fontsize=7)
+    ax.set_yticks(range(len(kept)), [marked(r.label, r.status, True) for r in kept], fontsize=7)
     ax.set_xlabel(f"time-mean E_i ({unit})")
     ax.grid(True, axis="x", which="both", alpha=0.25)
     ax.legend(loc="lower right", fontsize=7)

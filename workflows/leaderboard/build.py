@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 from pathlib import Path
 
 from mpi4py import MPI
@@ -34,6 +35,7 @@ from tissuebench.workflows.leaderboard.record import (
     RECORD,
     LeaderboardError,
     read_record,
+    record_folder,
     record_of,
 )
 from tissuebench.workflows.leaderboard.rows import (
@@ -147,6 +149,12 @@ def check_rerun(names: list[str] | None) -> list[str] | None:
     return list(dict.fromkeys(names)) or known
 
 
+def frontier_table(out: Path, source: Path) -> Path:
+    """The SPEC 11 frontier's table the page shows: OUT's, else the record folder's."""
+    mine = out / "frontier" / "frontier.csv"
+    return mine if mine.is_file() else source / "frontier" / "frontier.csv"
+
+
 def main(args: argparse.Namespace) -> int:
     """Render the leaderboard from its record with the users' rows, or rerun (--rerun) the
     cases named; write OUT/leaderboard.md, .csv, .json and the figures (rank 0)."""
@@ -157,11 +165,20 @@ def main(args: argparse.Namespace) -> int:
     out = args.out
     rerun = check_rerun(getattr(args, "rerun", None))
     check_writable(out, comm, owned=OWNED)
-    record = collective(comm, lambda: read_record(out))
+    source = record_folder(out, getattr(args, "results", None))  # read only, unless it is OUT
+    record = collective(comm, lambda: read_record(source))
     if record is None and rerun is None:
         raise LeaderboardError(
-            f"{out / RECORD}: no leaderboard record here: `tissuebench leaderboard --out {out} "
-            "--rerun` runs and times every case and writes one (10 minutes or more)"
+            f"{out / RECORD}: no leaderboard record here, nor in a clone's results/ that "
+            "tissuebench is installed from: name the folder that holds one with --results DIR "
+            f"(a clone's results/), or `tissuebench leaderboard --out {out} --rerun` runs and "
+            "times every case and writes one (10 minutes or more; only the simulators "
+            "installed here)"
+        )
+    if source != out and comm.rank == 0:
+        print(
+            f"tissuebench leaderboard: rendering the record {source / RECORD} (only read) "
+            f"with the user folders under {out / FOLDER}, into {out}"
         )
     if rerun is not None:
         available = set()
@@ -199,9 +216,7 @@ def main(args: argparse.Namespace) -> int:
     cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
     found, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
     frontier = (  # the SPEC 11 frontier's runs, each checked (a bad one: one line)
-        page.read_frontier(out / "frontier" / "frontier.csv", warn=users.warn)
-        if comm.rank == 0
-        else {}
+        page.read_frontier(frontier_table(out, source), warn=users.warn) if comm.rank == 0 else {}
     )
     interrupt.will_write(  # named on a signal: the old ones stay as they were
         [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]
@@ -237,15 +252,24 @@ def main(args: argparse.Namespace) -> int:
         for board, case in zip(boards, record["cases"], strict=True):
             same = drawn.get(board.name) == json.dumps(case)  # drawn of the same rows
             png = out / FOLDER / f"{board.name}.png"
+            theirs = source / FOLDER / png.name  # the record's own figure (OUT's, or copied)
             if not (same and as_drawn_now(png)):  # else still as drawn: seconds saved per case
-                files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
+                if same and as_drawn_now(theirs):
+                    files[png] = lambda tmp, theirs=theirs: shutil.copyfile(theirs, tmp)
+                else:
+                    files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
             force = force_png(out, board)
+            theirs = force_png(source, board)
             # SPEC 12: the needle force against time, drawn again as the case's figure is (its
             # force files are in the case's folder, which git does not keep: a fresh clone's
-            # render keeps the committed figure of the same rows)
+            # render keeps the committed figure of the same rows, and a render into another
+            # folder copies it)
             drawn_now = unchanged(force) and stamp_of(force) == force_drawing_code()
             if board.benchmark == "contact" and not (same and drawn_now):
-                files[force] = lambda tmp, board=board: plot_force(tmp, board, rows[board.name])
+                if same and unchanged(theirs) and stamp_of(theirs) == force_drawing_code():
+                    files[force] = lambda tmp, theirs=theirs: shutil.copyfile(theirs, tmp)
+                else:
+                    files[force] = lambda tmp, board=board: plot_force(tmp, board, rows[board.name])
         every = [r for board in boards for r in rows[board.name]]
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
         files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
@@ -262,7 +286,7 @@ def main(args: argparse.Namespace) -> int:
         progress.done()
     interrupt.will_write([])  # all written
     if comm.rank == 0:
-        what = "rerun " + ", ".join(rerun) if rerun else "from the record"
+        what = "rerun " + ", ".join(rerun) if rerun else f"from the record {source / RECORD}"
         print(
             f"wrote {out / FOLDER / 'index.html'} (the page), {out / 'leaderboard.md'}, "
             f"{out / 'leaderboard.csv'}, {out / RECORD} and {out / FOLDER}/*.png ({what}; "

@@ -10,6 +10,7 @@ full rows stay in leaderboard.csv and leaderboard.json. Every text read is escap
 
 from __future__ import annotations
 
+from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
 from tissuebench.workflows.leaderboard.record import FOLDER, MARKER
@@ -96,7 +97,7 @@ def case_lines(
         if source in hidden:
             continue
         e, emax = error_of(r, truth), error_of(r, truth, "max")
-        status = "" if r.status == "ok" else f" ({md(r.status)})"
+        status = "" if r.status == "ok" else f" ({md(r.status)}: over {md(covers(r.status))})"
         mesh = "the case's" if r.mesh == "reference" else md(r.mesh)
         out.append(
             f"| {md(source)} | {md(r.label)}{' (reference)' if r.reference else ''}{status} | "

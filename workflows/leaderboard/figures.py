@@ -17,7 +17,7 @@ from typing import cast
 
 from tissuebench.core import interrupt
 from tissuebench.meshes import get_entry
-from tissuebench.workflows.leaderboard.budget import budget_rows
+from tissuebench.workflows.leaderboard.budget import budget_rows, marked
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
@@ -280,7 +280,9 @@ def budget_table(rows: list[Row]) -> list[str]:
         for part in BUDGET_PARTS:
             how = b.get(f"{part}_how")
             cells.append(fmt(b.get(part)) + (f" ({md(how)})" if how else ""))
-        lines.append(f"| {md(r.label)} | {' | '.join(cells)} | {md(dominant(b))} |")
+        lines.append(
+            f"| {md(marked(r.label, r.status))} | {' | '.join(cells)} | {md(dominant(b))} |"
+        )
     return lines
 
 

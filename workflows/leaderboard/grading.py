@@ -521,7 +521,7 @@ def grade_user_row(board: Board, board_rows: list[Row], row: Row, truth, caches:
     its error budget; or its grades taken from a row of the same series graded before in this
     run (Caches.grades, by content hash). The seconds it took."""
     start = time.perf_counter()
-    key = (board.name, row.series_hash, row.series_field, truth is not None)
+    key = (board.name, row.series_hash, row.series_field, truth is not None, row.model)
     done = caches.grades.get(key) if row.series_hash else None
     if done is not None:
         take_grades(row, done)

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any, cast
 
 from tissuebench.workflows.io.tables import CSVError, ends_whole, read_rows
+from tissuebench.workflows.leaderboard.budget import covers, marked
 from tissuebench.workflows.leaderboard.figures import sessions_line
 from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite, one_line
 
@@ -62,7 +63,8 @@ def source_of(row: Row) -> str:
 
 def model_of(board: Board, row: Row) -> str:
     """The elastic model a row ran with: ours name it after +, the simulators were given
-    the case's simulator model, a user was posed the case's."""
+    the case's simulator model, a user's is the one stated to compare (--model), else the
+    case's, as posed."""
     if row.source == "tissuebench":
         return (
             row.label.split(" ")[0].split("+", 1)[1]
@@ -70,7 +72,7 @@ def model_of(board: Board, row: Row) -> str:
             else ("linear")
         )
     if row.source == "user":
-        return board.model
+        return row.model or board.model
     return board.simulator_model or board.model
 
 
@@ -131,7 +133,9 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
         f"source: {row.source}" + (" (tissuebench)" if row.source == "user" else ""),
         f"mesh: {'the case' + chr(39) + 's own' if row.mesh == 'reference' else row.mesh}; "
         f"{row.dofs:,} dofs",
-        f"model: {model_of(board, row)}; status: {row.status}"
+        f"model: {model_of(board, row)}"
+        + (" (the case's: not stated to compare)" if row.source == "user" and not row.model else "")
+        + f"; status: {row.status}"
         + (f" ({row.reason})" if row.reason else ""),
         f"against the reference: E_i mean {g(ref.get(E_I + '_mean'))}, max "
         f"{g(ref.get(E_I + '_max'))} {unit}; E_n max {g(ref.get(E_N + '_max'))}",
@@ -147,7 +151,8 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
     b = row.budget
     if b:
         parts = ", ".join(f"{p} {g(b.get(p))}" for p in ("total", "discretisation", "algorithm"))
-        lines.append(f"budget (time-mean E_i, {unit}): {parts}, model {g(b.get('model'))}")
+        over = "" if row.status == "ok" else f", over {covers(row.status)}"
+        lines.append(f"budget (time-mean E_i, {unit}{over}): {parts}, model {g(b.get('model'))}")
     lines.append(
         f"cost: {g(row.cost)} s per simulated s (wall {g(row.wall_time_s)} s over "
         f"{g(row.end_time)} s)"
@@ -553,7 +558,7 @@ def budget_plot(board: Board, rows: list[Row], unit: str) -> str:
         y = head + row_h * i + row_h / 2
         src = source_of(r)
         b = r.budget
-        lines = [r.label] + [
+        lines = [marked(r.label, r.status)] + [
             f"{p}: {g(b.get(p))}" + (f" ({b[p + '_how']})" if b.get(p + "_how") else "")
             for p in parts
         ]
@@ -564,7 +569,7 @@ def budget_plot(board: Board, rows: list[Row], unit: str) -> str:
             f'<rect x="0" y="{y - row_h / 2:.1f}" width="{right}" height="{row_h}" '
             f'class="{"odd" if i % 2 else "even"}"/>'
             f'<text x="{left - 8}" y="{y + 4:.1f}" class="tick" text-anchor="end">'
-            f"{esc(r.label[:44])}</text>"
+            f"{esc(marked(r.label[:44], r.status, short=True))}</text>"
         )
         xs = [px(b[p]) for p in parts if finite(b.get(p))]
         if xs:
@@ -659,7 +664,7 @@ def division(
     def line(k: int, e: dict) -> str:
         rt = "yes" if finite(e["cost"]) and e["cost"] <= REAL_TIME else "-"
         rank = str(k) if e["ranks"] else "-"
-        status = "" if e["status"] == "ok" else f" ({esc(e['status'])})"
+        status = "" if e["status"] == "ok" else f" ({esc(e['status'])}: over {covers(e['status'])})"
         return (
             f'<tr class="f{" userrow" if e["user"] else ""}" data-case="{esc(board.name)}" '
             f'data-source="{esc(e["facet"])}" data-model="{esc(e["model"])}" '

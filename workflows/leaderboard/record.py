@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from tissuebench.core.errors import UserError
+from tissuebench.solvers.models import MODELS
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
 
 FOLDER = "leaderboard"
@@ -88,6 +89,9 @@ def check_row(d) -> None:
         )
     for key in ("reason", "group", "series", "series_field", "truth_note", "series_hash"):
         _text(d.get(key), key, none=True)
+    model = d.get("model")  # a user's row's stated model
+    if model is not None and model not in MODELS:
+        raise Invalid(f"model {one_line(repr(model))[:40]} is not one of {', '.join(MODELS)}")
     dofs = d.get("dofs")
     if not isinstance(dofs, int) or isinstance(dofs, bool) or dofs < 0:
         raise Invalid(f"dofs {one_line(repr(dofs))[:40]} is not a whole number >= 0")
@@ -151,8 +155,8 @@ def row_of(d: dict) -> Row:
 
 def row_record(row: Row) -> dict:
     """A Row as the record holds it: every field (series_hash only where it has one: a user's
-    row, and contact and force only on a contact case's row, so that a record of our rows
-    reads as before)."""
+    row, model only where its user stated one, and contact and force only on a contact case's
+    row, so that a record of our rows reads as before)."""
     d = asdict(row)
     if d.get("series_hash") is None:
         d.pop("series_hash", None)
@@ -160,6 +164,8 @@ def row_record(row: Row) -> dict:
         d.pop("contact", None)
     if d.get("force") is None:
         d.pop("force", None)
+    if d.get("model") is None:
+        d.pop("model", None)
     return d
 
 
@@ -180,6 +186,36 @@ def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, 
             for b in boards
         ],
     }
+
+
+def clone_results() -> Path | None:
+    """The results/ folder of the clone tissuebench runs from (an editable install, `make
+    setup` or `pip install -e .`: the package's source tree is the repository, whose
+    results/ holds the committed leaderboard.json), found from the package's own path; None
+    when it holds no record (an installed copy of the package)."""
+    import tissuebench.workflows
+
+    found = Path(tissuebench.workflows.__file__).resolve().parent.parent / "results"
+    return found if (found / RECORD).is_file() else None
+
+
+def record_folder(out: Path, results: Path | None = None) -> Path:
+    """The folder whose leaderboard.json the leaderboard renders from: `results` when given
+    (--results; LeaderboardError, one line, when it holds no record), else OUT when it holds
+    one, else the clone's results/ (clone_results), else OUT (which has none: the caller says
+    so). Wherever the user stands, `--out results` in a folder of their own renders the
+    committed record with their rows, written to OUT; the record's folder is only read."""
+    if results is not None:
+        if not (results / RECORD).is_file():
+            raise LeaderboardError(
+                f"--results {results}: no leaderboard record ({RECORD}) there; name a folder "
+                "that holds one (a clone's results/), or leave --results out"
+            )
+        return results
+    if (out / RECORD).is_file():
+        return out
+    clone = clone_results()
+    return clone if clone is not None else out
 
 
 def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:

@@ -102,6 +102,7 @@ class Row:
     # or why none)
     contact: dict = field(default_factory=dict)
     force: str | None = None  # a contact case's row: its needle force file (write_force_csv)
+    model: str | None = None  # a user's row: its model as stated to compare (None: the case's)
 
     @property
     def cost(self) -> float | None:
@@ -558,7 +559,7 @@ def user_rows(
         found: dict = {}
         if problem is None:
             found = candidate_of(summary, sub)
-            problem = series_problem(summary, found)
+            problem = series_problem(summary, found) or model_problem(summary)
         if problem:
             skipped.append(f"{where}: left out: {problem}")
             continue
@@ -736,8 +737,24 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
 
         file = candidate_file(cast("CompareSummary", summary), folder) or file
     assert isinstance(cand, dict)  # file came from it
-    field = cand.get("field")
-    return {"series": file, "series_field": field if isinstance(field, str) else None}
+    field, model = cand.get("field"), cand.get("model")  # model: as its user stated it
+    return {
+        "series": file,
+        "series_field": field if isinstance(field, str) else None,
+        "model": model if isinstance(model, str) else None,
+    }
+
+
+def model_problem(summary: dict) -> str | None:
+    """Why a compare summary's stated candidate model cannot be taken (None: it states none,
+    or one of solvers.MODELS)."""
+    from tissuebench.solvers.models import MODELS
+
+    cand = summary.get("candidate")
+    model = cand.get("model") if isinstance(cand, dict) else None
+    if model is None or (isinstance(model, str) and model in MODELS):
+        return None
+    return f"its candidate's model {one_line(repr(model))[:40]} is not one of {', '.join(MODELS)}"
 
 
 def user_force(summary: dict) -> str | None:
@@ -837,11 +854,15 @@ CONTACT_KEYS = ("force_error", "interpenetration_max")  # a contact case's row's
 
 
 def write_csv(path: Path, rows: list[Row]) -> None:
-    """leaderboard.csv: every row; with the contact columns (CONTACT_KEYS, then how the force
-    was graded) at the end only when a row of a contact case is among them, empty for the
-    others."""
+    """leaderboard.csv: every row, with what its errors cover (errors_over: every step, or
+    the steps before it diverged or failed, budget.covers); with the contact columns
+    (CONTACT_KEYS, then how the force was graded) at the end only when a row of a contact
+    case is among them, empty for the others."""
     contact = any(r.contact for r in rows)
+    from tissuebench.workflows.leaderboard.budget import covers
+
     names = ["case", "label", "source", "description", "mesh", "dofs", "status", "reason"]
+    names += ["errors_over"]  # what its errors cover: every step, or those before it stopped
     names += error_keys() + ["wall_time_s", "wall_per_simulated_s", "us_per_dof_per_simulated_s"]
     names += ["timing", "reference", "pareto_mean", "pareto_max"]
     names += [f"truth_{k}" for k in TRUTH_KEYS] + ["truth_pareto_mean", "truth_pareto_max"]
@@ -851,6 +872,7 @@ def write_csv(path: Path, rows: list[Row]) -> None:
         names,
         (
             [r.case, r.label, r.source, r.description, r.mesh, r.dofs, r.status, r.reason or ""]
+            + [covers(r.status)]
             + ["" if r.errors[k] is None else repr(r.errors[k]) for k in error_keys()]
             + ["" if x is None else repr(x) for x in (r.wall_time_s, r.cost, r.cost_per_dof)]
             + [r.timing, r.reference, r.pareto.get("mean", False), r.pareto.get("max", False)]

@@ -43,8 +43,10 @@ def warn(line: str) -> None:
 def user_key(row: Row) -> str:
     """What makes a user's row's grades the same: its case, its series by content hash
     (rows.series_hash: the files themselves, wherever they are) and the field read. The label
-    and wall time are the folder's, read again each time; no grade is."""
-    return json.dumps([row.case, row.series_hash, row.series_field])
+    and wall time are the folder's, read again each time; no grade is. A stated model (its
+    error budget's) is part of it where there is one."""
+    stated = [row.model] if row.model is not None else []  # none: the key as it always was
+    return json.dumps([row.case, row.series_hash, row.series_field, *stated])
 
 
 class Progress:
