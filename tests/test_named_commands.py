@@ -50,7 +50,7 @@ LINE = re.compile(r"^\s*(?:mpiexec -n \d+ )?(tissuebench [^#\n]+)", re.M)  # a l
 
 def named(text: str) -> set[str]:
     """The tissuebench command lines in a document's text (continuation lines joined)."""
-    text = text.replace("\\\n", " ")
+    text = text.replace("\\\n", " ").replace("\\`", "`").replace("\\_", "_")  # Markdown escapes
     out = set()
     blocks = "\n".join(block.group(1) for block in BLOCK.finditer(text))
     matches = [m for span in SPANS for m in span.finditer(text)] + list(LINE.finditer(blocks))
