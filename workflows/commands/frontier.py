@@ -4,7 +4,7 @@ For block-MP2-w0.2, block-MP1-w0.2, rod-MP2 and the rod in MP3 (the compressible
 every scheme (Q1 or P1, mean-dilatation, hourglass, anp, penalty, with the hourglass and
 penalty parameters swept on the middle size) with implicit, explicit-lumped (at h = 1/30 s,
 and with the sub-steps that keep it stable) and explicit (consistent mass, with the sub-steps
-that keep it stable, on the three smaller sizes) on four mesh sizes, graded against the truth
+that keep it stable, on the two smaller sizes) on four mesh sizes, graded against the truth
 (E_i, E_n) and timed on one core. Writes OUT/frontier/frontier.csv (a row as each run ends:
 an interrupted study resumes from it), OUT/frontier/frontier.md and a figure per case,
 OUT/frontier/frontier-CASE.png (about 25 min here, the truths cached; missing truths are
