@@ -110,14 +110,17 @@ def test_every_row_on_the_page_is_in_the_csv_and_the_record(case, tmp_path, monk
     slow = {**good, "scheme": "standard", "cost": "0.3", "loop_s": "3.0",
             "interior_error_mean": "0.9"}  # fmt: skip
     write_frontier(out / "frontier" / "frontier.csv", [good, slow])
+    written = []
     for _ in range(2):  # the second: from the record the first wrote
         assert render(out, case[2], monkeypatch) == 0
+        written.append([(out / n).read_bytes() for n in ("leaderboard.csv", "leaderboard.json")])
         shown = page_labels(out)
         table = csv_rows(out)
         record = json.loads((out / "leaderboard.json").read_text())
         recorded = [r["label"] for c in record["cases"] for r in c["rows"]]
         assert sorted(shown) == sorted(table) == sorted(recorded)
         assert len(shown) == 3  # ours and the two frontier runs
+    assert written[0] == written[1]  # byte for byte: the frontier's rows not counted twice
     anp = table["anp implicit, hexahedron n=2"]
     # whole run: (0.2 + 0.03) s over 10 simulated s, not the loop's 0.003
     assert float(anp["wall_per_simulated_s"]) == pytest.approx(0.023)
