@@ -197,10 +197,10 @@ def test_the_answer_says_why_explicit_lumped_loses_with_the_measured_rows():
         row(md, cost=0.02, mean=4e-6) | {"interior_error_max": 7.6e-6},
     ]  # fmt: skip
     text = " ".join(answer(rows))
-    assert "Why explicit-lumped loses" in text
+    assert "Explicit-lumped against explicit on the damped MP2 cases" in text
     assert "explicit-lumped (37 sub-steps) E_i max 4.5e-05, 45 % of the truth's size" in text
     assert "explicit (40 sub-steps) 7.7e-06, 7.7 %" in text
     assert "implicit 7.6e-06, 7.6 %" in text
     assert "alpha = 1 1/s, beta = 0.1 s" in text
     # without the explicit run (an older frontier.csv) the paragraph is not written
-    assert "Why explicit-lumped" not in " ".join(answer(rows[::2]))
+    assert "Explicit-lumped against explicit" not in " ".join(answer(rows[::2]))
