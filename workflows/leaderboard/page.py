@@ -589,7 +589,7 @@ h3{font-size:16px;margin:14px 0 6px}
 .realtime{stroke:#c00;stroke-width:1.5;stroke-dasharray:6 4}
 .rtlabel{font-size:12px;fill:#c00;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .front{fill:none;stroke:#333;stroke-width:1.3;stroke-dasharray:5 3}
-.pt{cursor:pointer}.pt:hover{stroke-width:3}.fr{fill:none;stroke:#9a9a9a;cursor:pointer}
+.pt{cursor:pointer}.pt:hover{stroke-width:3}
 .ulabel{font-size:13px;font-weight:600;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .flabel{font-size:11px;fill:#333;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .leader{stroke:#888;stroke-width:.8}
