@@ -7,7 +7,7 @@ and with the sub-steps that keep it stable) and explicit (consistent mass, with 
 that keep it stable, on the two smaller sizes) on four mesh sizes, graded against the truth
 (E_i, E_n) and timed on one core. Writes OUT/frontier/frontier.csv (a row as each run ends:
 an interrupted study resumes from it), OUT/frontier/frontier.md and a figure per case,
-OUT/frontier/frontier-CASE.png (about 25 min here, the truths cached; missing truths are
+OUT/frontier/frontier-CASE.png (about 45 min here, the truths cached; missing truths are
 computed first)."""
 
 from __future__ import annotations
