@@ -21,6 +21,7 @@ def row(scheme="standard", algorithm="implicit", requested="1", size=3, cost=0.0
         "setup_s": 0.1, "loop_s": cost * 10, "cost": cost, "interior_error_mean": mean,
         "interior_error_max": 2 * mean, "relative_error_mean": 0.1, "relative_error_max": 0.2,
         "truth_own_error": 6e-7, "truth_size": 1e-4, "timings": 1,
+        "whole_s": 0.1 + cost * 10, "whole_cost": (0.1 + cost * 10) / 10,
     }  # fmt: skip
 
 
@@ -43,6 +44,16 @@ def test_the_study_holds_every_scheme_on_its_cells_and_four_sizes():
             if c.algorithm == "explicit-lumped" and c.substeps == 1
         }
         assert at_h == {"standard", "penalty"}
+        # explicit (consistent mass) with auto sub-steps, on every scheme and cell that
+        # explicit-lumped with auto sub-steps runs on, on the two smaller sizes
+        smaller = sorted({c.mesh_size for c in mine})[:2]
+        lumped = {c.key()[:3] + c.key()[5:] for c in mine if c.algorithm == "explicit-lumped"
+                  and c.substeps == "auto" and c.mesh_size in smaller}  # fmt: skip
+        consistent = {c.key()[:3] + c.key()[5:] for c in mine if c.algorithm == "explicit"}
+        assert {c.mesh_size for c in mine if c.algorithm == "explicit"} == set(smaller)
+        assert consistent == lumped and {c.substeps for c in mine if c.algorithm == "explicit"} == {
+            "auto"
+        }
     assert len({c.key() for c in configs}) == len(configs)
 
 
@@ -160,3 +171,36 @@ def test_a_cost_near_the_budget_is_timed_again_and_the_smaller_kept(tmp_path, mo
 
     monkeypatch.setattr(study, "loop_seconds", never)
     study.retime(tmp_path, log=lambda line: None)
+
+
+def test_a_row_carries_its_whole_run_time_also_from_an_older_file(tmp_path):
+    """whole_s is the set-up and the loop (s), whole_cost their sum per simulated second; a
+    frontier.csv written before those columns gets them from setup_s, loop_s and cost."""
+    old = [c for c in study.COLUMNS if c not in ("whole_s", "whole_cost")]
+    r = row(cost=0.05) | {"setup_s": 2.0}  # loop 0.5 s for 10 simulated s
+    study.write_rows(tmp_path / "frontier.csv", [{k: r[k] for k in old}], old)
+    (back,) = study.read_rows(tmp_path / "frontier.csv")
+    assert back["whole_s"] == pytest.approx(2.5)
+    assert back["whole_cost"] == pytest.approx(0.25) and back["cost"] == pytest.approx(0.05)
+
+
+def test_the_answer_says_why_explicit_lumped_loses_with_the_measured_rows():
+    """On an MP2 case the answer compares, mean-dilatation on the paper's grid, explicit-lumped
+    (alpha M_L damping) with explicit (alpha M + beta K_0) and implicit, from the rows."""
+    from tissuebench.workflows.reports.frontier import answer
+
+    md = "mean-dilatation"
+    rows = [
+        row(md, "explicit-lumped", "auto", mean=2e-5) | {"interior_error_max": 4.5e-5,
+                                                        "substeps": 37},
+        row(md, "explicit", "auto", mean=4e-6) | {"interior_error_max": 7.7e-6, "substeps": 40},
+        row(md, cost=0.02, mean=4e-6) | {"interior_error_max": 7.6e-6},
+    ]  # fmt: skip
+    text = " ".join(answer(rows))
+    assert "Explicit-lumped against explicit on the damped MP2 cases" in text
+    assert "explicit-lumped (37 sub-steps) E_i max 4.5e-05, 45 % of the truth's size" in text
+    assert "explicit (40 sub-steps) 7.7e-06, 7.7 %" in text
+    assert "implicit 7.6e-06, 7.6 %" in text
+    assert "alpha = 1 1/s, beta = 0.1 s" in text
+    # without the explicit run (an older frontier.csv) the paragraph is not written
+    assert "Explicit-lumped against explicit" not in " ".join(answer(rows[::2]))

@@ -21,6 +21,7 @@ import pytest
 
 from tissuebench.workflows.leaderboard import page
 from tissuebench.workflows.leaderboard.figures import unit_of
+from tissuebench.workflows.leaderboard.frontier_rows import join_frontier
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -90,8 +91,11 @@ def users_page(folder: Path) -> tuple[Path, dict[str, int]]:
         r.truth_pareto = dict(r.pareto)
     frontier = {"rod": [{"case": "rod", "scheme": "anp", "algorithm": "implicit",
                          "cell": "tetrahedron", "mesh_size": 3, "dofs": 336, "substeps": 1,
-                         "status": "ok", "cost": 0.02, "e_mean": 8e-5, "e_max": 1e-4}]}  # fmt: skip
-    text = page.render([board], {"rod-MP3": rows}, {"rod-MP3": []}, frontier, "now", unit_of)
+                         "requested": "1", "status": "ok", "cost": 0.02, "e_mean": 8e-5,
+                         "e_max": 1e-4, "n_mean": 0.1, "n_max": 0.2, "setup_s": 0.05,
+                         "loop_s": 0.2, "whole_s": 0.25, "simulated": 10.0}]}  # fmt: skip
+    rows = join_frontier([board], {"rod-MP3": rows}, frontier)["rod-MP3"]
+    text = page.render([board], {"rod-MP3": rows}, {"rod-MP3": []}, "now", unit_of)
     path = folder / "index.html"
     path.write_text(text)
     counts = {}
@@ -106,7 +110,7 @@ def test_users_page_escapes_and_counts(tmp_path):
     self_contained(text)
     assert "<script>alert" not in text
     assert text.count('class="pt f') == sum(counts.values())
-    assert text.count('class="fr f"') == 1
+    assert counts[page.FRONTIER] == 1  # the frontier's run: a point like every row's
 
 
 # --- in a real browser -------------------------------------------------------------------------

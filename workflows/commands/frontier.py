@@ -2,11 +2,12 @@
 
 For block-MP2-w0.2, block-MP1-w0.2, rod-MP2 and the rod in MP3 (the compressible control),
 every scheme (Q1 or P1, mean-dilatation, hourglass, anp, penalty, with the hourglass and
-penalty parameters swept on the middle size) with implicit and explicit-lumped (at h = 1/30 s,
-and with the sub-steps that keep it stable) on four mesh sizes, graded against the truth
+penalty parameters swept on the middle size) with implicit, explicit-lumped (at h = 1/30 s,
+and with the sub-steps that keep it stable) and explicit (consistent mass, with the sub-steps
+that keep it stable, on the two smaller sizes) on four mesh sizes, graded against the truth
 (E_i, E_n) and timed on one core. Writes OUT/frontier/frontier.csv (a row as each run ends:
 an interrupted study resumes from it), OUT/frontier/frontier.md and a figure per case,
-OUT/frontier/frontier-CASE.png (about 25 min here, the truths cached; missing truths are
+OUT/frontier/frontier-CASE.png (about 45 min here, the truths cached; missing truths are
 computed first)."""
 
 from __future__ import annotations
@@ -23,7 +24,9 @@ from tissuebench.solvers.truth.cases import CASES
 from tissuebench.workflows.frontier import (
     FRONTIER_CASES,
     RETIME,
+    read_rows,
     retime,
+    row_key,
     run_study,
     side_by_side,
 )
@@ -70,14 +73,18 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(f"{report}: exists and was not written by tissuebench frontier")
     folder.mkdir(parents=True, exist_ok=True)
     started, load = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()[0]
+    kept = {row_key(r) for r in read_rows(folder / "frontier.csv", lambda line: None)}
     run_study(folder, cases, args.quick)
     rows = [r for r in retime(folder) if r["case"] in cases]
+    new = sum(row_key(r) not in kept for r in rows)
     timing = [t for case in cases for t in side_by_side(case, 2 if args.quick else 5)]
     write_owned(folder / "frontier-timing.csv", lambda tmp: write_rows(tmp, timing))
     ended = os.getloadavg()[0]
     header = (
-        f"Written by `tissuebench frontier{' --quick' if args.quick else ''}` (runs from "
-        f"{started}, one core; load average {load:.2f} as it began, {ended:.2f} as it ended: "
+        f"Written by `tissuebench frontier{' --quick' if args.quick else ''}` (this session "
+        f"from {started}, one core: {new} run(s) and the side-by-side timing; the other "
+        f"{len(rows) - new} rows of frontier.csv as the sessions that ran them timed them"
+        + f"; load average {load:.2f} as it began, {ended:.2f} as it ended: "
         "costs measured while other jobs ran are upper bounds; a finished run whose cost lay "
         f"within {RETIME[0]:g} to {RETIME[1]:g} s per simulated s was timed twice, the smaller "
         "time kept). Rows: frontier.csv."

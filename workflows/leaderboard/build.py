@@ -27,6 +27,11 @@ from tissuebench.workflows.leaderboard.force_figure import (
     force_png,
     plot_force,
 )
+from tissuebench.workflows.leaderboard.frontier_rows import (
+    join_frontier,
+    read_frontier,
+    strip_frontier,
+)
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
@@ -189,6 +194,7 @@ def main(args: argparse.Namespace) -> int:
         collective(comm, lambda: check_target(out, available, args.force, record, rerun))
     session = time.strftime("%Y-%m-%d %H:%M %Z")
     kept_boards, kept_rows, kept_notes = record or ([], {}, {})
+    kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again from frontier.csv
     drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
     drawn = {name: json.dumps(c) for name, c in drawn.items()}  # what each figure was drawn of
     kept = {b.name: b for b in kept_boards}
@@ -216,7 +222,7 @@ def main(args: argparse.Namespace) -> int:
     cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
     found, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
     frontier = (  # the SPEC 11 frontier's runs, each checked (a bad one: one line)
-        page.read_frontier(frontier_table(out, source), warn=users.warn) if comm.rank == 0 else {}
+        read_frontier(frontier_table(out, source), warn=users.warn) if comm.rank == 0 else {}
     )
     interrupt.will_write(  # named on a signal: the old ones stay as they were
         [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]
@@ -245,8 +251,12 @@ def main(args: argparse.Namespace) -> int:
         graded.update(progress.resumed())
     # the users' rows: shared out among the ranks, each recorded on rank 0 as it ends
     grade_users(boards, rows, found, graded, out, on_graded=progress, comm=comm)
+    graded_rows = rows
 
     def write():
+        # every row of the page is in the record and the CSV, the frontier's too (their Pareto
+        # front against the truth marked again with them)
+        rows = join_frontier(boards, graded_rows, frontier)
         record = record_of(boards, rows, notes)
         files = {}  # every output, staged and then moved into place as one set
         for board, case in zip(boards, record["cases"], strict=True):
@@ -274,9 +284,9 @@ def main(args: argparse.Namespace) -> int:
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
         files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
-        text = document.markdown(boards, rows, shown, frontier, session)
+        text = document.markdown(boards, rows, shown, session)
         files[out / "leaderboard.md"] = lambda tmp: tmp.write_text(text)
-        index = page.render(boards, rows, shown, frontier, session, unit_of)
+        index = page.render(boards, rows, shown, session, unit_of)
         files[out / FOLDER / "index.html"] = lambda tmp: tmp.write_text(index)
         write_set(files, staged_hook=STAGED_HOOK)
 

@@ -2,8 +2,9 @@
 
 Per case: what it is and its truth, when and where it was timed; the best run of each source
 (ours, each simulator, each user's label: the smallest time-mean E_i against the truth, or
-against the case's reference where it has no truth graded); the SPEC 11 frontier (the closest
-run at real time among frontier.csv's runs of the case's truth); the notes (what was not run,
+against the case's reference where it has no truth graded; the SPEC 11 frontier's runs are a
+source of their own, frontier_rows.py); the SPEC 11 frontier (the closest of its runs at real
+time, its cost the whole run's as every row's); the notes (what was not run,
 and every user's folder or run left out, with why); and the link to the case on the page. The
 full rows stay in leaderboard.csv and leaderboard.json. Every text read is escaped (md).
 """
@@ -12,9 +13,10 @@ from __future__ import annotations
 
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
+from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
 from tissuebench.workflows.leaderboard.record import FOLDER, MARKER
-from tissuebench.workflows.leaderboard.rows import Board, Row, finite, fmt, md
+from tissuebench.workflows.leaderboard.rows import Board, Row, fmt, md
 
 PAGE = "leaderboard/index.html"
 USERS_SHOWN = 10  # users' runs listed per case (the best first); every one is on the page
@@ -38,31 +40,25 @@ def best_per_source(rows: list[Row], truth: bool) -> list[tuple[str, Row]]:
     return sorted(best, key=lambda b: rank(b[1]))
 
 
-def frontier_line(board: Board, frontier: list[dict], unit: str) -> str:
-    """The SPEC 11 frontier of the case's truth in one line (or why there is none)."""
-    ok = [
-        f
-        for f in frontier
-        if f["status"] == "ok" and finite(f["cost"]) and finite(f["e_mean"]) and f["e_mean"] > 0
-    ]
+def frontier_line(board: Board, rows: list[Row], unit: str) -> str:
+    """The SPEC 11 frontier of the case's truth in one line (or why there is none): the
+    closest of the frontier's runs (rows of source FRONTIER) at a whole-run cost of at most
+    REAL_TIME."""
+    ok = [r for r in rows if r.source == FRONTIER and finished(r) and (error_of(r, True) or 0) > 0]
     if not ok:
         return ""
-    fast = [f for f in ok if f["cost"] <= REAL_TIME]
+    fast = [r for r in ok if r.cost is not None and r.cost <= REAL_TIME]
     if not fast:
         return f"SPEC 11 frontier ({md(board.truth)}): no run at <= 1 s per simulated s."
-    f = min(fast, key=lambda f: f["e_mean"])
-    steps = f", {f['substeps']} sub-steps" if f["substeps"] > 1 else ""
+    r = min(fast, key=lambda r: error_of(r, True) or 0.0)
     return (
         f"SPEC 11 frontier ({md(board.truth)}, results/frontier): at <= 1 s per simulated s "
-        f"the closest run is {md(f['scheme'])} {md(f['algorithm'])} on the {md(f['cell'])} "
-        f"mesh of size {f['mesh_size']} ({f['dofs']:,} dofs{steps}): E_i mean "
-        f"{fmt(f['e_mean'])} {unit}, {fmt(f['cost'])} s per simulated s (time loop only)."
+        f"(the whole run) the closest run is {md(r.label)} ({r.dofs:,} dofs): E_i mean "
+        f"{fmt(error_of(r, True))} {unit}, {fmt(r.cost)} s per simulated s."
     )
 
 
-def case_lines(
-    board: Board, rows: list[Row], notes: list[str], frontier: list[dict], session: str
-) -> list[str]:
+def case_lines(board: Board, rows: list[Row], notes: list[str], session: str) -> list[str]:
     unit = unit_of(board)
     truth = any(error_of(r, True) is not None for r in rows)
     if truth:
@@ -112,7 +108,7 @@ def case_lines(
     if hidden:
         cells = " | |" if contact else ""
         out.append(f"| {len(hidden)} more users' runs | on the page | | | | |{cells}")
-    line = frontier_line(board, frontier, unit) if truth else ""
+    line = frontier_line(board, rows, unit) if truth else ""
     if line:
         out += ["", line]
     if contact:
@@ -138,10 +134,10 @@ def markdown(
     boards: list[Board],
     rows: dict[str, list[Row]],
     notes: dict[str, list[str]],
-    frontier: dict[str, list[dict]],
     session: str,
 ) -> str:
-    """leaderboard.md: the summary of every case (about 15 lines each)."""
+    """leaderboard.md: the summary of every case (about 15 lines each); `rows` by case, the
+    SPEC 11 frontier's among them (frontier_rows.join_frontier)."""
     out = [
         MARKER,
         "",
@@ -160,7 +156,6 @@ def markdown(
             board,
             rows.get(board.name, []),
             notes.get(board.name, []),
-            frontier.get(board.truth, []) if board.truth else [],
             session,
         )
     return "\n".join(out)

@@ -7,11 +7,12 @@ SVG; the Pareto front, the real-time line (1 s per simulated s) and the truth's 
 shaded band; every row of the record is one point (`.pt`, with data attributes: case, source,
 model, mesh, and the lines its tooltip shows), a run that did not finish or has no error in a
 strip above the plot and one below the axis's floor (0 included) in a strip below it; the
-SPEC 11 frontier's runs of the case's truth (results/frontier/frontier.csv) as grey points of
-their own (`.fr`); filters by source, mesh size (dofs) and model; each user's row by its own
-label, in its own colour; the error budget as a dot plot; the Closed division (the case's own
-mesh and step) and the Open one (any mesh, step or sub-steps, the frontier's runs included),
-each ranked. The little JavaScript at the end only shows tooltips and applies the filters;
+SPEC 11 frontier's runs of the case's truth (results/frontier/frontier.csv) are rows of the
+case like any other (frontier_rows.py: grey diamonds, their cost the whole run's as every
+row's); filters by source, mesh size (dofs) and model; each user's row by its own label, in
+its own colour; the error budget as a dot plot; the Closed division (the case's own mesh and
+step) and the Open one (any mesh, step or sub-steps, the frontier's runs included), each
+ranked. The little JavaScript at the end only shows tooltips and applies the filters;
 every text that was read is escaped (html.escape) and the tooltips are set as text.
 """
 
@@ -20,19 +21,22 @@ from __future__ import annotations
 import html
 import json
 import math
-from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
-from tissuebench.workflows.io.tables import CSVError, ends_whole, read_rows
 from tissuebench.workflows.leaderboard.budget import covers, marked
 from tissuebench.workflows.leaderboard.figures import sessions_line
-from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite, one_line
+from tissuebench.workflows.leaderboard.frontier_rows import (  # noqa: F401 (read here before)
+    FRONTIER,
+    FrontierRowError,
+    frontier_row,
+    read_frontier,
+)
+from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
 
 # --- what a row is, in the page's words ----------------------------------------------------------
 
 OURS = "ours"
 USERS = "users"
-FRONTIER = "SPEC 11 frontier"
 COLOURS = {
     OURS: "#1f77b4",
     "CalculiX": "#d62728",
@@ -58,6 +62,8 @@ def source_of(row: Row) -> str:
         return OURS
     if row.source == "user":
         return USERS
+    if row.source == FRONTIER:
+        return FRONTIER
     return row.source.split()[0]
 
 
@@ -73,6 +79,8 @@ def model_of(board: Board, row: Row) -> str:
         )
     if row.source == "user":
         return row.model or board.model
+    if row.source == FRONTIER:  # the frontier runs the truth's (linear) model
+        return board.model
     return board.simulator_model or board.model
 
 
@@ -158,109 +166,9 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
         f"{g(row.end_time)} s)"
     )
     lines.append(f"wall time: {wall_meaning(row)}")
+    if row.source == FRONTIER:  # its loop's own cost, SPEC 11's figure
+        lines.append(row.description.split("; timed: ")[0])
     return [" ".join(str(x).split()) for x in lines]
-
-
-def frontier_tip(f: dict, unit: str) -> list[str]:
-    run = f"{f['scheme']} {f['algorithm']}"
-    return [
-        f"{run} (SPEC 11 frontier)",
-        f"source: tissuebench frontier ({f['case']}, results/frontier/frontier.csv)",
-        f"mesh: {f['cell']}, size {f['mesh_size']}; {int(f['dofs']):,} dofs; "
-        f"{f['substeps']} sub-step(s) per h",
-        f"status: {f['status']}",
-        f"against the truth {f['case']}: E_i mean {g(f['e_mean'])}, max {g(f['e_max'])} {unit}",
-        f"cost: {g(f['cost'])} s per simulated s",
-        "wall time: the time loop only (every sub-step), one core; set-up not included",
-    ]
-
-
-TEXT_CELLS = {"case": 40, "scheme": 80, "algorithm": 40, "cell": 40, "status": 40}  # characters
-WHOLE_CELLS = ("mesh_size", "dofs", "substeps")  # whole numbers >= 1
-NUMBER_CELLS = {"cost": "cost", "interior_error_mean": "e_mean", "interior_error_max": "e_max"}
-
-
-class FrontierRowError(ValueError):
-    """A frontier.csv row that is not a run of the frontier: what is wrong with it."""
-
-
-def frontier_row(r: dict) -> dict[str, Any]:
-    """One frontier.csv row (text) as the page takes it: its texts printable and short
-    (TEXT_CELLS), mesh size, dofs and sub-steps whole numbers >= 1, and its cost (s per
-    simulated s) and E_i mean and max (m^gdim) finite numbers >= 0 (a finished run's, `ok`,
-    all three; another's empty where it has none). FrontierRowError says what is wrong."""
-    if None in r or any(v is None for v in r.values()):
-        raise FrontierRowError("its number of cells is not the header's")
-    row: dict[str, Any] = {}
-    for key, most in TEXT_CELLS.items():
-        text = r.get(key)
-        if not isinstance(text, str) or not 0 < len(text) <= most or not text.isprintable():
-            shown = repr(text)[:40] + ("..." if len(repr(text)) > 40 else "")
-            raise FrontierRowError(
-                f"{key} {one_line(shown)} is not printable text of 1 to {most} characters"
-            )
-        row[key] = text
-    for key in WHOLE_CELLS:
-        try:
-            value = int(r.get(key) or "")
-        except ValueError:
-            value = 0
-        if value < 1:
-            raise FrontierRowError(
-                f"{key} {one_line(repr(r.get(key)))[:40]} is not a whole number >= 1"
-            )
-        row[key] = value
-    for key, name in NUMBER_CELLS.items():
-        text = (r.get(key) or "").strip()
-        if not text and row["status"] != "ok":
-            row[name] = math.nan  # a run that did not finish: no cost or error
-            continue
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value >= 0):
-            raise FrontierRowError(
-                f"{key} {one_line(repr(text))[:40]} is not a finite number >= 0"
-                + (" (the run finished: it has one)" if row["status"] == "ok" else "")
-            )
-        row[name] = value
-    return row
-
-
-def read_frontier(path: Path, warn=None) -> dict[str, list[dict]]:
-    """results/frontier/frontier.csv by truth case: each run's scheme, algorithm, cell, mesh
-    size, dofs, sub-steps, status, E_i mean and max and cost (s/s); {} without the file.
-    Nothing in it is trusted: each row is checked before it is drawn or ranked (frontier_row:
-    a negative, infinite or missing error or cost of a finished run, text where a number
-    goes, a text too long or not printable), and a row that fails is left out with one line
-    given to `warn`; so is a row cut mid-row (the file's last line not ended, as a kill or a
-    full disk leaves a file written in place: `tissuebench frontier` runs it again), and a
-    file that cannot be read is one line."""
-    say = warn or (lambda line: None)
-    try:
-        if not path.is_file():
-            return {}
-        raw = read_rows(path)
-        cut = not ends_whole(path)
-    except (OSError, CSVError, UnicodeDecodeError) as exc:
-        say(f"{path}: cannot be read ({type(exc).__name__}: {one_line(exc)[:120]}), not read")
-        return {}
-    out: dict[str, list[dict]] = {}
-    for i, r in enumerate(raw, start=2):  # the header is line 1
-        if cut and i == len(raw) + 1:
-            say(
-                f"{path}, row {i}: cut mid-row (the file's last line is not ended), left out: "
-                "`tissuebench frontier` runs it again"
-            )
-            continue
-        try:
-            row = frontier_row(r)
-        except FrontierRowError as exc:
-            say(f"{path}, row {i}: not a run of the frontier ({exc}): left out")
-            continue
-        out.setdefault(row["case"], []).append(row)
-    return out
 
 
 # --- SVG ----------------------------------------------------------------------------------------
@@ -379,13 +287,11 @@ class Axes:
         return out
 
 
-def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) -> tuple[str, dict]:
+def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
     """The case's SVG (error against cost) and the colour of each user's label."""
     truth = any(error_of(r, True) is not None for r in rows)
-    fr = [f for f in frontier if f["status"] == "ok" and finite(f["cost"]) and f["e_mean"] > 0]
-    fr_ok = [f for f in fr if finite(f["e_mean"])]
-    xs = [r.cost for r in rows if finite(r.cost)] + [f["cost"] for f in fr_ok]
-    ys = [error_of(r, truth) for r in rows if finished(r)] + [f["e_mean"] for f in fr_ok]
+    xs = [r.cost for r in rows if finite(r.cost)]
+    ys = [error_of(r, truth) for r in rows if finished(r)]
     ys = [y for y in ys if y is not None]
     if truth and finite(board.truth_band):
         ys.append(board.truth_band)
@@ -431,22 +337,10 @@ def case_plot(board: Board, rows: list[Row], frontier: list[dict], unit: str) ->
             pts.append(f"{px:.1f},{py:.1f}")
         pts.append(f"{ax.W - ax.RIGHT},{pts[-1].split(',')[1]}")
         out.append(f'<polyline class="front" points="{" ".join(pts)}"/>')
-    # the frontier's runs (grey, under the record's points)
-    for f in frontier:
-        good = f in fr_ok
-        px = ax.x(f["cost"]) if finite(f["cost"]) and f["cost"] > 0 else ax.W - ax.RIGHT - 8
-        py = ax.y(max(f["e_mean"], ax.floor)) if good else ax.TOP - 14
-        if good and f["e_mean"] < ax.floor:
-            py = ax.BOTTOM + 16
-        out.append(
-            f'<path class="fr f" d="{symbol("diamond", px, py, 3.5)}" '
-            f'data-case="{esc(board.name)}" data-source="{FRONTIER}" '
-            f'data-mesh="{esc(f"{f['dofs']:,} dofs")}" data-model="{esc(board.model)}" '
-            f'data-tip="{esc(json.dumps(frontier_tip(f, unit)))}"/>'
-        )
     users: dict[str, str] = {}
     labels: list[tuple[float, float, float]] = []  # placed labels: x, y, width
-    order = sorted(rows, key=lambda r: r.source == "user")  # users drawn last, on top
+    # the frontier's runs first (under the others), users last (on top)
+    order = sorted(rows, key=lambda r: (r.source != FRONTIER, r.source == "user"))
     for r in order:
         src = source_of(r)
         colour = COLOURS.get(src, "#555")
@@ -594,11 +488,10 @@ def budget_plot(board: Board, rows: list[Row], unit: str) -> str:
 # --- tables -------------------------------------------------------------------------------------
 
 
-def division(
-    board: Board, rows: list[Row], frontier: list[dict], truth: bool, open_: bool, unit: str
-) -> str:
-    """A division's ranked table: the finished rows (and, in the Open division, the
-    frontier's runs) by time-mean E_i, the best first; the rest listed after."""
+def division(board: Board, rows: list[Row], truth: bool, open_: bool, unit: str) -> str:
+    """A division's ranked table: the finished rows by time-mean E_i, the best first; the
+    rest listed after. The Closed division: the case's own mesh and step (closed); the Open
+    one: every row, the SPEC 11 frontier's included."""
     dofs = next((r.dofs for r in rows if r.reference), None)
     mine = [r for r in rows if open_ or closed(r, board, dofs)]
     entries = []
@@ -626,31 +519,6 @@ def division(
                 },
             )
         )
-    if open_:
-        for f in frontier:
-            ranks = f["status"] == "ok" and finite(f["cost"]) and finite(f["e_mean"])
-            entries.append(
-                (
-                    f["e_mean"] if ranks else math.inf,
-                    {
-                        "label": f"{f['scheme']} {f['algorithm']}"
-                        + (f", {f['substeps']} sub-steps" if f["substeps"] > 1 else ""),
-                        "source": "SPEC 11 frontier (loop-only cost)",
-                        "facet": FRONTIER,
-                        "mesh": f"{f['cell']}, size {f['mesh_size']}",
-                        "dofs": f["dofs"],
-                        "mean": f["e_mean"],
-                        "max": f["e_max"],
-                        "cost": f["cost"],
-                        "status": f["status"],
-                        "ranks": ranks,
-                        "user": False,
-                        "model": board.model,
-                        "meshf": f"{f['dofs']:,} dofs",
-                        "contact": {},
-                    },
-                )
-            )
     entries.sort(key=lambda e: (e[0], e[1]["label"]))
     contact = board.benchmark == "contact"  # SPEC 12: two more columns
     head = (
@@ -729,7 +597,7 @@ h3{font-size:16px;margin:14px 0 6px}
 .realtime{stroke:#c00;stroke-width:1.5;stroke-dasharray:6 4}
 .rtlabel{font-size:12px;fill:#c00;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .front{fill:none;stroke:#333;stroke-width:1.3;stroke-dasharray:5 3}
-.pt{cursor:pointer}.pt:hover{stroke-width:3}.fr{fill:none;stroke:#9a9a9a;cursor:pointer}
+.pt{cursor:pointer}.pt:hover{stroke-width:3}
 .ulabel{font-size:13px;font-weight:600;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .flabel{font-size:11px;fill:#333;paint-order:stroke;stroke:#fff;stroke-width:3px}
 .leader{stroke:#888;stroke-width:.8}
@@ -802,19 +670,15 @@ SCRIPT = """
 """
 
 
-def filters(board: Board, rows: list[Row], frontier: list[dict], users: dict) -> str:
+def filters(board: Board, rows: list[Row], users: dict) -> str:
     """The case's filter boxes: source (ours, each simulator, users, the frontier), mesh size
     (dofs) and model, each box ticked."""
     sources = list(dict.fromkeys(source_of(r) for r in rows))
-    if frontier:
-        sources.append(FRONTIER)
     meshes = sorted(
-        {mesh_of(r) for r in rows} | {f"{f['dofs']:,} dofs" for f in frontier},
+        {mesh_of(r) for r in rows},
         key=lambda m: int(m.split()[0].replace(",", "")) if m[0].isdigit() else 0,
     )
-    models = list(
-        dict.fromkeys([model_of(board, r) for r in rows] + [board.model] * bool(frontier))
-    )
+    models = list(dict.fromkeys(model_of(board, r) for r in rows))
 
     def box(facet: str, value: str, colour: str | None = None) -> str:
         sw = f'<span class="swatch" style="background:{colour}"></span>' if colour else ""
@@ -862,13 +726,12 @@ def filters(board: Board, rows: list[Row], frontier: list[dict], users: dict) ->
     return "".join(out)
 
 
-def case_section(
-    board: Board, rows: list[Row], notes: list[str], frontier: list[dict], unit: str
-) -> str:
+def case_section(board: Board, rows: list[Row], notes: list[str], unit: str) -> str:
     truth = any(error_of(r, True) is not None for r in rows)
-    if not truth:
-        frontier = []  # the frontier is graded against the truth only
-    svg, users = case_plot(board, rows, frontier, unit)
+    if not truth:  # the frontier is graded against the truth only
+        rows = [r for r in rows if r.source != FRONTIER]
+    frontier = any(r.source == FRONTIER for r in rows)
+    svg, users = case_plot(board, rows, unit)
     against = (
         f"against the truth <b>{esc(board.truth)}</b> (SPEC 10; its own E_i max "
         f"{g(board.truth_band)} {unit}, shaded)"
@@ -882,14 +745,15 @@ def case_section(
         f"<h2>{esc(board.name)}</h2>",
         f'<p class="note">{esc(board.description)} Timed {esc(board.session or "")} on '
         f"{esc(board.machine or 'this machine')}. {len(rows)} runs; E_i {against}.</p>",
-        filters(board, rows, frontier, users),
+        filters(board, rows, users),
         svg,
         '<p class="note">Each point is a run (hover for its numbers). Filled: plotted; '
         "hollow: in a strip (did not finish, or below the axis). Dashed black: the Pareto front "
         "(no other run at most as costly and at most as wrong); red: real time. "
         + (
             f"Grey diamonds: the SPEC 11 frontier's runs of {esc(board.truth)} "
-            "(results/frontier; their cost is the time loop only)."
+            "(results/frontier; their cost, as every run's, is the whole run's: set-up "
+            "included; the loop's alone in their tooltips)."
             if frontier
             else ""
         )
@@ -907,10 +771,10 @@ def case_section(
     parts += [
         '<div class="cols"><div>',
         "<h3>Closed division: the case's own mesh and step</h3>",
-        division(board, rows, [], truth, False, unit),
+        division(board, rows, truth, False, unit),
         "</div><div>",
         "<h3>Open division: any mesh, step or sub-steps</h3>",
-        division(board, rows, frontier, truth, True, unit),
+        division(board, rows, truth, True, unit),
         "</div></div>",
     ]
     if board.benchmark == "contact":
@@ -929,12 +793,11 @@ def render(
     boards: list[Board],
     rows: dict[str, list[Row]],
     notes: dict[str, list[str]],
-    frontier: dict[str, list[dict]],
     session: str,
     unit_of,
 ) -> str:
-    """The page (text of index.html). `frontier` by truth case (read_frontier); `unit_of(board)`
-    is E_i's unit on the case."""
+    """The page (text of index.html): `rows` by case, the SPEC 11 frontier's among them
+    (frontier_rows.join_frontier); `unit_of(board)` is E_i's unit on the case."""
     users = [(b.name, r.label) for b in boards for r in rows.get(b.name, []) if r.source == "user"]
     index = " · ".join(f'<a href="#{esc(b.name)}">{esc(b.name)}</a>' for b in boards)
     head = [
@@ -969,7 +832,6 @@ def render(
             b,
             rows.get(b.name, []),
             notes.get(b.name, []),
-            frontier.get(b.truth, []) if b.truth else [],
             unit_of(b),
         )
         for b in boards

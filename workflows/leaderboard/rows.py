@@ -5,8 +5,10 @@ folder, as rows: read, checked and ranked (accuracy, time-mean and maximum E_i, 
 wall time per simulated second, with the Pareto front marked). The page is page.py's,
 leaderboard.md document.py's and the figures figures.py's (this package).
 
-Cost. Ours: M, K and f assembled (System), the integrator set up (factorisations) and its time
-loop, in process, 1 rank. CalculiX: the `ccx` process, 1 thread, its file output included.
+Cost: the whole run's wall time per simulated second, every row alike. Ours (and the SPEC 11
+frontier's runs, frontier_rows.py): M, K and f assembled (System), the integrator set up
+(factorisations, an explicit scheme's critical step) and its time loop, in process, 1 rank.
+CalculiX: the `ccx` process, 1 thread, its file output included.
 SfePy, Newton, Drake, MuJoCo: their setup and time loop in process; Kratos: in a child
 process (see each entry's `timing`). A case's
 runs in one session on one machine (Board.session; `--rerun CASE` re-times one case alone); a
