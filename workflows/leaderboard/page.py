@@ -317,8 +317,6 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
     rt = ax.x(REAL_TIME)
     out.append(
         f'<line x1="{rt:.1f}" x2="{rt:.1f}" y1="{ax.TOP}" y2="{ax.BOTTOM}" class="realtime"/>'
-        f'<text x="{rt - 4:.1f}" y="{ax.TOP + 14}" class="rtlabel" text-anchor="end">'
-        "real time: 1 s per s</text>"
     )
     # the Pareto front (from the record's flags)
     front = sorted(
@@ -405,6 +403,10 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
                 f'data-mesh="{esc(mesh_of(r))}" data-model="{esc(model_of(board, r))}">'
                 f"{esc(text)}</text>"
             )
+    out.append(  # last: over the points, which would cover it
+        f'<text x="{rt - 4:.1f}" y="{ax.TOP + 14}" class="rtlabel" text-anchor="end">'
+        "real time: 1 s per s</text>"
+    )
     out.append("</svg>")
     return "\n".join(out), users
 
@@ -595,7 +597,7 @@ h3{font-size:16px;margin:14px 0 6px}
 .tick{font-size:11.5px;fill:#444}.axis{font-size:13px;fill:#222}.strip{font-size:11px;fill:#777}
 .band{fill:#f3d9a4;opacity:.55}.bandlabel{font-size:11.5px;fill:#8a5a00}
 .realtime{stroke:#c00;stroke-width:1.5;stroke-dasharray:6 4}
-.rtlabel{font-size:12px;fill:#c00;paint-order:stroke;stroke:#fff;stroke-width:3px}
+.rtlabel{font-size:12px;fill:#c00;paint-order:stroke;stroke:#fff;stroke-width:3px;pointer-events:none}
 .front{fill:none;stroke:#333;stroke-width:1.3;stroke-dasharray:5 3}
 .pt{cursor:pointer}.pt:hover{stroke-width:3}
 .ulabel{font-size:13px;font-weight:600;paint-order:stroke;stroke:#fff;stroke-width:3px}
