@@ -284,7 +284,7 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
     says so in its case's header); then the Pareto flags against the truth and the error
     budget."""
     from tissuebench.metrics.truth import own_error
-    from tissuebench.solvers.truth.store import expected_words, load_cached
+    from tissuebench.solvers.truth.store import expected_words, load_cached, load_failure
 
     cases: dict[str, list[Board]] = {}
     for board in boards:
@@ -293,9 +293,13 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
     for case, mine in cases.items():
         truth = load_cached(case, comm=MPI.COMM_SELF)
         if truth is None:
+            failure = load_failure(case)
             for board in mine:
                 board.truth_note = (
-                    f"{case}, not computed on this machine (tissuebench truth {case}: "
+                    f"{case}: its computation fails (Newton, on n = {failure['level']} at t = "
+                    f"{failure['t']:.3g} s; results/truth.md): no truth columns."
+                    if failure
+                    else f"{case}, not computed on this machine (tissuebench truth {case}: "
                     f"{expected_words(case)} on one core): no truth columns."
                 )
             continue

@@ -139,8 +139,11 @@ def sweep_lines(summaries: dict, failures: dict | None = None) -> list[str]:
             "against it, a truth that does not resolve the fold at the lower edges."
         )
     else:
-        said = "No load scale of the sweep computed so far meets the target: the large rod has "
-        said += "no truth yet."
+        said = (
+            "No load scale of the sweep computed so far meets the target (the table says where "
+            "each failed or folded): the large rod has no truth, and the leaderboard grades "
+            "nothing at large load against one."
+        )
     lines += ["", said, ""]
     return lines
 
