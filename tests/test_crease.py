@@ -125,7 +125,7 @@ def test_sweep_takes_the_largest_load_that_meets_and_says_where_the_rest_folded(
     assert "**rod-nhb-s1.5**" in text
     summaries["rod-nhb-s1.5"]["own_error"]["meets_target"] = False
     assert chosen(summaries) is None
-    assert "no truth yet" in "\n".join(sweep_lines(summaries))
+    assert "the large rod has no truth" in "\n".join(sweep_lines(summaries))
 
 
 def test_sweep_says_where_a_computation_failed():

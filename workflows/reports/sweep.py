@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,14 @@ from tissuebench.workflows.reports.common import fmt
 from tissuebench.workflows.reports.crease import FOLDED
 
 SOURCE = "rod-nhb-s3"  # the case that creases (SPEC 10)
+# PETSc's SNES reasons for a Newton solve that did not converge, as the truth's error gives them
+SNES_REASONS = {
+    -3: "its linear solve failed",
+    -4: "a non-finite residual",
+    -5: "its iteration limit",
+    -6: "its line search failed",
+    -8: "its residual stopped decreasing",
+}
 
 
 def sweep_case(s: float) -> str:
@@ -75,10 +84,20 @@ def failure_words(failure: dict) -> str:
     at = failure.get("smallest_J_at") or []
     where = f" at X = ({', '.join(f'{x:.3f}' for x in at)}) m" if at else ""
     smallest = "" if j is None else f"; smallest J before it {j:.3g}{where}"
+    code = re.search(r"\((-?\d+)\)\s*$", failure["error"])
+    why = SNES_REASONS.get(int(code.group(1)), f"reason {code.group(1)}") if code else ""
     return (
-        f"Newton fails on n = {failure['level']} at t = {failure['t']:.3g} s "
-        f"({failure['error'].removeprefix('truth: ')}){smallest}"
+        f"Newton fails on n = {failure['level']} at t = {failure['t']:.3g} s"
+        f"{f' ({why})' if why else ''}{smallest}"
     )
+
+
+def failure_fold(failure: dict) -> str:
+    """The folded column of a failed computation: its level, if its last state's J < FOLDED."""
+    j = failure.get("smallest_J")
+    if j is not None and j < FOLDED:
+        return f"n = {failure['level']}, by t = {failure['t']:.3g} s"
+    return "no (Newton fails)"
 
 
 def sweep_lines(summaries: dict, failures: dict | None = None) -> list[str]:
@@ -108,7 +127,7 @@ def sweep_lines(summaries: dict, failures: dict | None = None) -> list[str]:
             done = ", ".join(f"{j:.3g}" for j in f["levels_done_smallest_J"])
             lines.append(
                 f"| {s:g} | {case} | {levels_of_case(case)} | {done}, then: {failure_words(f)} | "
-                f"{'n = ' + str(f['level']) + ' fails' if f['level'] else ''} | | n/a | | no |"
+                f"{failure_fold(f)} | | n/a | | no |"
             )
             continue
         if summary is None:

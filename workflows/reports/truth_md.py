@@ -36,7 +36,7 @@ from tissuebench.solvers.truth.store import (
 )
 from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.reports.crease import FOLDED
-from tissuebench.workflows.reports.sweep import sweep_cases, sweep_lines
+from tissuebench.workflows.reports.sweep import failure_words, sweep_cases, sweep_lines
 
 if TYPE_CHECKING:
     from tissuebench.solvers.truth.samples import TruthSamples
@@ -244,7 +244,11 @@ def case_line(case: str) -> str:
     line = f"{benchmark}, {material}, {model}, load scale s = {scale}{needle}"
     if case in FALLBACKS:  # SPEC 10/12: taken where its own case does not converge
         source = FALLBACKS[case][0]
-        spec = "SPEC 12" if CASES[source][0] == "contact" else "SPEC 10, graded toward the clamp"
+        spec = (
+            "SPEC 12"
+            if CASES[source][0] == "contact"
+            else f"SPEC 10, {'graded toward the clamp' if case in GRADED else 'uniform levels'}"
+        )
         line += f"; the fallback of {source}, whose levels do not converge ({spec})"
     return line
 
@@ -287,6 +291,15 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
             )
         minutes = expected_seconds(case, now=False) / 60  # as measured: the file stays put
         divisor = STEP_DIVISOR.get(case, 1)
+        failure = load_failure(case)
+        if failure is not None:  # the evidence of a computation that failed (store.py)
+            return lines + [
+                f"Its computation failed ({failure['when']}): {failure_words(failure)}; the "
+                f"levels before it: n = {', '.join(map(str, failure['levels_done']))}, smallest "
+                f"J {', '.join(f'{j:.3g}' for j in failure['levels_done_smallest_J'])}. "
+                f"`tissuebench truth {case}` tries again (`all` does not).",
+                "",
+            ]
         return lines + [
             f"Not yet computed: `tissuebench truth {case}` takes about {minutes:.0f} min on "
             f"one quiet core of a machine like this one (levels "
