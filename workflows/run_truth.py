@@ -45,15 +45,17 @@ def truth_of(benchmark: str, material: Material, model: str, options: dict) -> s
     return None
 
 
-def truth_lines(summary: CaseSummary, folder: Path, comm: MPI.Comm = MPI.COMM_WORLD) -> list[str]:
-    """One line per run of the case folder against its truth where that truth is cached (rank
-    0's lines; [] elsewhere), else one line saying why not. Collective."""
+def truth_lines(
+    summary: CaseSummary, folder: Path, material: Material, comm: MPI.Comm = MPI.COMM_WORLD
+) -> list[str]:
+    """One line per run of the case folder (every run in `material`, ours or a .toml file's)
+    against its truth where that truth is cached (rank 0's lines; [] elsewhere), else one line
+    saying why not. Collective."""
     if summary.plane not in (None, "strain"):
         return ["against the truth: none (the truths are posed in plane strain)"]
     lines: list[str] = []
     by_case: dict[str, list[str]] = {}
     for label, run in summary.runs.items():
-        material = get_material(run.material)
         case = truth_of(summary.benchmark, material, run.model, summary.options)
         if case is None:
             lines.append(f"{label}: against the truth: none poses this run (SPEC 10's cases)")

@@ -101,7 +101,7 @@ def main(args: argparse.Namespace) -> int:
         substeps=substeps,
     )
     summary = run_case(case, args.out, force=args.force)
-    for line in truth_lines(summary, args.out):  # SPEC 10: the error against the physics
+    for line in truth_lines(summary, args.out, material):  # SPEC 10: the error against the physics
         print(line)
     if MPI.COMM_WORLD.rank == 0 and not summary.skipped:
         print(f"results in {args.out}")
