@@ -449,3 +449,24 @@ def test_figures_of_a_model_case_replace_the_paper_figures(tmp_path, monkeypatch
     case = SimpleNamespace(name="m", runs=[RunSpec("implicit+svk", "implicit", "MP1", "svk")])
     assert figures.case_figures(tmp_path, case, {}, None, {}, {}) == ["x.png"]
     assert called == ["m"]
+
+
+def test_an_outline_of_several_rings_carries_its_label_once():
+    """A deformed outline of two pieces, one with a hole (a folded shape's union), is drawn
+    ring by ring with the label on the first only (it once raised on the second ring: the
+    leaderboard's large rod on n = 6 lost a 20-minute rerun to it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+    from shapely.geometry import MultiPolygon, Polygon
+
+    from tissuebench.workflows.reports.model_figures import draw_outline
+
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    hole = [(0.4, 0.4), (0.6, 0.4), (0.6, 0.6), (0.4, 0.6)]
+    shape = MultiPolygon([Polygon(square, [hole]), Polygon([(2, 0), (3, 0), (3, 1)])])
+    ax = Figure().subplots()
+    draw_outline(ax, shape, color="k", label="deformed")
+    assert len(ax.lines) == 3
+    assert [line.get_label() for line in ax.lines].count("deformed") == 1

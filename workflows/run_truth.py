@@ -16,7 +16,7 @@ from tissuebench.metrics.series import InputError
 from tissuebench.metrics.truth import grade_truth
 from tissuebench.solvers.materials import Material, get_material
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.solvers.truth.store import expected_words, load_cached
+from tissuebench.solvers.truth.store import expected_words, load_cached, load_failure
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.summary import CaseSummary
 
@@ -64,6 +64,14 @@ def truth_lines(
     for case, labels in by_case.items():
         truth = load_cached(case, comm=comm)
         if comm.allreduce(truth is not None if comm.rank == 0 else False, op=MPI.LOR) is False:
+            failure = load_failure(case)
+            if failure is not None:
+                lines.append(
+                    f"against the truth {case}: none, its computation fails (Newton, on n = "
+                    f"{failure['level']} at t = {failure['t']:.3g} s; `tissuebench truth "
+                    f"{case}` writes where to truth.md)"
+                )
+                continue
             lines.append(
                 f"against the truth {case}: not cached here (`tissuebench truth {case}`, "
                 f"{expected_words(case)} on one core, then `tissuebench compare truth:{case} "

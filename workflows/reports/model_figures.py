@@ -476,7 +476,7 @@ def draw_outline(ax: Axes, geometry: BaseGeometry, **style) -> None:
         for ring in [polygon.exterior, *polygon.interiors]:
             xy = np.asarray(ring.coords)
             unlabelled = cast(dict[str, Any], {} if first else {"label": None})
-            ax.plot(xy[:, 0], xy[:, 1], **style, **unlabelled)
+            ax.plot(xy[:, 0], xy[:, 1], **{**style, **unlabelled})  # later rings: no label
             first = False
 
 
