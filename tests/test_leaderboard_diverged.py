@@ -56,13 +56,13 @@ def test_the_budget_and_the_ranks_say_it_diverged(tmp_path):
     (line,) = [x for x in table if "explicit" in x]
     assert line.startswith(f"| explicit-lumped (diverged: {SPAN}) | 0.0711")
     for open_ in (False, True):  # both divisions: the diverged run listed, marked, not ranked
-        html = page.division(BOARD, ours, [], True, open_, "m^3")
+        html = page.division(BOARD, ours, True, open_, "m^3")
         (cells,) = [x for x in html.split("<tr") if "explicit-lumped" in x]
         assert f"explicit-lumped (diverged: {SPAN})</td>" in cells
         assert cells.split("<td>")[1].startswith("-</td>")  # no rank
-    md = "\n".join(document.case_lines(BOARD, ours, [], [], "now"))
+    md = "\n".join(document.case_lines(BOARD, ours, [], "now"))
     assert "explicit-lumped (diverged" not in md  # ours' best is implicit, which finished
-    alone = "\n".join(document.case_lines(BOARD, ours[1:], [], [], "now"))
+    alone = "\n".join(document.case_lines(BOARD, ours[1:], [], "now"))
     assert f"| explicit-lumped (diverged: {SPAN}) |" in alone  # its source's only run
     write_csv(tmp_path / "leaderboard.csv", ours)
     with open(tmp_path / "leaderboard.csv", newline="") as f:
