@@ -313,6 +313,7 @@ def test_the_target_is_a_fraction_of_the_truths_size():
     assert samples.own_error["meets_target"] is False
 
 
+@pytest.mark.serial  # one file written and read back
 def test_a_failed_computation_is_kept_as_evidence_for_todays_inputs(tmp_path, monkeypatch):
     """store.record_failure keeps where a case failed (its level, the time of the step, the
     last state's smallest J and where) under today's inputs' key, load_failure reads it back,
