@@ -80,9 +80,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--wall-time",
         metavar="SECONDS",
-        help="the candidate run's total wall time in seconds, setup included (mesh, "
-        "assembly, start-up and every step), recorded in summary.json; the leaderboard divides "
-        "it by the simulated time to rank the run's cost (s per simulated s)",
+        help="the candidate run's wall time in seconds from its posed problem to its last "
+        "step, set-up included (assembly, factorisations, every step; not the interpreter's "
+        "start nor writing output), as the leaderboard times our runs and the simulators'; "
+        "recorded in summary.json; the leaderboard divides it by the simulated time to rank "
+        "the run's cost (s per simulated s)",
     )
     p.add_argument(
         "--model",
