@@ -124,7 +124,7 @@ def test_metrics_are_named_with_their_units(tmp_path):
     from tissuebench.workflows.cli import parser
 
     text = " ".join(parser()._subparsers._group_actions[0].choices["compare"].format_help().split())
-    assert "total wall time in seconds, setup included" in text
+    assert "wall time in seconds from its posed problem to its last step, set-up included" in text
     assert "divides it by the simulated time" in text
     assert "3 the reference diverged" in text
 

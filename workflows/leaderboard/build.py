@@ -191,7 +191,9 @@ def main(args: argparse.Namespace) -> int:
             for name in board.simulators:
                 if comm.rank == 0 and get_simulator(name).available() is None:
                     available.add(name)
-        collective(comm, lambda: check_target(out, available, args.force, record, rerun))
+        # what a rerun would replace is OUT's own record only (another folder's is only read)
+        own = record if source == out else None
+        collective(comm, lambda: check_target(out, available, args.force, own, rerun))
     session = time.strftime("%Y-%m-%d %H:%M %Z")
     kept_boards, kept_rows, kept_notes = record or ([], {}, {})
     kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again from frontier.csv
