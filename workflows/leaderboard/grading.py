@@ -304,17 +304,13 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                 )
             continue
         if not np.isfinite(own_error(truth)):  # its levels do not converge: no yardstick
-            taken = sorted(
-                {
-                    f"{b.truth} (case {b.name})"
-                    for b in BOARDS
-                    if FALLBACKS.get(b.truth or "", ("",))[0] == case
-                }
-            )
-            instead = (
-                f"; its truth is taken at a smaller load instead: {', '.join(taken)}"
-                if taken
-                else ""
+            taken: dict[str, list[str]] = {}  # the smaller loads' truths -> their cases
+            for b in BOARDS:
+                if b.truth and FALLBACKS.get(b.truth, ("",))[0] == case:
+                    taken.setdefault(b.truth, []).append(b.name)
+            instead = "".join(
+                f"; a smaller load is tried instead: {truth} (cases {', '.join(names)})"
+                for truth, names in taken.items()
             )
             for board in mine:
                 board.truth_note = (
