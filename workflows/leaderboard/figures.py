@@ -106,7 +106,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
         list(legend.values()),
         list(legend),
         loc="outside lower center",
-        ncols=min(len(legend), 6),
+        ncols=min(len(legend), 6 if max(map(len, legend), default=0) < 40 else 4),  # long: fewer
         fontsize=8,
     )
     title = textwrap.wrap(f"{board.name}: {board.description}", 150)
@@ -203,7 +203,7 @@ def _panel(
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_ylabel(ylabel, fontsize=9)
+    ax.set_ylabel("\n".join(textwrap.wrap(ylabel, 46)), fontsize=9)  # a long reference: 2 lines
     ax.grid(True, which="both", alpha=0.25)
     return labels
 
