@@ -277,8 +277,7 @@ class Axes:
             f'<line x1="{self.LEFT}" x2="{self.W - self.RIGHT}" y1="{self.BOTTOM + 16}" '
             f'y2="{self.BOTTOM + 16}" class="stripline"/>',
             f'<text x="{self.W - self.RIGHT}" y="{self.BOTTOM + 12}" class="strip" '
-            f'text-anchor="end">error below {self.floor:.2g}, or exactly 0 (the reference '
-            "itself): drawn on this line</text>",
+            f'text-anchor="end">error &lt; {self.floor:.2g} or = 0: on this line</text>',
             f'<text x="{(self.LEFT + self.W - self.RIGHT) / 2}" y="{self.H - 4}" class="axis" '
             'text-anchor="middle">cost: wall time per simulated second (s/s), log</text>',
             f'<text transform="translate(16,{(self.TOP + self.BOTTOM) / 2}) rotate(-90)" '
