@@ -28,8 +28,10 @@ from tissuebench.solvers.truth.cases import (
 FALLBACKS = {"contact-MP2-s0.5": ("contact-MP2", 0.5)}
 # SPEC 10's sweep below the fold, in its order of preference
 ROD_SWEEP = (2.0, 1.75, 1.5, 1.25)
+SWEEP_CASES: list[str] = []  # graded, in that order; then the uniform ones below
 for _s in ROD_SWEEP:
     _case = f"rod-nhb-s{_s:g}"
+    SWEEP_CASES.append(_case)
     FALLBACKS[_case] = ("rod-nhb-s3", _s)
     register_case(_case, "rod", "MP3", "neo-hookean-barrier", load_scale=_s)
     GRADED[_case] = lambda x: graded_rod(x, ROD_SIZE)
@@ -39,6 +41,7 @@ for _s in ROD_SWEEP:
 UNIFORM_SWEEP = (1.5,)
 for _s in UNIFORM_SWEEP:
     _case = f"rod-nhb-s{_s:g}-uniform"
+    SWEEP_CASES.append(_case)
     FALLBACKS[_case] = ("rod-nhb-s3", _s)
     register_case(_case, "rod", "MP3", "neo-hookean-barrier", load_scale=_s)
     # at h its finest level's Newton stopped at t = 8.2 s (its iteration limit; smallest J 0.64,

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.solvers.truth.cases import CASES
-from tissuebench.solvers.truth.fallbacks import ROD_SWEEP, UNIFORM_SWEEP
+from tissuebench.solvers.truth.cases import CASES, GRADED
+from tissuebench.solvers.truth.fallbacks import ROD_SWEEP, SWEEP_CASES
 from tissuebench.workflows.reports.common import fmt
 from tissuebench.workflows.reports.crease import FOLDED
 
@@ -28,33 +28,19 @@ SNES_REASONS = {
 }
 
 
-def sweep_case(s: float) -> str:
-    """The truth case of the sweep at load scale s: rod-nhb-s1.5, ..."""
-    return f"rod-nhb-s{s:g}"
-
-
-def uniform_case(s: float) -> str:
-    """The same load on uniform levels, taken where every graded one folds (fallbacks.py)."""
-    return f"rod-nhb-s{s:g}-uniform"
-
-
 def sweep_cases() -> list[str]:
     """The sweep's cases in the order tried: graded, largest s first; then the uniform ones."""
-    return [sweep_case(s) for s in ROD_SWEEP] + [uniform_case(s) for s in UNIFORM_SWEEP]
+    return list(SWEEP_CASES)
 
 
 def levels_of_case(case: str) -> str:
     """How a sweep case's levels are laid out: "graded" or "uniform"."""
-    return "uniform" if case.endswith("-uniform") else "graded"
+    return "graded" if case in GRADED else "uniform"
 
 
 def fallback(summaries: dict) -> str | None:
     """The uniform-level case whose truth meets the target, where no graded one does."""
-    for s in UNIFORM_SWEEP:
-        summary = summaries.get(uniform_case(s))
-        if summary is not None and summary["own_error"]["meets_target"]:
-            return uniform_case(s)
-    return None
+    return _first_meeting(summaries, "uniform")
 
 
 def folded(h: dict) -> tuple[int, float] | None:
@@ -69,12 +55,17 @@ def folded(h: dict) -> tuple[int, float] | None:
 
 
 def chosen(summaries: dict) -> str | None:
-    """The case rod-nhb-sL: the largest s of the sweep whose truth meets the target (None: none
-    computed does)."""
-    for s in ROD_SWEEP:
-        summary = summaries.get(sweep_case(s))
-        if summary is not None and summary["own_error"]["meets_target"]:
-            return sweep_case(s)
+    """The case rod-nhb-sL: the largest s of the sweep whose graded truth meets the target
+    (None: none computed does)."""
+    return _first_meeting(summaries, "graded")
+
+
+def _first_meeting(summaries: dict, levels: str) -> str | None:
+    """The first sweep case on `levels` ("graded", "uniform") whose truth meets the target."""
+    for case in SWEEP_CASES:
+        summary = summaries.get(case)
+        if levels_of_case(case) == levels and summary and summary["own_error"]["meets_target"]:
+            return case
     return None
 
 
