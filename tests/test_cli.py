@@ -2,6 +2,7 @@
 
 import csv
 import json
+import time
 
 import numpy as np
 import pytest
@@ -65,7 +66,9 @@ def block_args(out):
 @pytest.fixture(scope="module")
 def block_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run") / "block"
+    start = time.perf_counter()
     r = tissuebench(*block_args(out))
+    r.wall_s = time.perf_counter() - start  # the whole command, start-up included
     assert r.returncode == 0, r.stderr[-2000:]
     return out, r
 
@@ -100,6 +103,53 @@ def test_run_writes_the_contract(block_run):
     assert np.isnan(ref[0, 2]) and np.all(ref[1:, 2:] == 0)  # the reference's own rows
     assert np.all(c["quasi-static"][1:, 2:] > 0)
     assert "implicit" in result.stdout and "ok" in result.stdout
+
+
+def test_run_says_and_records_the_time_of_each_phase(block_run):
+    """summary.json's phases_s: mesh, forms, each run's set-up and loop, output, metrics,
+    figures, each non-negative, summing to no more than the command's wall time; one line each
+    on stdout with the same time."""
+    out, result = block_run
+    summary = json.loads((out / "summary.json").read_text())
+    phases = summary["phases_s"]
+    runs = [f"run {label}" for label in summary["runs"]]
+    assert list(phases) == ["mesh", "forms", *runs, "output", "metrics", "figures"]
+    assert all(t >= 0 for t in phases.values())
+    assert sum(phases.values()) <= result.wall_s
+    for phase, t in phases.items():
+        line = next(x for x in result.stdout.splitlines() if x.startswith(f"block: {phase} "))
+        assert line.split()[-2] == f"{t:.2f}"
+
+
+def test_no_figures_draws_none_and_writes_the_same_numbers(tmp_path):
+    """--no-figures: no PNG or GIF, none listed in summary.json, every other file as with
+    figures and the same numbers; run again without it, the figures are drawn (the same
+    inputs are not skipped while their figures are missing)."""
+    args = ("run", "rod", "--mesh-size", 1, "--end-time", 0.2, "--algorithms", "explicit")
+    drawn, bare = tmp_path / "drawn", tmp_path / "bare"
+    r = tissuebench(*args, "--out", drawn)
+    assert r.returncode == 0, r.stderr[-2000:]
+    r = tissuebench(*args, "--out", bare, "--no-figures")
+    assert r.returncode == 0, r.stderr[-2000:]
+    pictures = {p.name for p in drawn.iterdir() if p.suffix in (".png", ".gif")}
+    assert {"errors.png", "tip.png", "deformed.png", "reference.gif"} <= pictures
+    assert not any(p.suffix in (".png", ".gif") for p in bare.iterdir())
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (drawn, bare))
+    assert [f for f in a["files"] if f not in pictures] == b["files"]
+    assert all((bare / f).is_file() for f in b["files"])
+    assert "figures" in a["phases_s"] and "figures" not in b["phases_s"]
+    for name in ("metrics.csv", "tip.csv"):
+        assert (drawn / name).read_bytes() == (bare / name).read_bytes()
+    for label, run in a["runs"].items():
+        timed = ("wall_time_s", "setup_time_s")
+        assert {k: v for k, v in run.items() if k not in timed} == {
+            k: v for k, v in b["runs"][label].items() if k not in timed
+        }
+    assert a["fingerprint"] == b["fingerprint"]
+    r = tissuebench(*args, "--out", bare)  # the same inputs, with figures this time
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "without figures" in r.stdout and "skipped" not in r.stdout
+    assert pictures <= {p.name for p in bare.iterdir()}
 
 
 def test_rerun_skips_complete_results_unless_forced(block_run):
@@ -258,6 +308,7 @@ def test_run_serial_equals_mpiexec(tmp_path, benchmark, size, shape):
         == 2
     )
     assert parallel.stdout.count("results in") == 1  # only rank 0 prints
+    assert parallel.stdout.count("all phases") == 1
 
 
 def test_mesh_command_saves_msh(tmp_path):

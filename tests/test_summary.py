@@ -71,6 +71,35 @@ def test_options_sit_between_plane_and_solver():
     assert keys[keys.index("plane") + 1 : keys.index("solver")] == ["load_scale", "needle_width"]
 
 
+def with_phases(doc: dict, phases: object) -> dict:
+    """A copy of a summary dict with `phases_s` where the writer puts it, after system_time_s."""
+    out = {}
+    for key, value in doc.items():
+        out[key] = value
+        if key == "system_time_s":
+            out["phases_s"] = phases
+    return out
+
+
+def test_phase_times_are_read_and_written_back_after_the_system_time():
+    _, doc = committed(RESULTS / "block-MP1")
+    assert CaseSummary.from_json(doc).phases_s is None  # written before phases were timed
+    phases = {"mesh": 0.5, "forms": 1.25, "run implicit": 3.0, "output": 0.0}
+    timed = with_phases(doc, phases)
+    summary = CaseSummary.from_json(timed)
+    assert summary.phases_s == phases
+    assert summary.dumps() == json.dumps(timed, indent=2) + "\n"  # the place and the values
+    assert CaseSummary.from_json(summary.to_json()) == summary
+    # the timings are no input: the fingerprint is the one written without them
+    assert summary.fingerprint == doc["fingerprint"] and "phases_s" not in summary.inputs
+    for bad in ({"mesh": -1.0}, {"mesh": "fast"}, [0.5], {"mesh": float("nan")}):
+        with pytest.raises(ValueError, match="phases_s"):
+            CaseSummary.from_json(with_phases(doc, bad))
+    last = {**doc, "phases_s": phases}  # after fingerprint: out of order
+    with pytest.raises(ValueError, match="out of order"):
+        CaseSummary.from_json(last)
+
+
 def malformed(doc: dict) -> list[dict]:
     """Copies of a valid summary with one fault each."""
     faults = []

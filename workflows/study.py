@@ -41,11 +41,13 @@ from tissuebench.workflows.io.xdmf import as_series, gather_series, write_series
 from tissuebench.workflows.limits import check as check_limits
 from tissuebench.workflows.limits import estimate, step_count
 from tissuebench.workflows.output import RunFolder, collective
+from tissuebench.workflows.phases import Phases
 from tissuebench.workflows.summary import (
     SUMMARY,
     CaseSummary,
     RunSummary,
     read_case_summary,
+    read_summary,
     write_case_summary,
 )
 
@@ -188,11 +190,14 @@ def run_case(
     comm: MPI.Comm = MPI.COMM_WORLD,
     log: Callable[[str], None] = print,
     force: bool = False,
+    figures: bool = True,
 ) -> CaseSummary:
     """Run every run of the case, measure it against the reference and write the case folder
     (whole, or not at all; see workflows/output.py for which folders may be written). Returns
-    its summary (workflows/summary.py); complete results of the same inputs are kept and their
-    summary returned, with `skipped` set, unless `force`."""
+    its summary (workflows/summary.py), whose `phases_s` holds the wall time of each phase;
+    complete results of the same inputs are kept and their summary returned, with `skipped`
+    set, unless `force`, or unless they lack the figures and `figures` asks for them. Without
+    `figures` no figure is drawn (and none is listed in the summary's files)."""
     rank0 = comm.rank == 0
     entry = get_entry(case.benchmark)
     mesh_size = entry.mesh_size if case.mesh_size is None else case.mesh_size
@@ -209,7 +214,14 @@ def run_case(
             log(f"{case.name}: {said}")
 
     with RunFolder(out_dir, comm) as folder:
-        if folder.prepare(inputs, force) == "complete":
+        state = folder.prepare(inputs, force)
+        if state == "complete" and figures:
+            drawn = comm.bcast(has_figures(folder.path) if rank0 else None, root=0)
+            if not drawn:  # written with --no-figures: the same inputs, run again to draw them
+                if rank0:
+                    log(f"{out_dir}: complete results without figures, run again to draw them")
+                state = folder.prepare(inputs, True)
+        if state == "complete":
             if rank0:
                 log(
                     f"{out_dir}: complete results for the same inputs exist, skipped (--force "
@@ -229,9 +241,17 @@ def run_case(
             )
         with folder.writing() as tmp:
             summary = compute_case(
-                case, tmp, folder.path, inputs, mesh_size, h, n_steps, materials, comm, log
+                case, tmp, folder.path, inputs, mesh_size, h, n_steps, materials, comm, log, figures
             )
     return summary
+
+
+def has_figures(folder: Path) -> bool:
+    """True if the case folder's summary lists a figure (a PNG): False for one written without
+    figures (`tissuebench run --no-figures`)."""
+    summary = read_summary(folder) or {}
+    files = summary.get("files")
+    return isinstance(files, list) and any(str(f).endswith(".png") for f in files)
 
 
 def compute_case(
@@ -245,72 +265,56 @@ def compute_case(
     materials: dict,
     comm: MPI.Comm,
     log: Callable[[str], None],
+    figures: bool = True,
 ) -> CaseSummary:
-    """The runs, metrics, figures and summary of a case, written into tmp, which becomes
-    target. Collective."""
+    """The runs, metrics, figures (unless not `figures`) and summary of a case, written into
+    tmp, which becomes target, with the wall time of each phase. Collective."""
     rank0 = comm.rank == 0
-    bench = get_benchmark(case.benchmark, mesh_size=mesh_size, comm=comm, **case.options)
+    phases = Phases()
+    with phases.timed("mesh"):
+        bench = get_benchmark(case.benchmark, mesh_size=mesh_size, comm=comm, **case.options)
     start = time.perf_counter()
-    systems = {
-        m: System(bench, materials[m], plane=case.plane, scheme=case.scheme) for m in materials
-    }
+    with phases.timed("forms"):
+        systems = {
+            m: System(bench, materials[m], plane=case.plane, scheme=case.scheme) for m in materials
+        }
     system_s = (time.perf_counter() - start) / len(systems)  # M, K, f of one material
-    metrics = Metrics(next(iter(systems.values())).V)
 
     results, tips, shapes = {}, {}, {}  # shapes: the runs' displacement Series (rank 0)
     contacts = {}  # SPEC 12: each run's (F_x, F_y, interpenetration) at every step kept
     measures: dict = {}  # SPEC 12: each material system's Measures
     for label, algorithm, material, model in case.runs:
         system = systems[material]
-        start = time.perf_counter()
-        integrator, k, critical = sub_stepped(
-            algorithm, system, h, case.substeps, solver=case.solver, model=model
-        )
-        setup_s = time.perf_counter() - start  # assembly and factorisations before the loop
-        if k != 1:
-            said = substep_count(k, h, n_steps)  # auto's k: refused where it is too many
-            if rank0:
-                log(f"{case.name:>18} {label:<18} {said}")
-        bar = tqdm(
-            total=n_steps,
-            desc=f"{case.name} {label}",
-            unit="step",
-            leave=False,
-            disable=not rank0,
-            mininterval=0.5,
-        )
-        try:
-            run = simulate(
-                integrator,
-                n_steps,
-                bench.extent,
-                label,
-                on_step=lambda state: bar.update(1 if state.i else 0),
+        with phases.timed(f"run {label}"):  # its set-up (assembly, factorisations) and loop
+            start = time.perf_counter()
+            integrator, k, critical = sub_stepped(
+                algorithm, system, h, case.substeps, solver=case.solver, model=model
             )
-        finally:
-            bar.close()  # also when interrupted: the last line is then the error's
-        series = gather_series(system.V, {"displacement": run.u, "velocity": run.v})
-        stamps = np.arange(run.steps + 1) * h
-        collective(comm, lambda: write_series(tmp / f"{label}.xdmf", series, stamps), target)
-        if rank0:  # for the figures, as reading the file back would give it
-            assert series is not None  # gathered on rank 0
+            setup_s = time.perf_counter() - start  # assembly and factorisations before the loop
+            if k != 1:
+                said = substep_count(k, h, n_steps)  # auto's k: refused where it is too many
+                if rank0:
+                    log(f"{case.name:>18} {label:<18} {said}")
+            bar = tqdm(
+                total=n_steps,
+                desc=f"{case.name} {label}",
+                unit="step",
+                leave=False,
+                disable=not rank0,
+                mininterval=0.5,
+            )
             try:
-                shapes[label] = as_series(tmp / f"{label}.xdmf", series, stamps)
-            except InputError:  # no step kept (diverged at step 0): the figures read nothing
-                pass
+                run = simulate(
+                    integrator,
+                    n_steps,
+                    bench.extent,
+                    label,
+                    on_step=lambda state: bar.update(1 if state.i else 0),
+                )
+            finally:
+                bar.close()  # also when interrupted: the last line is then the error's
+            integrator.destroy()
         results[label] = (run, material, algorithm, model, setup_s, k, critical)
-        integrator.destroy()
-        if bench.probe is not None:
-            tips[label] = np.reshape(  # (steps kept, gdim): none if step 0 diverged
-                [probe(system.V, u, bench.probe) for u in run.u], (len(run.u), system.gdim)
-            )
-        if bench.contact is not None:
-            if material not in measures:  # its forms compiled once per system
-                measures[material] = Measures(system)
-            measure = measures[material]
-            contacts[label] = np.reshape(
-                [measure(u, i * h) for i, u in enumerate(run.u)], (len(run.u), 3)
-            )
         if rank0:
             said = (
                 "ok"
@@ -324,6 +328,34 @@ def compute_case(
                 f"{run.steps} steps in {run.wall_time_s:.2f} s"
             )
 
+    with phases.timed("output"):
+        for label, (run, material, *_) in results.items():
+            V = systems[material].V
+            series = gather_series(V, {"displacement": run.u, "velocity": run.v})
+            stamps = np.arange(run.steps + 1) * h
+            collective(comm, lambda: write_series(tmp / f"{label}.xdmf", series, stamps), target)
+            if rank0 and figures:  # for the figures, as reading the file back would give it
+                assert series is not None  # gathered on rank 0
+                try:
+                    shapes[label] = as_series(tmp / f"{label}.xdmf", series, stamps)
+                except InputError:  # no step kept (diverged at step 0): the figures read nothing
+                    pass
+
+    metrics_start = time.perf_counter()
+    metrics = Metrics(next(iter(systems.values())).V)
+    for label, (run, material, *_) in results.items():
+        system = systems[material]
+        if bench.probe is not None:
+            tips[label] = np.reshape(  # (steps kept, gdim): none if step 0 diverged
+                [probe(system.V, u, bench.probe) for u in run.u], (len(run.u), system.gdim)
+            )
+        if bench.contact is not None:
+            if material not in measures:  # its forms compiled once per system
+                measures[material] = Measures(system)
+            measure = measures[material]
+            contacts[label] = np.reshape(
+                [measure(u, i * h) for i, u in enumerate(run.u)], (len(run.u), 3)
+            )
     ref_run = results[case.reference][0]
     times = np.arange(n_steps + 1) * h
     curves, status = {}, {}
@@ -338,6 +370,7 @@ def compute_case(
             status[label][run.diverged_step :] = "diverged"
         for name in METRICS:
             curves[label][name][status[label] != "ok"] = np.nan
+    phases.times["metrics"] = time.perf_counter() - metrics_start
 
     summary = CaseSummary(
         case=case.name,
@@ -384,20 +417,26 @@ def compute_case(
         )
 
     def write():
-        files = [f"{label}.{ext}" for label in results for ext in ("xdmf", "h5")]
-        write_metrics_csv(tmp / "metrics.csv", times, curves, status)
-        if tips:
-            write_tip_csv(tmp / "tip.csv", times, tips)
-            files.append("tip.csv")
-        if contacts:
-            write_contact_csv(tmp / "contact.csv", times, contacts)
-            plot_contact(tmp / "contact.png", case.name, times, contacts)
-            files += ["contact.csv", "contact.png"]
-        from tissuebench.workflows.reports import figures
+        with phases.timed("output"):
+            files = [f"{label}.{ext}" for label in results for ext in ("xdmf", "h5")]
+            write_metrics_csv(tmp / "metrics.csv", times, curves, status)
+            if tips:
+                write_tip_csv(tmp / "tip.csv", times, tips)
+                files.append("tip.csv")
+            if contacts:
+                write_contact_csv(tmp / "contact.csv", times, contacts)
+                files.append("contact.csv")
+        if figures:
+            with phases.timed("figures"):
+                if contacts:
+                    plot_contact(tmp / "contact.png", case.name, times, contacts)
+                    files.append("contact.png")
+                from tissuebench.workflows.reports import figures as drawn
 
-        files += figures.case_figures(tmp, case, summary, times, curves, tips, shapes)
+                files += drawn.case_figures(tmp, case, summary, times, curves, tips, shapes)
         summary.files = ["metrics.csv", *files, SUMMARY]
         summary.inputs, summary.fingerprint = inputs, fingerprint(inputs)
+        summary.phases_s = dict(phases.times)  # the summary's own writing is not in them
         write_case_summary(tmp, summary)  # last: it marks the folder ours
         return summary
 

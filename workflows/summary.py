@@ -73,6 +73,17 @@ _CASE_HEAD = (
     "plane",
 )
 _CASE_TAIL = ("solver", "system_time_s", "versions", "runs", "files", "inputs", "fingerprint")
+# written only by a case that timed its phases (absent from the committed summaries written
+# before): {phase: wall time in s}, after system_time_s
+_PHASES = "phases_s"
+
+
+def _tail(phases: bool) -> list[str]:
+    """The case's keys after its options, in the file's order, with or without _PHASES."""
+    tail = list(_CASE_TAIL)
+    if phases:
+        tail.insert(tail.index("system_time_s") + 1, _PHASES)
+    return tail
 
 
 def _number(x: object) -> bool:
@@ -211,9 +222,12 @@ class CaseSummary:
     names, the reference run's label), its discretisation (mesh_size cells per unit, num_dofs,
     time step h in s, end_time in s, steps, plane: "strain"/"stress" or None in 3D), the
     benchmark's `options` (e.g. needle_width in m, load_scale), the linear solver, the set-up
-    time of one material's system (s), the software versions, the `runs` by label, the folder's
-    `files`, the `inputs` and their `fingerprint`. `skipped` (not in the file) is True when
-    run_case reused complete results instead of computing them."""
+    time of one material's system (s), the wall time of each phase of the run that wrote it
+    (`phases_s`, s, in the order they ran: mesh, forms, each run's set-up and loop, metrics,
+    output, figures; None in a summary written before they were timed), the software
+    versions, the `runs` by label, the folder's `files`, the `inputs` and their `fingerprint`
+    (which the timings are no part of). `skipped` (not in the file) is True when run_case
+    reused complete results instead of computing them."""
 
     case: str
     description: str
@@ -235,6 +249,7 @@ class CaseSummary:
     inputs: dict[str, Any] = field(default_factory=dict)
     fingerprint: str = ""
     skipped: bool = False
+    phases_s: dict[str, float] | None = None
 
     def option(self, name: str, default: Any = None) -> Any:
         """The benchmark option `name` (e.g. "needle_width" in m, "load_scale"), or default
@@ -251,7 +266,7 @@ class CaseSummary:
         """summary.json's dict, keys in the file's order (`skipped` is not written)."""
         doc: dict[str, Any] = {k: getattr(self, k) for k in _CASE_HEAD}
         doc.update(self.options)
-        for k in _CASE_TAIL:
+        for k in _tail(self.phases_s is not None):
             doc[k] = (
                 {lb: r.to_json() for lb, r in self.runs.items()}
                 if k == "runs"
@@ -289,16 +304,26 @@ class CaseSummary:
             "files is not a list of names",
         )
         _check(data["reference"] in data["runs"], "the reference is not among the runs")
+        phases = data.get(_PHASES)
+        _check(
+            phases is None
+            or (
+                isinstance(phases, dict)
+                and all(_number(t) and math.isfinite(t) and t >= 0 for t in phases.values())
+            ),
+            f"{_PHASES} is not an object of wall times",
+        )
         keys = list(data)
         head, tail = len(_CASE_HEAD), keys.index("solver")
         _check(
-            keys[:head] == list(_CASE_HEAD) and keys[tail:] == list(_CASE_TAIL),
+            keys[:head] == list(_CASE_HEAD) and keys[tail:] == _tail(_PHASES in data),
             "keys out of order",
         )
         return cls(
             **{k: data[k] for k in _CASE_HEAD},
             options={k: data[k] for k in keys[head:tail]},
             **{k: data[k] for k in _CASE_TAIL if k != "runs"},
+            phases_s=phases,
             runs={
                 label: RunSummary.from_json(run, str(label)) for label, run in data["runs"].items()
             },

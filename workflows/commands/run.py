@@ -2,6 +2,7 @@
 elastic models (SPEC section 8), one material."""
 
 import argparse
+import time
 from pathlib import Path
 
 from mpi4py import MPI
@@ -22,6 +23,7 @@ from tissuebench.workflows.commands.arguments import (
     positive,
     scheme_options,
 )
+from tissuebench.workflows.phases import phase_lines
 from tissuebench.workflows.run_truth import truth_lines
 from tissuebench.workflows.study import model_case, run_case
 
@@ -31,7 +33,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "run",
         help="run one benchmark with the chosen algorithms",
         description=(
-            "Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to DIR."
+            "Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to "
+            "DIR; say the wall time of each phase (also in summary.json)."
         ),
     )
     p.add_argument("benchmark", help=f"{', '.join(BENCHMARKS)}")
@@ -67,6 +70,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         choices=["strain", "stress"],
         help="2D benchmarks only: plane strain (default) or stress",
     )
+    p.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="draw no figures (PNG, GIF); everything else is written as with them",
+    )
     add_scheme_options(p)
     add_common(p)
     p.set_defaults(func=main)
@@ -100,9 +108,16 @@ def main(args: argparse.Namespace) -> int:
         scheme=scheme,
         substeps=substeps,
     )
-    summary = run_case(case, args.out, force=args.force)
+    summary = run_case(case, args.out, force=args.force, figures=not args.no_figures)
+    rank0 = MPI.COMM_WORLD.rank == 0
+    if rank0 and not summary.skipped and summary.phases_s is not None:
+        for line in phase_lines(case.name, summary.phases_s):  # where the wait went
+            print(line)
+    start = time.perf_counter()
     for line in truth_lines(summary, args.out, material):  # SPEC 10: the error against the physics
         print(line)
-    if MPI.COMM_WORLD.rank == 0 and not summary.skipped:
+    if rank0:
+        print(f"{case.name}: {'against the truth':<18} {time.perf_counter() - start:7.2f} s")
+    if rank0 and not summary.skipped:
         print(f"results in {args.out}")
     return 0
