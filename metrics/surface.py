@@ -163,6 +163,12 @@ def surface_error(
     if not (np.isfinite(x_ref).all() and np.isfinite(x_cand).all()):
         return np.nan
     with np.errstate(divide="ignore", invalid="ignore"):
+        if cand_shape is None and np.array_equal(x_ref, x_cand):
+            # one shape against itself (the reference's own row): |A ⊕ A| = 0, what the
+            # boolean gives (its round-off clipped in 3D), without its cost (5 ms on the rod)
+            region = shape.region(x_ref)
+            size = region.area if isinstance(shape, Polygon) else region.volume()
+            return 0.0 if size > 0 else np.nan
         if cand_shape is None:
             return float(shape.error(x_ref, x_cand))
         ref, cand = shape.region(x_ref), cand_shape.region(x_cand)

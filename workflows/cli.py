@@ -81,15 +81,25 @@ class Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-def parser() -> Parser:
+def parser(command: str | None = None) -> Parser:
+    """The command line's parser: every command's, or only `command`'s when it names one (its
+    module alone is imported: the others' imports, matplotlib's among them, took 0.8 s of
+    every command's start)."""
     p = Parser(
         prog="tissuebench",
         description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.",
     )
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
+    names = [name for name in COMMANDS if name.rsplit(".", 1)[1] == command] or COMMANDS
+    for name in names:
         importlib.import_module(name).add_parser(sub)
     return p
+
+
+def named(argv: list[str] | None) -> str | None:
+    """The command that the command line names first (sys.argv without argv), or None."""
+    words = sys.argv[1:] if argv is None else argv
+    return words[0] if words and not words[0].startswith("-") else None
 
 
 def fault(err: OSError) -> str:
@@ -169,7 +179,7 @@ def command_line(argv: list[str] | None = None) -> int:
         with interrupt.deferred():  # start-up: the commands' imports are not cut half-way
             interrupt.guard_jit()
             interrupt.guard_solves()
-            args = parser().parse_args(argv)
+            args = parser(named(argv)).parse_args(argv)
             command = f"tissuebench {args.command}"
         interrupt.checkpoint(comm)  # a signal during start-up: every rank stops here
         with interrupt.calling_back():  # a signal in a PETSc callback: the signal, not its error

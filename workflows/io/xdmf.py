@@ -100,6 +100,19 @@ def gather_series(
     return mesh_data, data
 
 
+def _write_steps(group: h5py.Group, values: np.ndarray) -> None:
+    """One float64 dataset per step, named by its index, as `group[str(i)] = values[i]` writes
+    them, through h5py's low-level calls: a third of the time for a few hundred steps (each
+    high-level assignment builds its property lists again)."""
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    space = h5py.h5s.create_simple(values.shape[1:])
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_obj_track_times(False)  # as h5py's default: no time stamps in the file
+    for i, step in enumerate(values):
+        dataset = h5py.h5d.create(group.id, str(i).encode(), h5py.h5t.IEEE_F64LE, space, dcpl=dcpl)
+        dataset.write(h5py.h5s.ALL, h5py.h5s.ALL, step)
+
+
 def write_series(
     path: str | Path,
     gathered: tuple[MeshData, dict[str, np.ndarray]] | None,
@@ -117,8 +130,8 @@ def write_series(
         h5["/Mesh/mesh/geometry"] = points
         h5["/Mesh/mesh/topology"] = cells
         for name, values in data.items():
-            for i in range(n_steps):
-                h5[f"/Function/{name}/{i}"] = values[i]
+            if n_steps:  # no group for a series without steps, as before
+                _write_steps(h5.require_group(f"/Function/{name}"), values[:n_steps])
     path.with_suffix(".h5").write_bytes(image.getbuffer())
     fields = list(data)
     N, (n_cells, per_cell) = len(points), cells.shape

@@ -587,7 +587,7 @@ def deformed_shapes(
     moving = [flat[k * len(series) : (k + 1) * len(series)] for k in range(len(gif_steps))]
     # RGB, no alpha channel: a smaller file, the same picture
     picture = _rgba(shape_grid(case, summary, series[0], steps, still, clim, row_labels), 110)
-    Image.fromarray(picture).save(out / "deformed.png", optimize=True)
+    Image.fromarray(picture).save(out / "deformed.png")  # optimize=True: 7 times as long, 5 % less
 
     labels = [f"{label} ({runs[label].material})" for label in labels]
     animation(
