@@ -119,11 +119,19 @@ class Metrics:
             for name, metric in METRICS.items()
         }
 
-    def history(self, ref: list[np.ndarray], cand: list[np.ndarray]) -> dict[str, np.ndarray]:
+    def history(
+        self,
+        ref: list[np.ndarray],
+        cand: list[np.ndarray],
+        on_step: Callable[[], object] | None = None,
+    ) -> dict[str, np.ndarray]:
         """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN
-        for the steps a shorter candidate (a diverged run) does not have."""
+        for the steps a shorter candidate (a diverged run) does not have. `on_step()` is called
+        after each step measured (a progress bar's)."""
         curves = {name: np.full(len(ref), np.nan) for name in METRICS}
         for i in range(min(len(ref), len(cand))):
             for name, value in self.evaluate(ref[i], cand[i]).items():
                 curves[name][i] = value
+            if on_step is not None:
+                on_step()
         return curves

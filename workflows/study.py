@@ -359,17 +359,29 @@ def compute_case(
     ref_run = results[case.reference][0]
     times = np.arange(n_steps + 1) * h
     curves, status = {}, {}
-    for label, (run, *_) in results.items():
-        curves[label] = {name: np.full(n_steps + 1, np.nan) for name in METRICS}
-        for name, values in metrics.history(ref_run.u, run.u).items():  # the steps both have
-            curves[label][name][: len(values)] = values
-        status[label] = np.full(n_steps + 1, "ok", dtype=object)
-        if ref_run.status == "diverged":  # NaN from the diverged step on, the reference's too
-            status[label][ref_run.diverged_step :] = "reference diverged"
-        if run.status == "diverged":
-            status[label][run.diverged_step :] = "diverged"
-        for name in METRICS:
-            curves[label][name][status[label] != "ok"] = np.nan
+    bar = tqdm(
+        total=sum(min(len(ref_run.u), len(run.u)) for run, *_ in results.values()),
+        desc=f"{case.name} metrics",
+        unit="step",
+        leave=False,
+        disable=not rank0,
+        mininterval=0.5,
+    )
+    try:
+        for label, (run, *_) in results.items():
+            curves[label] = {name: np.full(n_steps + 1, np.nan) for name in METRICS}
+            history = metrics.history(ref_run.u, run.u, on_step=lambda: bar.update(1))
+            for name, values in history.items():  # the steps both have
+                curves[label][name][: len(values)] = values
+            status[label] = np.full(n_steps + 1, "ok", dtype=object)
+            if ref_run.status == "diverged":  # NaN from the diverged step on, the reference's too
+                status[label][ref_run.diverged_step :] = "reference diverged"
+            if run.status == "diverged":
+                status[label][run.diverged_step :] = "diverged"
+            for name in METRICS:
+                curves[label][name][status[label] != "ok"] = np.nan
+    finally:
+        bar.close()  # also when interrupted: the last line is then the error's
     phases.times["metrics"] = time.perf_counter() - metrics_start
 
     summary = CaseSummary(
