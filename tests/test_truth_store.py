@@ -279,7 +279,7 @@ def test_the_needles_stop_makes_the_block_first_order_in_time():
     truth, bench = case_truth("block-MP1-w0.2", 6)
     for steps, low, high in ((90, 0.8, 1.25), (30, 1.8, 2.3)):
         run = truth.run(bench.dt, steps)
-        d1, d2 = store.time_differences(truth, run, bench.dt, 1, steps, MPI.COMM_WORLD)
+        d1, d2 = store.time_differences(truth, run, bench.dt, 1, steps, MPI.COMM_WORLD, {})
         assert low < np.log2(d1 / d2) < high, (steps, d1, d2)
 
 

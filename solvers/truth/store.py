@@ -46,9 +46,11 @@ from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
 from tissuebench.core.speed import scaled
+from tissuebench.meshes.benchmark import Benchmark
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import CASES, STEP_DIVISOR, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
+from tissuebench.solvers.truth.floor import FLOOR_CASES, FLOOR_RTOL, FloorTruth
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import MIXED_NU, VOLUMETRIC, Truth, TruthRun
 
@@ -73,6 +75,10 @@ EXPECTED_SECONDS = {
     "rod-nhb-s3": 869.0,
     # SPEC 10's sweep below the fold, graded levels: as rod-nhb-s3 until measured here
     **{f"rod-nhb-s{s:g}": 869.0 for s in (2.0, 1.75, 1.5, 1.25)},
+    # on uniform levels: rod-nhb-s1.75-uniform's n = 2, 4, 8 took 1.1, 8.9 and 103 s at h, two
+    # truths at once (its half step, 662 s, ran beside three helpers' work: load 4 to 6): about
+    # 330 s quiet, with the half step at twice the n = 8 level
+    **{f"rod-nhb-s{s:g}-uniform": 330.0 for s in (2.0, 1.75, 1.5)},
     "rod-MP2": 272.0,
     "block-MP1-w0.2": 146.0,
     "block-MP2-w0.2": 559.0,
@@ -175,11 +181,11 @@ class _Numerics(ast.NodeTransformer):
         return self.generic_visit(node)
 
 
-def _code() -> str:
+def _code(sources: tuple[str, ...] = SOURCES) -> str:
     """The SHA-256 of the truth's sources (SOURCES), in order: of their code, not of their
     text, so that moving an import, a docstring, a type hint or the layout keeps the cache."""
     digest = hashlib.sha256()
-    for name in SOURCES:
+    for name in sources:
         tree = _Numerics().visit(ast.parse((PACKAGE / name).read_text()))
         digest.update(name.encode())
         digest.update(ast.dump(tree).encode())
@@ -206,6 +212,8 @@ def inputs(case: str, quick: bool = False) -> dict:
     # SPEC 12's check of a contact truth's penalty (penalty_check), which changed from the
     # step h to the half step: in the key of the contact cases alone, whose truths it is part of
     checks = {"penalty_check": {"times": PENALTY_CHECK, "step": "h / 2k"}} if entry.tool else {}
+    if case in FLOOR_CASES:  # its Newton may stop at the round-off floor (floor.py): its key alone
+        checks["newton_floor"] = {"rtol": FLOOR_RTOL, "code": _code(("solvers/truth/floor.py",))}
     return {
         **checks,
         "case": case,
@@ -468,6 +476,21 @@ def _progress(comm: MPI.Comm, total: int, desc: str):
     return on_step, bar.close
 
 
+def level_truth(case: str, n: int, comm: MPI.Comm) -> tuple[Truth, Benchmark]:
+    """case_truth, as a FloorTruth for the cases in FLOOR_CASES (floor.py)."""
+    truth, bench = case_truth(case, n, comm)
+    return (FloorTruth(truth.problem), bench) if case in FLOOR_CASES else (truth, bench)
+
+
+def floor_record(truth: Truth, level: str, info: dict) -> None:
+    """Add to info["newton_floor"] the steps a FloorTruth took at the round-off floor, as
+    [level, t in s, residual / its first value]."""
+    if isinstance(truth, FloorTruth):
+        record = info.setdefault("newton_floor", [])
+        record.extend([level, t, ratio] for t, ratio in truth.floor_steps)
+        truth.floor_steps.clear()
+
+
 def _timed_run(truth: Truth, h: float, steps: int, keep: int, desc: str, comm) -> TruthRun:
     on_step, close = _progress(comm, steps, desc)
     try:
@@ -477,12 +500,13 @@ def _timed_run(truth: Truth, h: float, steps: int, keep: int, desc: str, comm) -
 
 
 def time_differences(
-    truth: Truth, run: TruthRun, h: float, k: int, steps: int, comm: MPI.Comm
+    truth: Truth, run: TruthRun, h: float, k: int, steps: int, comm: MPI.Comm, info: dict
 ) -> list[float]:
     """[E_i max(step, step/2), E_i max(step/2, step/4)] (m^3 rod, m^2 block) of one level, the
     truth's step h / k, compared at the steps of h; `run` is that level at the step. Collective."""
     half = _timed_run(truth, h / (2 * k), 2 * k * steps, 2 * k, "half step", comm)
     quarter = _timed_run(truth, h / (4 * k), 4 * k * steps, 4 * k, "quarter step", comm)
+    floor_record(truth, "time order", info)
     return [float(interior_difference(a, b).max()) for a, b in ((run, half), (half, quarter))]
 
 
@@ -554,12 +578,13 @@ def compute(
     tips, statics = [], []
     previous = None
     for n in levels_of(case, quick):
-        truth, bench = case_truth(case, n, comm)
+        truth, bench = level_truth(case, n, comm)
         try:
             run = _timed_run(truth, bench.dt / k, k * steps, k, f"{case} n={n}", comm)
         except RuntimeError as err:  # Newton failed: where and how, kept as evidence
             record_failure(case, quick, n, truth, info, err, comm)
             raise
+        floor_record(truth, str(n), info)
         wall = comm.allreduce(run.wall, op=MPI.MAX)
         info["levels"].append(n)
         info["dofs"].append(run.dofs)
@@ -585,10 +610,13 @@ def compute(
             previous.u = None  # the coarser level's history is no longer needed
         say(f"{case} n={n}: {run.dofs:,} dofs, {k * steps} steps, {wall:.1f} s")
         if previous is None:  # the coarsest level: the time order, from three steps
-            info["time_order_differences"] = time_differences(truth, run, bench.dt, k, steps, comm)
+            info["time_order_differences"] = time_differences(
+                truth, run, bench.dt, k, steps, comm, info
+            )
             say(f"{case} n={n}: time order from its step, half and quarter")
         previous = run
     half = _timed_run(truth, bench.dt / (2 * k), 2 * k * steps, 2 * k, f"{case} n={n} half", comm)
+    floor_record(truth, f"{n} half", info)
     info["half_wall"] = comm.allreduce(half.wall, op=MPI.MAX)
     if half.tip is not None:  # at every half of h
         info["half_tip"] = np.asarray(half.tip)[::k].tolist()
