@@ -141,7 +141,7 @@ def test_sweep_says_where_a_computation_failed():
     assert "smallest J before it 0.08 at X = (0.010, 0.000, 0.000) m" in text
     assert chosen({}) is None
     # every graded load fails; the uniform levels' truth meets: it is taken, and said to be
-    uniform = {"rod-nhb-s1.5-uniform": sweep_summary([0.7, 0.6, 0.55], True)}
+    uniform = {"rod-nhb-s1.75-uniform": sweep_summary([0.7, 0.6, 0.55], True)}
     text = "\n".join(sweep_lines(uniform, {"rod-nhb-s2": failure}))
-    assert "| 1.5 | rod-nhb-s1.5-uniform | uniform | 0.7, 0.6, 0.55 | no |" in text
-    assert "**rod-nhb-s1.5-uniform** meets it" in text
+    assert "| 1.75 | rod-nhb-s1.75-uniform | uniform | 0.7, 0.6, 0.55 | no |" in text
+    assert "**rod-nhb-s1.75-uniform** meets it" in text

@@ -57,3 +57,13 @@ def test_only_the_floor_cases_keys_hold_it():
     for case in ("rod", "rod-nhb-s3", "rod-nhb-s1.5", *FLOOR_CASES):
         given = store.inputs(case)
         assert ("newton_floor" in given) == (case in FLOOR_CASES), case
+
+
+def test_truth_md_says_which_steps_were_taken_at_the_floor():
+    from tissuebench.workflows.reports.truth_md import floor_words
+
+    assert floor_words(1e-9, []).endswith("it took none.")
+    said = floor_words(1e-9, [["8", 8.2, 1.05e-10], ["8 half", 8.2, 3e-10]])
+    assert (
+        "it took 2 (n = 8 at t = 8.2 s, n = 8 half at t = 8.2 s), the largest ratio 3e-10." in said
+    )

@@ -37,11 +37,12 @@ for _s in ROD_SWEEP:
     register_case(_case, "rod", "MP3", "neo-hookean-barrier", load_scale=_s)
     GRADED[_case] = lambda x: graded_rod(x, ROD_SIZE)
 # measured: every s of the sweep folds on the graded n = 8 (truth.md), so the same loads on the
-# uniform levels that rod-nh-s1 and rod-nhb-s3 take, as evidence (they do not meet SPEC 10's
+# uniform levels that rod-nh-s1 and rod-nhb-s3 take, largest first (they do not meet SPEC 10's
 # rule of a graded level: their edge cells are those of the graded n = 4). Their Newton may stop
-# at the residual's round-off floor (floor.py: at s = 1.5, n = 8, t = 8.2 s it stayed at 1.05
-# times the 1e-10 asked, and the run raised)
-UNIFORM_SWEEP = (2.0, 1.75, 1.5)
+# at the residual's round-off floor (floor.py: rod-nhb-s1.5-uniform's n = 8, t = 8.2 s, stayed
+# at 1.05 times the 1e-10 asked, and the run raised). s = 2 meets the target (truth.md) and
+# 1.75 as well, so s = 1.5 on uniform levels is not needed
+UNIFORM_SWEEP = (2.0, 1.75)
 for _s in UNIFORM_SWEEP:
     _case = f"rod-nhb-s{_s:g}-uniform"
     SWEEP_CASES.append(_case)

@@ -50,6 +50,7 @@ from tissuebench.workflows.leaderboard.rows import (
 )
 from tissuebench.workflows.leaderboard.runs import run_board
 from tissuebench.workflows.leaderboard.users import read_users, user_key
+from tissuebench.workflows.mesh_sensitivity import NAME as SENSITIVITY
 from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
@@ -214,12 +215,18 @@ def main(args: argparse.Namespace) -> int:
     studied = []
     if rerun is not None and len(rerun) == len(BOARDS):  # everything anew: the study read again
         studied = leaderboard_boards(out, log=users.warn) if comm.rank == 0 else []
-    else:  # the other cases of the record (the mesh-sensitivity study's), as recorded
+    else:  # the other cases of the record: the mesh-sensitivity study's, as recorded; a case
+        # that BOARDS no longer has (its load changed, say) is dropped, in one line
         names = {b.name for b in BOARDS}
         for board in kept_boards:
-            if board.name not in names:
-                boards.append(board)
-                rows[board.name], notes[board.name] = kept_rows[board.name], kept_notes[board.name]
+            if board.name in names:
+                continue
+            if not board.name.startswith(f"{SENSITIVITY}-"):
+                if comm.rank == 0:
+                    print(f"tissuebench leaderboard: {board.name} is no longer a case; dropped")
+                continue
+            boards.append(board)
+            rows[board.name], notes[board.name] = kept_rows[board.name], kept_notes[board.name]
     # what is read is read and checked before anything runs (rank 0 reads and writes)
     cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
     found, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})

@@ -54,6 +54,20 @@ CREASE = "crease"  # OUT/crease/: the figures of a truth that folds (reports/cre
 # --- summaries (rank 0) ---------------------------------------------------------------------------
 
 
+def floor_words(rtol: float, taken: list) -> str:
+    """The steps a truth took at its residual's round-off floor ([level, t in s, ratio])."""
+    head = (
+        f"Its Newton may take a step whose residual fell by {rtol:g} where it stops short of "
+        "1e-10 at the residual's round-off floor (solvers/truth/floor.py): "
+    )
+    if not taken:
+        return head + "it took none."
+    worst = max(ratio for _, _, ratio in taken)
+    where = ", ".join(f"n = {level} at t = {t:.4g} s" for level, t, _ in taken[:6])
+    more = f" and {len(taken) - 6} more" if len(taken) > 6 else ""
+    return head + f"it took {len(taken)} ({where}{more}), the largest ratio {worst:.2g}."
+
+
 def summary(samples: TruthSamples) -> dict:
     """What the report needs of a TruthSamples (its arrays left behind)."""
     return {
@@ -372,6 +386,8 @@ def section(case: str, s: dict | None, quick: bool) -> list[str]:
     ]
     if "penalty_difference" in h or "penalty_failed" in h:  # SPEC 12: the penalty's limit
         lines += [penalty_words(h, own, units), ""]
+    if "newton_floor" in s["inputs"]:  # solvers/truth/floor.py
+        lines += [floor_words(s["inputs"]["newton_floor"]["rtol"], h.get("newton_floor", [])), ""]
     space, step = own["space"], own["time"]
     if not math.isfinite(space) and len(diffs) > 1 and diffs[-1] >= diffs[-2]:
         lines += [
