@@ -256,16 +256,24 @@ def missing(comm: MPI.Comm = MPI.COMM_WORLD) -> list[str]:
     return comm.bcast(names, root=0)
 
 
-def first_run_line(names: list[str]) -> str:
-    """One line before a paper whose truths are not cached: which, and how long they take."""
+def first_run_line(names: list[str], jobs: int = 1) -> str:
+    """One line before a paper whose truths are not cached: which, how long they take, and
+    whether they are computed `jobs` at a time before the paper's cases (jobs > 1) or one after
+    another after them."""
     from tissuebench.solvers.truth.store import cache_dir, expected_seconds, expected_words
 
     each = ", ".join(f"{name} ({expected_words(name)})" for name in names)
-    total = sum(expected_seconds(name) for name in names) / 60
+    seconds = [expected_seconds(name) for name in names]
+    if jobs > 1 and len(names) > 1:
+        when = (
+            f"{jobs} at a time before the paper's cases (about "
+            f"{max(sum(seconds) / jobs, max(seconds)) / 60:.0f} min here)"
+        )
+    else:
+        when = f"after the paper's cases (about {sum(seconds) / 60:.0f} min in all on one core)"
     return (
         f"paper: the truths {each} are not cached on this machine: computed once in this run, "
-        f"after the paper's cases (about {total:.0f} min in all on one core); later runs read "
-        f"them from {cache_dir()}"
+        f"{when}; later runs read them from {cache_dir()}"
     )
 
 

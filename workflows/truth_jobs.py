@@ -65,11 +65,12 @@ def ended_with_cpu(process: subprocess.Popen) -> tuple[int, float] | None:
 
 
 def left_seconds(pending: list[str], running: list[Job], quick: bool, jobs: int) -> float:
-    """About how long the cases pending and running still take, spread over `jobs` workers."""
+    """About how long the cases pending and running still take, spread over `jobs` workers: at
+    least the longest of them, which one worker computes alone."""
     now = time.time()
     running_left = [max(expected_seconds(j.case, quick) - (now - j.started), 0.0) for j in running]
-    total = sum(expected_seconds(c, quick) for c in pending) + sum(running_left)
-    return max(total / jobs, max(running_left, default=0.0))
+    each = [expected_seconds(c, quick) for c in pending] + running_left
+    return max(sum(each) / jobs, max(each, default=0.0))
 
 
 def compute_in_parallel(
