@@ -25,7 +25,8 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.commands.arguments import add_common, check_common
+from tissuebench.workflows.checks import check_common
+from tissuebench.workflows.commands.arguments import add_common
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     NAME,

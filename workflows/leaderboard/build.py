@@ -12,7 +12,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.commands.arguments import check_common
+from tissuebench.workflows.checks import check_common
 from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard import document, page, users
 from tissuebench.workflows.leaderboard.figures import (
