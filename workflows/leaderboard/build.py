@@ -50,7 +50,7 @@ from tissuebench.workflows.leaderboard.rows import (
 )
 from tissuebench.workflows.leaderboard.runs import run_board
 from tissuebench.workflows.leaderboard.users import read_users, user_key
-from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
+from tissuebench.workflows.mesh_sensitivity_board import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
     check_writable,
