@@ -1,6 +1,7 @@
 # Two entry points, both self-contained on a fresh machine:
 #   make paper   set up .venv, then run the paper's study into results/
-#   make test    set up .venv, then ruff, then mypy (make typecheck), then the test suite in serial and, for the tests not
+#   make test    set up .venv, then ruff, then the import contract (make imports), then mypy (make
+#                typecheck), then the test suite in serial and, for the tests not
 #                marked serial, under mpiexec -n 2
 # PYTHON must be 3.12 (the DOLFINx wheel needs it); .python-version makes pyenv's python3 one.
 PYTHON ?= python3
@@ -8,7 +9,7 @@ VENV   ?= .venv
 EXTRAS ?= dolfinx,test
 BIN     = $(VENV)/bin
 
-.PHONY: setup paper test typecheck bench clean external-tools leaderboard browser browser-tests
+.PHONY: setup paper test links typecheck imports bench clean external-tools leaderboard browser browser-tests
 
 setup: $(VENV)/.installed
 
@@ -25,19 +26,29 @@ paper: setup
 test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(MAKE) --no-print-directory imports
 	$(MAKE) --no-print-directory typecheck
 	$(BIN)/pytest
 	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
 
-# mypy on the package, configured in pyproject.toml ([tool.mypy]). The code folders install as
-# tissuebench.* through pyproject's package-dir, which mypy cannot map: .typecheck/ holds a
-# tissuebench package whose subpackages are links to those folders, one per package-dir entry,
+# The package as it installs, tissuebench.*, as one tree of folders: the code folders install
+# through pyproject's package-dir, which neither mypy nor import-linter can map. .typecheck/ holds
+# a tissuebench package whose subpackages are links to those folders, one per package-dir entry,
 # and whose __init__.py is a link to the package's own (package-dir's "tissuebench").
-typecheck: setup
+links: setup
 	rm -rf .typecheck
 	mkdir -p .typecheck/tissuebench
 	$(BIN)/python -c 'import os, tomllib; dirs = tomllib.load(open("pyproject.toml", "rb"))["tool"]["setuptools"]["package-dir"]; [os.symlink(os.path.abspath(d), os.path.join(".typecheck", *name.split("."))) for name, d in dirs.items() if name != "tissuebench"]; [os.symlink(os.path.abspath(os.path.join(d, "__init__.py")), ".typecheck/tissuebench/__init__.py") for name, d in dirs.items() if name == "tissuebench"]'
+
+# mypy on the package, configured in pyproject.toml ([tool.mypy]), through the links.
+typecheck: links
 	$(BIN)/mypy
+
+# The import contract (pyproject.toml's [tool.importlinter]): the folders import only downward,
+# and nothing but the command line imports the commands. lint-imports finds tissuebench in the
+# links (PYTHONPATH), and keeps no cache.
+imports: links
+	PYTHONPATH=.typecheck $(BIN)/lint-imports --no-cache --no-logo
 
 bench: setup
 	$(BIN)/python -m pip install --quiet -e ".[bench]"

@@ -1,4 +1,4 @@
-"""CalculiX's C3D20R on the export's hexahedra (workflows/io/calculix.py quadratic_hexahedra,
+"""CalculiX's C3D20R on the export's hexahedra (workflows/io/calculix_deck.py quadratic_hexahedra,
 workflows/simulators/calculix.py): each check against something independent of the code it
 tests: the natural coordinates of C3D20's nodes as CalculiX's shape20h.f defines them, an
 affine field that every isoparametric element reproduces exactly, and the truth's Q2 and
@@ -15,13 +15,12 @@ import pytest
 
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import case_truth
-from tissuebench.workflows.io.calculix import (
+from tissuebench.workflows.io.calculix import read_dat, read_frd
+from tissuebench.workflows.io.calculix_deck import (
     HEX20_EDGES,
     inp_text,
     number,
     quadratic_hexahedra,
-    read_dat,
-    read_frd,
 )
 from tissuebench.workflows.posing import build
 from tissuebench.workflows.simulators import calculix

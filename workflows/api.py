@@ -73,7 +73,7 @@ def export_case(
     `force` replaces files of an earlier export. Returns the case as arrays (read_case of
     OUT) on every rank. Collective."""
     from tissuebench.meshes import BENCHMARKS, get_entry
-    from tissuebench.workflows.commands.arguments import posed
+    from tissuebench.workflows.checks import posed
     from tissuebench.workflows.output import collective
     from tissuebench.workflows.posing import export
 

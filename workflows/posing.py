@@ -17,7 +17,7 @@ import numpy as np
 
 from tissuebench.metrics.series import cell_measures
 from tissuebench.solvers.materials import Material
-from tissuebench.workflows.io.calculix import (
+from tissuebench.workflows.io.calculix_deck import (
     check_element,
     check_inp_model,
     default_element,

@@ -1,6 +1,6 @@
 """The report of `tissuebench bench`: the figure of time per step against degrees of freedom and
 DIR/performance.md, from the records of workflows/bench/measure.py (or the same records loaded
-from performance.json) and the tables of workflows/bench/tables.py.
+from performance.json) and the tables of workflows/bench/tables.py (targets.py: the targets).
 
 Units: seconds, bytes (MiB in the tables), degrees of freedom.
 """
@@ -28,10 +28,6 @@ from tissuebench.workflows.bench.measure import (
     get,
 )
 from tissuebench.workflows.bench.tables import (
-    MODEL_REAL_TIME_DOFS,
-    MODEL_STEP_DOFS,
-    MODEL_STEP_LIMIT,
-    NEWTON_LIMIT,
     assembly_rows,
     bandwidth_rows,
     capacity,
@@ -40,9 +36,15 @@ from tissuebench.workflows.bench.tables import (
     markdown_table,
     model_cpu_rows,
     model_step_rows,
-    model_step_targets,
     newton_rows,
     step_rows,
+)
+from tissuebench.workflows.bench.targets import (
+    MODEL_REAL_TIME_DOFS,
+    MODEL_STEP_DOFS,
+    MODEL_STEP_LIMIT,
+    NEWTON_LIMIT,
+    model_step_targets,
     targets,
 )
 from tissuebench.workflows.output import write_owned

@@ -25,7 +25,8 @@ A quick run never replaces a full one: without --out it writes into a folder of 
 temporary directory, and it refuses an --out whose performance.json holds a full run.
 
 The measurements (worker processes, budgets, capacity search) are workflows/bench/measure.py;
-the tables are workflows/bench/tables.py, the figure and report workflows/bench/report.py.
+the tables are workflows/bench/tables.py (the targets targets.py), the figure and report
+workflows/bench/report.py.
 Writes DIR/performance.md, DIR/performance.png and DIR/performance.json. Only the driver (one
 process, not under mpiexec) prints.
 """
@@ -40,7 +41,8 @@ from pathlib import Path
 from tissuebench.core.errors import UserError
 from tissuebench.workflows.bench.measure import measure, measure_explicit
 from tissuebench.workflows.bench.report import plot, write_explicit_report, write_report
-from tissuebench.workflows.bench.tables import model_step_rows, summary_tables, text_table
+from tissuebench.workflows.bench.tables import model_step_rows, text_table
+from tissuebench.workflows.bench.targets import summary_tables
 from tissuebench.workflows.output import check_writable, write_owned
 
 FILES = ("performance.json", "performance.png", "performance.md")

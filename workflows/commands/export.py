@@ -7,13 +7,9 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
-from tissuebench.workflows.commands.arguments import (
-    add_common,
-    add_posed_options,
-    check_common,
-    posed,
-)
-from tissuebench.workflows.io.calculix import ELEMENTS
+from tissuebench.workflows.checks import check_common, posed
+from tissuebench.workflows.commands.arguments import add_common, add_posed_options
+from tissuebench.workflows.io.calculix_deck import ELEMENTS
 from tissuebench.workflows.io.exported import SCHEMA, SCHEMA_VERSION, ExportError
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, export_options, posed_board
 from tissuebench.workflows.limits import check as check_limits

@@ -34,7 +34,8 @@ from tissuebench.meshes import get_entry
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import paper_truth
-from tissuebench.workflows.commands.arguments import add_common, check_common
+from tissuebench.workflows.checks import check_common
+from tissuebench.workflows.commands.arguments import add_common
 from tissuebench.workflows.output import (
     check_owned,
     check_writable,

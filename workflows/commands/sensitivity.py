@@ -25,17 +25,11 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.commands.arguments import add_common, check_common
-from tissuebench.workflows.mesh_sensitivity import (
-    MARKER,
-    NAME,
-    QUICK,
-    STUDIES,
-    markdown,
-    plot,
-    run_study,
-    write_csv,
-)
+from tissuebench.workflows.checks import check_common
+from tissuebench.workflows.commands.arguments import add_common
+from tissuebench.workflows.mesh_sensitivity import run_study
+from tissuebench.workflows.mesh_sensitivity_cases import MARKER, NAME, QUICK, STUDIES
+from tissuebench.workflows.mesh_sensitivity_report import markdown, plot, write_csv
 from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
 
 

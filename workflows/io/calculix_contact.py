@@ -1,11 +1,11 @@
 """The CalculiX deck of a contact benchmark (SPEC 12): the block and a rigid needle that
-CalculiX's own contact pushes against the block's right edge (io/calculix.py writes the other
+CalculiX's own contact pushes against the block's right edge (io/calculix_deck.py writes the other
 benchmarks' decks; workflows/simulators/calculix_contact.py runs this one).
 
 The deck
 --------
 The export's block in CPE4 (plane strain, thickness 1 m; the export's node i is node i + 1),
-its material as io/calculix.py writes it (*ELASTIC, or *HYPERELASTIC, NEO HOOKE with NLGEOM),
+its material as io/calculix_deck.py writes it (*ELASTIC, or *HYPERELASTIC, NEO HOOKE with NLGEOM),
 the fixed edges clamped. The needle: a band of CPE4 elements between its boundary (the
 half-stadium's arc in ARC_SEGMENTS straight pieces, and its two flanks out to
 x = c_x + FLANK) and the same curve BAND m inside it, nodes numbered after the block's. Every
@@ -36,7 +36,7 @@ import json
 
 import numpy as np
 
-from tissuebench.workflows.io.calculix import (
+from tissuebench.workflows.io.calculix_deck import (
     ccx_name,
     check_inp_model,
     dynamic_keyword,
@@ -139,7 +139,7 @@ def contact_inp_text(
     """The deck (see the module docstring); `slope` (Pa/m): the contact stiffness (default:
     the export's penalty k); `alpha`: the HHT parameter of the dynamic procedure."""
     if data.contact is None:
-        raise ExportError("this export has no contact block: io/calculix.py writes its deck")
+        raise ExportError("this export has no contact block: io/calculix_deck.py writes its deck")
     if data.dim != 2 or (data.plane or "strain") != "strain" or data.cell_type != "quadrilateral":
         raise ExportError("the CalculiX contact deck is plane strain on quadrilaterals (CPE4)")
     if contact_type not in CONTACT_TYPES:

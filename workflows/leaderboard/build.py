@@ -12,7 +12,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.commands.arguments import check_common
+from tissuebench.workflows.checks import check_common
 from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard import document, page, users
 from tissuebench.workflows.leaderboard.figures import (
@@ -51,7 +51,7 @@ from tissuebench.workflows.leaderboard.rows import (
 from tissuebench.workflows.leaderboard.runs import run_board
 from tissuebench.workflows.leaderboard.users import read_users, user_key
 from tissuebench.workflows.mesh_sensitivity import NAME as SENSITIVITY
-from tissuebench.workflows.mesh_sensitivity import leaderboard_boards
+from tissuebench.workflows.mesh_sensitivity_board import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
     check_writable,

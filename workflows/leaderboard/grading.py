@@ -13,11 +13,8 @@ series keeps its grades.
 from __future__ import annotations
 
 import re
-import tempfile
 import time
-from collections import OrderedDict
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 
@@ -27,26 +24,24 @@ from tissuebench.core import interrupt
 from tissuebench.solvers.truth.fallbacks import FALLBACKS
 from tissuebench.workflows.boards import BOARDS
 from tissuebench.workflows.leaderboard import users as user_folders
-from tissuebench.workflows.leaderboard.record import FOLDER
+from tissuebench.workflows.leaderboard.caches import (  # noqa: F401 (read here before)
+    Caches,
+    Recent,
+    case_reference,
+)
+from tissuebench.workflows.leaderboard.error_budget import complete, error_budget, summarized
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
     UNGRADED,
     Board,
     Row,
-    board_case,
-    finite,
     mark_pareto,
     mark_truth_pareto,
     truth_error,
     user_mesh,
 )
 from tissuebench.workflows.leaderboard.users import user_key
-
-if TYPE_CHECKING:
-    from tissuebench.metrics.series import Series
-    from tissuebench.solvers.truth.samples import TruthSamples
-
 
 CONTACT_MODEL_HOW = (
     "not measured on a contact case: the contact law's share (a penalty, kappa = 10 for ours, "
@@ -71,127 +66,6 @@ def study_series(out: Path, board: Board, rows: list[Row]) -> None:
         if m:
             stem = f"{m['shape'].replace(' ', '-')}-{m['size']}-{m['algorithm']}"
             row.series = str(out / NAME / study / f"{stem}.xdmf")
-
-
-def summarized(curve) -> tuple[float | None, float | None]:
-    """(max, time-mean) of an error curve over steps 1..N, None for NaN."""
-    from tissuebench.metrics.compare import summarize
-
-    peak, mean = (None if not finite(x) else float(x) for x in summarize(curve))
-    return peak, mean
-
-
-class Recent(OrderedDict):
-    """A dict that keeps its `most` last used entries (get and set count as uses), so that a
-    leaderboard of many users' meshes, each located and run on, does not keep them all."""
-
-    def __init__(self, most: int):
-        super().__init__()
-        self.most = most
-
-    def get(self, key, default=None):
-        if key in self:
-            self.move_to_end(key)
-            return self[key]
-        return default
-
-    def __setitem__(self, key, value):
-        super().__setitem__(key, value)
-        self.move_to_end(key)
-        while len(self) > self.most:
-            self.popitem(last=False)
-
-
-class Caches:
-    """What the gradings of a leaderboard run build once and share (one process): each truth's
-    candidate meshes checked and located (`located`, {truth case: {mesh key: TruthMetrics}},
-    metrics/truth.py's located_on), our implicit runs on the users' meshes and the budget
-    parts that depend on the mesh alone (`on_mesh`, user_mesh.budget_on_mesh's cache), the
-    last series read (rows read their series once for every grading), the last cases'
-    references (`reference`: case_reference, found under `out` or run here) and every user's
-    row graded, by its series' content hash (`grades`: a row of the same series takes them).
-    The numbers are the same as without it. Each keeps its MESHES last used meshes: a mesh
-    met again after that is located and run on again (the same numbers)."""
-
-    MESHES = 16
-    REFERENCES = 2  # the rows come case by case
-
-    def __init__(self, out: Path | None = None):
-        self.out = out
-        self.located: dict[str, Recent] = {}
-        self.on_mesh = Recent(self.MESHES)
-        self._series: tuple[tuple[str, str | None], Series] | None = None
-        self.references = Recent(self.REFERENCES)
-        self.grades: dict[tuple, dict] = {}
-
-    def reference(self, board: Board) -> Series:
-        """case_reference(board, out), found or run once per case (a failure too: raised
-        again)."""
-        found = self.references.get(board.name)
-        if found is None:
-            try:
-                found = case_reference(board, self.out)
-            except Exception as exc:  # anything a run or a file can do: said for each row
-                found = exc
-            self.references[board.name] = found
-        if isinstance(found, BaseException):
-            raise found
-        return found
-
-    def located_for(self, truth) -> Recent | None:
-        if truth is None:
-            return None
-        return self.located.setdefault(truth.case, Recent(self.MESHES))
-
-    def series(self, path: str, field: str | None):
-        """read_series(path, field), read once for consecutive asks of the same file."""
-        from tissuebench.workflows.io.series import read_series
-
-        key = (str(path), field)
-        if self._series is None or self._series[0] != key:
-            self._series = None  # the old one is let go before the new one is read
-            self._series = (key, read_series(path, field))
-        return self._series[1]
-
-
-def case_reference(board: Board, out: Path | None = None) -> Series:
-    """The case's reference series: our implicit with the case's model on its mesh, h and
-    steps. OUT/leaderboard/CASE/ours/LABEL.xdmf where a rerun of the case left it as we wrote
-    it (its folder is ours, unchanged: output.is_ours) and of the case's steps and nodes;
-    else run here as `tissuebench export` runs the reference it writes beside the benchmark
-    (posing.export into a temporary folder, read back, removed): the series a user compared
-    against. Rank 0's (one process)."""
-    from tissuebench.meshes import get_entry
-    from tissuebench.solvers.materials import get_material
-    from tissuebench.solvers.models import run_label
-    from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.output import is_ours
-    from tissuebench.workflows.posing import export, reference_path
-
-    case = board_case(board)
-    if out is not None:
-        folder = Path(out) / FOLDER / board.name / "ours"
-        path = folder / f"{run_label('implicit', board.model)}.xdmf"
-        if path.is_file() and not path.is_symlink() and is_ours(folder):
-            series = read_series(path)
-            if len(series.times) == case["steps"] + 1 and len(series.points) == case["nodes"]:
-                return series
-    with tempfile.TemporaryDirectory(prefix="tissuebench-reference-") as tmp:
-        posed = Path(tmp) / f"{board.name}.json"
-        export(
-            board.benchmark,
-            "json",
-            posed,
-            mesh_size=board.mesh_size or get_entry(board.benchmark).mesh_size,
-            options=dict(board.options),
-            material=get_material(board.material),
-            model=board.model,
-            h=case["h"],
-            steps=case["steps"],
-            comm=MPI.COMM_SELF,
-            log=lambda line: None,
-        )
-        return read_series(reference_path(posed))
 
 
 def grade_row_reference(board: Board, row: Row, caches: Caches) -> None:
@@ -344,94 +218,6 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                         row.budget["model_how"] = CONTACT_MODEL_HOW
             log(f"{board.name}: graded against the truth {case}")
         del truth
-
-
-def error_budget(
-    rows: list[Row],
-    only: list[Row] | None = None,
-    board: Board | None = None,
-    truth: TruthSamples | None = None,
-    caches: Caches | None = None,
-) -> None:
-    """The error budget (SPEC 10) of every row of a case graded against the truth, in
-    row.budget (time-mean E_i, m^gdim): total (the row against the truth), discretisation
-    (our implicit on the row's mesh against the truth), algorithm (the row against our
-    implicit on its mesh: the same-mesh column on our grid; graded here on our simplices),
-    model (none: the linear case's model is the truth's). A user's row on a mesh of its own,
-    given the case's `board` and its `truth` (TruthSamples), gets our implicit run here on that
-    mesh (workflows/user_mesh.py: all four parts, or one line on why not). Only the rows of
-    `only` when it is given (the others keep theirs); `caches` shared across rows (Caches),
-    the same numbers. Rank 0."""
-    from tissuebench.workflows.grading import grade
-
-    reference = next((r for r in rows if r.reference and r.truth), None)
-    if reference is None and (board is None or truth is None):
-        return
-    implicit = {
-        r.mesh.split(":")[0]: r
-        for r in rows
-        if reference is not None and r.label.startswith(f"{reference.label} (")
-    }
-    for row in rows if only is None else only:
-        if not row.truth:
-            continue
-        b = {"total": row.truth.get(f"{E_I}_mean")}
-        ours, how = None, None
-        if reference is not None and row.mesh == reference.mesh:  # our grid (ours, SfePy's, ...)
-            ours = reference
-            element = row.label.rsplit("-", 1)[-1] if row.source.startswith("CalculiX") else ""
-            if element and element != "C3D8":
-                how = f"our element's (Q1) on its mesh: {element} is an element we do not have"
-                b["algorithm_how"] = f"against our Q1 implicit: {element}'s difference included"
-        elif row.group and row.mesh.split(":")[0] in implicit:  # ours on simplices
-            ours = implicit[row.mesh.split(":")[0]]
-        elif row.mesh.startswith("tetrahedra, 6 per hexahedron") and "tetrahedron grid" in implicit:
-            ours = implicit["tetrahedron grid"]
-            how = (
-                "our implicit on our tetrahedron grid (6 per hexahedron on the same nodes; "
-                "the diagonals may differ)"
-            )
-        elif row.source == "user" and board is not None and truth is not None and row.series:
-            from tissuebench.workflows.user_mesh import budget_on_mesh
-
-            if caches is None:
-                parts = budget_on_mesh(board, row, truth)
-            else:  # the series read once, our implicit run once per mesh
-                try:
-                    user = caches.series(row.series, row.series_field)
-                except Exception:
-                    user = None  # budget_on_mesh reads it again and says why it cannot
-                parts = budget_on_mesh(
-                    board, row, truth, user, caches.on_mesh, caches.located_for(truth)
-                )
-            row.budget = {**b, **parts}  # our implicit on its mesh
-            continue
-        elif row.source == "user" and board is not None and truth is None:
-            how = f"the truth {board.truth} is not computed here to grade our implicit on its mesh"
-        elif row.source == "user" and row.mesh == "?":  # compare recorded no mesh
-            how = "its mesh is not known here"
-        else:
-            how = "no run of our implicit on its mesh in this case"
-        b["discretisation"] = None if ours is None else ours.truth.get(f"{E_I}_mean")
-        b["discretisation_how"] = how
-        if ours is not None and ours is reference:
-            b["algorithm"] = 0.0 if row is reference else row.errors.get(f"{E_I}_mean")
-        elif ours is row:
-            b["algorithm"] = 0.0
-        elif ours is not None:
-            try:
-                if ours.series is None or row.series is None:
-                    raise TypeError("a row without its series")  # as grade(None) would
-                g = grade(
-                    ours.series, row.series, comm=MPI.COMM_SELF, candidate_field=row.series_field
-                )
-                b["algorithm"] = summarized(g.curves[E_I])[1]
-                b["algorithm_how"] = f"against {ours.label}"
-            except Exception as exc:
-                b["algorithm"] = None
-                b["algorithm_how"] = f"not graded: {type(exc).__name__}"
-        b["model"] = None
-        row.budget = b
 
 
 def grade_users(
@@ -655,10 +441,3 @@ def _grade_shared(
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error
-
-
-def complete(budget: dict) -> bool:
-    """Whether an error budget holds all four parts as finite numbers."""
-    return all(
-        finite(budget.get(part)) for part in ("total", "discretisation", "algorithm", "model")
-    )

@@ -23,7 +23,8 @@ from tissuebench.workflows.reports.common import (
     read_deformation,
 )
 from tissuebench.workflows.reports.divergence import divergences
-from tissuebench.workflows.reports.model_figures import SHAPE_ALGORITHM, SHAPE_MODELS, static_tips
+from tissuebench.workflows.reports.model_runs import SHAPE_ALGORITHM, SHAPE_MODELS
+from tissuebench.workflows.reports.tip_path import static_tips
 from tissuebench.workflows.summary import CaseSummary
 
 

@@ -5,7 +5,7 @@ Variants (dynamic procedure, on the export's own nodes and cells):
 - `hht-ELEMENT`: ALPHA=-0.05, CalculiX's default HHT-alpha, which damps high frequencies;
 with ELEMENT C3D8 (full integration), C3D8I (incompatible modes), C3D8R (reduced
 integration, hourglass control) and C3D20R (20-node hexahedra, reduced integration: the
-export's hexahedra with a node added at the middle of every edge, io/calculix.py's
+export's hexahedra with a node added at the middle of every edge, io/calculix_deck.py's
 quadratic_hexahedra; graded at the corners, which are the export's nodes) in 3D; CPE4 and
 CPE4R in plane strain (CPS4, CPS4R in plane stress). The models `linear`, `svk` and
 `neo-hookean` (NLGEOM); the static procedure has one `static-ELEMENT` per element.
@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.io.calculix import ELEMENTS, SECOND_ORDER, quadratic_hexahedra
+from tissuebench.workflows.io.calculix_deck import ELEMENTS, SECOND_ORDER, quadratic_hexahedra
 from tissuebench.workflows.simulators import ExternalRun, calculix_contact, given
 
 NAME = "calculix"
@@ -68,7 +68,7 @@ def version() -> str:
 
 
 def elements(data) -> tuple[str, ...]:
-    """The deck's elements that pose this export (io/calculix.py's ELEMENTS)."""
+    """The deck's elements that pose this export (io/calculix_deck.py's ELEMENTS)."""
     plane = None if data.dim == 3 else (data.plane or "strain")
     return tuple(e for e, (dim, p) in ELEMENTS.items() if dim == data.dim and p == plane)
 
@@ -117,7 +117,7 @@ def variants(data) -> dict[str, str]:
 
 
 def elastic(data) -> str:
-    """How the deck takes the export's E and nu (io/calculix.py's *MATERIAL), with values."""
+    """How the deck takes the export's E and nu (io/calculix_deck.py's *MATERIAL), with values."""
     m = data.material
     if data.model == "neo-hookean":
         kappa = m.lmbda + 2 * m.mu / 3
@@ -147,7 +147,7 @@ def skipped(data) -> dict[str, str]:
 def run(data, variant: str, workdir: Path) -> ExternalRun:
     """Write the deck of this variant to workdir/job.inp, run ccx on it, and return its
     .frd (DISP) as the series."""
-    from tissuebench.workflows.io.calculix import write_inp
+    from tissuebench.workflows.io.calculix_deck import write_inp
 
     if data.contact is not None:
         return calculix_contact.run(data, variant, workdir)
