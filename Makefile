@@ -26,7 +26,7 @@ test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(MAKE) --no-print-directory typecheck
-	$(BIN)/pytest
+	$(BIN)/pytest -n auto --dist loadfile --no-loadscope-reorder
 	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
 
 # mypy on the package, configured in pyproject.toml ([tool.mypy]). The code folders install as
