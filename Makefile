@@ -28,7 +28,7 @@ test: setup
 	$(BIN)/ruff format --check .
 	$(MAKE) --no-print-directory imports
 	$(MAKE) --no-print-directory typecheck
-	$(BIN)/pytest
+	$(BIN)/pytest -n auto --dist loadfile --no-loadscope-reorder
 	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
 
 # The package as it installs, tissuebench.*, as one tree of folders: the code folders install

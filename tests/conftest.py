@@ -1,7 +1,10 @@
 """The suite runs in serial (`pytest`) and, for the tests that are parallel-safe, under MPI
 (`mpiexec -n 2 pytest -m "not serial"`), as DOLFINx's own CI does. Tests marked `serial` drive
 subprocesses (the command line, or the serial-versus-mpiexec scripts) and run in serial only;
-every other test is collective and allreduces before asserting.
+every other test is collective and allreduces before asserting. `make test` runs the serial
+pass in one process per core (pytest-xdist, `-n auto --dist loadfile`, a test file to a
+process): each has its own tmp_path, and the caches they share (compiled forms and kernels, the
+default truth cache) are put in place atomically or under a lock, as for the ranks of mpiexec.
 
 The time estimates are the measured ones in every test and in the commands they start
 (TISSUEBENCH_SLOWDOWN=1: not scaled by this machine's load, core/speed.py), so that their text
@@ -21,9 +24,18 @@ def pytest_configure(config):
     config.addinivalue_line(
         "markers", "serial: runs in serial only (subprocesses, or serial-only checks)"
     )
+    config.addinivalue_line(
+        "markers",
+        "slow: in a test file of a minute or more in all: its file runs first, so that no process "
+        "of the serial pass is left with it at the end",
+    )
 
 
 def pytest_collection_modifyitems(config, items):
+    # the files with a slow test first (with --dist loadfile --no-loadscope-reorder: handed out
+    # first), each file's tests in their order
+    slow = {item.path for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: item.path not in slow)
     if MPI.COMM_WORLD.size == 1:
         return
     skip = pytest.mark.skip(reason="serial-only test, skipped under mpiexec")

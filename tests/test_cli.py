@@ -21,7 +21,7 @@ COLUMNS = [
     "status",
 ]
 
-pytestmark = pytest.mark.serial  # drives the command line in subprocesses
+pytestmark = [pytest.mark.serial, pytest.mark.slow]  # drives the command line in subprocesses
 
 
 def read_metrics(path):

@@ -19,6 +19,8 @@ from tissuebench.meshes.benchmark import check_load_scale
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.solvers.materials import LARGEST, SMALLEST, Material, MaterialError
 
+pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it first
+
 ROD = ("rod", "--mesh-size", 2, "--end-time", 0.1)  # 3 steps of 1/30 s
 # CG + Jacobi with one iteration cannot solve M a0 = f: the initial state (step 0) fails
 MASS_FAILS = "-{}_mass_ksp_max_it 1"

@@ -44,6 +44,8 @@ from pathlib import Path
 import pytest
 from helpers import job
 
+pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it first
+
 ROOT = Path(__file__).resolve().parents[1]
 HEADING = "## Commands"
 SIZES = {"block": 4, "rod": 2}  # at most, for --mesh-size

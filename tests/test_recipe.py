@@ -26,6 +26,8 @@ from pathlib import Path
 import pytest
 from helpers import job
 
+pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it first
+
 ROOT = Path(__file__).resolve().parents[1]
 HEADING = "### Grade your own simulator"
 SOLVER = Path(__file__).with_name("recipe_solver.py")

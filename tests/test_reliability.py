@@ -23,7 +23,7 @@ from test_cli import curves, statuses
 SMALL = ("--mesh-size", 4, "--end-time", 0.1)
 DIVERGING_REFERENCE = "-implicit_ksp_type cg -implicit_pc_type none -implicit_ksp_max_it 1"
 
-pytestmark = pytest.mark.serial  # drives the command line in subprocesses
+pytestmark = [pytest.mark.serial, pytest.mark.slow]  # drives the command line in subprocesses
 
 
 def one_line_error(result, status=2):

@@ -11,7 +11,7 @@ from helpers import tissuebench
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows.mesh_sensitivity import MARKER, QUICK
 
-pytestmark = pytest.mark.serial  # subprocesses, serial and under mpiexec
+pytestmark = [pytest.mark.serial, pytest.mark.slow]  # subprocesses, serial and under mpiexec
 
 
 def rows(folder):

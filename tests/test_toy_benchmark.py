@@ -17,6 +17,8 @@ from tissuebench.meshes import BENCHMARKS
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.workflows.cli import main
 
+pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it first
+
 
 @pytest.fixture(scope="module")
 def plate():

@@ -20,7 +20,7 @@ from test_newcomer_truth_cache import synthetic
 from tissuebench.solvers.truth import store
 from tissuebench.solvers.truth.samples import TruthSamples
 
-pytestmark = pytest.mark.serial  # other processes hold the locks
+pytestmark = [pytest.mark.serial, pytest.mark.slow]  # other processes hold the locks
 
 
 @pytest.fixture
