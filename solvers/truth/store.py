@@ -181,11 +181,12 @@ class _Numerics(ast.NodeTransformer):
         return self.generic_visit(node)
 
 
-def _code(sources: tuple[str, ...] = SOURCES) -> str:
-    """The SHA-256 of the truth's sources (SOURCES), in order: of their code, not of their
-    text, so that moving an import, a docstring, a type hint or the layout keeps the cache."""
+def _code(sources: tuple[str, ...] | None = None) -> str:
+    """The SHA-256 of the truth's sources (`sources`, default SOURCES), in order: of their
+    code, not of their text, so that moving an import, a docstring, a type hint or the layout
+    keeps the cache."""
     digest = hashlib.sha256()
-    for name in sources:
+    for name in SOURCES if sources is None else sources:
         tree = _Numerics().visit(ast.parse((PACKAGE / name).read_text()))
         digest.update(name.encode())
         digest.update(ast.dump(tree).encode())
