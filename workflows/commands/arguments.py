@@ -11,14 +11,6 @@ from tissuebench.meshes.benchmark import CELLS, MESHES, Entry
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.linear import SOLVERS
 from tissuebench.solvers.models import LINEAR
-from tissuebench.workflows.checks import (  # noqa: F401 (commands/run.py imports them from here)
-    benchmark_options,
-    check_common,
-    check_models_plane,
-    parse_algorithms,
-    parse_models,
-    positive,
-)
 
 
 def truth_case(text: str, all_too: bool = False) -> str:

@@ -11,16 +11,18 @@ from tissuebench.meshes import BENCHMARKS, get_entry
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR
-from tissuebench.workflows.commands.arguments import (
-    add_benchmark_options,
-    add_common,
-    add_scheme_options,
+from tissuebench.workflows.checks import (
     benchmark_options,
     check_common,
     check_models_plane,
     parse_algorithms,
     parse_models,
     positive,
+)
+from tissuebench.workflows.commands.arguments import (
+    add_benchmark_options,
+    add_common,
+    add_scheme_options,
     scheme_options,
 )
 from tissuebench.workflows.phases import phase_lines
