@@ -43,10 +43,12 @@ def test_a_first_run_says_which_truths_it_computes_and_how_long(cache):
         f"paper's cases (about 13 min in all on one core); later runs read them from "
         f"{store.cache_dir()}"
     )
-    # two at a time: the longest, block-MP2-w0.2 (559 s), bounds the wall time from below
-    assert "computed once in this run, 2 at a time before the paper's cases (about 9 min here)" in (
-        paper_truth.first_run_line(paper_truth.missing(COMM), jobs=2)
-    )
+    # two processes: each linear case's runs side by side (split.py), one case after another,
+    # each as long as its busiest process: 0.62 x 62 + 0.54 x 146 + 0.54 x 559 s = 421 s
+    assert (
+        "computed once in this run, 2 processes at a time beside the paper's cases (about 7 min "
+        "here)"
+    ) in paper_truth.first_run_line(paper_truth.missing(COMM), jobs=2)
     store.truth_samples("rod", comm=COMM)
     assert paper_truth.missing(COMM) == ["block-MP1-w0.2", "block-MP2-w0.2"]
 
@@ -113,7 +115,7 @@ def test_the_paper_says_it_before_its_first_case(cache, tmp_path, monkeypatch, c
 
 
 @pytest.mark.serial
-def test_the_paper_computes_its_truths_side_by_side_before_its_first_case(
+def test_the_paper_starts_its_truths_side_by_side_before_its_first_case(
     cache, tmp_path, monkeypatch, capsys
 ):
     started = []
@@ -121,17 +123,24 @@ def test_the_paper_computes_its_truths_side_by_side_before_its_first_case(
     def first_case(*args, **kwargs):
         raise Started
 
-    def side_by_side(cases, quick, jobs, say):
-        started.append((list(cases), quick, jobs))
-        return []
+    class SideBySide:  # the truths' workers, started and then stopped by the signal
+        def __init__(self, cases, quick, jobs, say):
+            self.pending = list(cases)
+            started.append((list(cases), quick, jobs))
+
+        def start(self):
+            started.append("started")
+
+        def stop(self):
+            started.append("stopped")
 
     monkeypatch.setattr(paper, "run_case", first_case)
-    monkeypatch.setattr(paper, "compute_in_parallel", side_by_side)
+    monkeypatch.setattr(paper, "TruthJobs", SideBySide)
     args = argparse.Namespace(
         out=tmp_path / "results", solver="direct", petsc="", force=False, jobs=2
     )
     with pytest.raises(Started):
         paper.main(args)
-    assert started == [(list(paper_truth.TRUTHS), False, 2)]
+    assert started == [(list(paper_truth.TRUTHS), False, 2), "started", "stopped"]
     out = capsys.readouterr().out.strip().splitlines()
     assert out == [paper_truth.first_run_line(list(paper_truth.TRUTHS), jobs=2)]

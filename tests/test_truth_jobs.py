@@ -217,7 +217,7 @@ def test_truth_all_with_two_jobs_caches_what_one_at_a_time_does(tmp_path, monkey
         env_cache[jobs] = cache
         if jobs == 2:
             said = result.stdout
-            assert "truth: computing 2 cases, 2 at a time" in said
+            assert "truth: computing 2 cases, 2 processes at a time" in said
             assert said.count("truth: started ") == 2 and said.count(" s of CPU; ") == 2
             assert (
                 "[block-MP1-w0.2] block-MP1-w0.2 n=40:" in said

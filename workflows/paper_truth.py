@@ -258,16 +258,17 @@ def missing(comm: MPI.Comm = MPI.COMM_WORLD) -> list[str]:
 
 def first_run_line(names: list[str], jobs: int = 1) -> str:
     """One line before a paper whose truths are not cached: which, how long they take, and
-    whether they are computed `jobs` at a time before the paper's cases (jobs > 1) or one after
-    another after them."""
+    whether they are computed `jobs` processes at a time beside the paper's cases (jobs > 1) or
+    one after another after them."""
     from tissuebench.solvers.truth.store import cache_dir, expected_seconds, expected_words
+    from tissuebench.workflows.truth_jobs import left_seconds
 
     each = ", ".join(f"{name} ({expected_words(name)})" for name in names)
     seconds = [expected_seconds(name) for name in names]
-    if jobs > 1 and len(names) > 1:
+    if jobs > 1:
         when = (
-            f"{jobs} at a time before the paper's cases (about "
-            f"{max(sum(seconds) / jobs, max(seconds)) / 60:.0f} min here)"
+            f"{jobs} processes at a time beside the paper's cases (about "
+            f"{left_seconds(names, [], False, jobs) / 60:.0f} min here)"
         )
     else:
         when = f"after the paper's cases (about {sum(seconds) / 60:.0f} min in all on one core)"

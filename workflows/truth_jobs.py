@@ -2,7 +2,10 @@
 
 Each case runs in a worker process of its own (`tissuebench truth CASE --compute-only`, one
 rank, one BLAS/OpenMP thread), longest first, so that two cases share a 2-core machine
-instead of one leaving a core idle. A worker caches its case as `tissuebench truth CASE`
+instead of one leaving a core idle. A linear case (solvers/truth/split.py) takes every
+process free when it starts and runs its own levels and steps side by side on them (its worker
+starts one process per run, --jobs at a time), so that its longest run, not the case, sets
+its wall time. A worker caches its case as `tissuebench truth CASE`
 does (under the case's lock: any other command that needs the case waits for it and says
 so); this module only starts them, forwards their lines prefixed with the case, and says
 each one's end with an estimate of what is left. Times in seconds.
@@ -21,7 +24,8 @@ from dataclasses import dataclass, field
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.solvers.truth.store import expected_seconds
+from tissuebench.solvers.truth.split import splittable
+from tissuebench.solvers.truth.store import expected_seconds, expected_wall
 
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 POLL_SECONDS = 0.5
@@ -34,15 +38,22 @@ class Job:
 
     case: str
     process: subprocess.Popen
+    slots: int = 1  # the processes it runs at once (a linear case's runs side by side)
     started: float = field(default_factory=time.time)
     reader: threading.Thread | None = None
     stopped: bool = False  # stopped by a signal: its last lines (its own end) are not said
 
 
-def worker_command(case: str, quick: bool) -> list[str]:
-    """The command line of one case's worker."""
+def worker_command(case: str, quick: bool, slots: int = 1) -> list[str]:
+    """The command line of one case's worker, its runs `slots` at a time."""
     command = [sys.executable, "-m", "tissuebench.workflows.cli", "truth", case]
-    return command + ["--compute-only"] + (["--quick"] if quick else [])
+    return command + ["--compute-only", "--jobs", str(slots)] + (["--quick"] if quick else [])
+
+
+def slots_for(case: str, quick: bool, free: int) -> int:
+    """The processes a case takes of the `free` ones: all of them for a case whose runs go side
+    by side (solvers/truth/split.py), else one."""
+    return free if not quick and splittable(case) else 1
 
 
 def _forward(job: Job, say: Callable[[str], None]) -> None:
@@ -65,69 +76,118 @@ def ended_with_cpu(process: subprocess.Popen) -> tuple[int, float] | None:
 
 
 def left_seconds(pending: list[str], running: list[Job], quick: bool, jobs: int) -> float:
-    """About how long the cases pending and running still take, spread over `jobs` workers: at
-    least the longest of them, which one worker computes alone."""
+    """About how long the cases pending and running still take on `jobs` processes, s: the
+    order compute_in_parallel takes them in, played out with each case's expected wall time
+    (store.expected_wall: a linear case's runs side by side on the processes it takes)."""
     now = time.time()
-    running_left = [max(expected_seconds(j.case, quick) - (now - j.started), 0.0) for j in running]
-    each = [expected_seconds(c, quick) for c in pending] + running_left
-    return max(sum(each) / jobs, max(each, default=0.0))
+    busy = [
+        (max(expected_wall(j.case, quick, j.slots) - (now - j.started), 0.0), j.slots)
+        for j in running
+    ]
+    t = 0.0
+    for case in pending:
+        while sum(slots for _, slots in busy) >= jobs:  # until the first to end frees its own
+            busy.sort()
+            t = max(t, busy.pop(0)[0])
+        slots = slots_for(case, quick, jobs - sum(n for _, n in busy))
+        busy.append((t + expected_wall(case, quick, slots), slots))
+    return max((end for end, _ in busy), default=0.0)
+
+
+class TruthJobs:
+    """The workers of `cases`, `jobs` processes at a time (longest first), driven from outside:
+    start() says the plan and starts the first; poll() starts and reaps workers (call it often,
+    as between a paper's cases); wait() polls until every worker has ended and returns the cases
+    whose worker failed (each said in one line with its exit code); stop() ends those still
+    running (a signal stopped the parent)."""
+
+    def __init__(self, cases: list[str], quick: bool, jobs: int, say: Callable[[str], None]):
+        self.pending = sorted(cases, key=lambda c: -expected_seconds(c, quick))
+        self.quick, self.jobs, self.say = quick, jobs, say
+        self.env = {
+            **os.environ,
+            "TISSUEBENCH_PROGRESS_BARS": "0",
+            **dict.fromkeys(THREAD_VARS, "1"),
+        }
+        self.total = len(self.pending)
+        self.running: list[Job] = []
+        self.failed: list[str] = []
+        self.done = 0
+        self.started = time.time()
+
+    def start(self) -> None:
+        left = left_seconds(self.pending, [], self.quick, self.jobs)
+        self.say(
+            f"truth: computing {self.total} cases, {self.jobs} processes at a time, longest "
+            f"first (about {left / 60:.0f} min here): {', '.join(self.pending)}"
+        )
+        self.started = time.time()
+        self.poll()
+
+    def _launch(self) -> None:
+        while self.pending and sum(j.slots for j in self.running) < self.jobs:
+            case = self.pending.pop(0)
+            slots = slots_for(case, self.quick, self.jobs - sum(j.slots for j in self.running))
+            process = subprocess.Popen(
+                worker_command(case, self.quick, slots),
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+                env=self.env,
+            )
+            job = Job(case, process, slots)
+            job.reader = threading.Thread(target=_forward, args=(job, self.say), daemon=True)
+            job.reader.start()
+            self.running.append(job)
+            runs = f", its runs {slots} at a time" if slots > 1 else ""
+            about = expected_wall(case, self.quick, slots)
+            self.say(f"truth: started {case} (about {about:.0f} s{runs})")
+
+    def poll(self) -> bool:
+        """Reap the workers that ended and start the next; whether any is left."""
+        for job in list(self.running):
+            ended = ended_with_cpu(job.process)
+            if ended is None:
+                continue
+            code, cpu = ended
+            self.running.remove(job)
+            if job.reader is not None:
+                job.reader.join()
+            self.done += 1
+            if code != 0:
+                self.failed.append(job.case)
+            left = left_seconds(self.pending, self.running, self.quick, self.jobs)
+            self.say(
+                f"truth: {job.case} {'done' if code == 0 else f'FAILED (exit {code})'} in "
+                f"{time.time() - job.started:.0f} s ({cpu:.0f} s of CPU; {self.done} of "
+                f"{self.total}, {time.time() - self.started:.0f} s in all; "
+                f"about {left / 60:.0f} min left)"
+            )
+        self._launch()
+        return bool(self.pending or self.running)
+
+    def wait(self) -> list[str]:
+        while self.poll():
+            time.sleep(POLL_SECONDS)
+            interrupt.checkpoint(MPI.COMM_SELF)
+        return self.failed
+
+    def stop(self) -> None:
+        stop(self.running)
+        self.running = []
 
 
 def compute_in_parallel(
     cases: list[str], quick: bool, jobs: int, say: Callable[[str], None]
 ) -> list[str]:
-    """Compute and cache `cases`, `jobs` at a time (longest first); returns the cases whose
-    worker failed (each said in one line with its exit code)."""
-    pending = sorted(cases, key=lambda c: -expected_seconds(c, quick))
-    env = {**os.environ, "TISSUEBENCH_PROGRESS_BARS": "0", **dict.fromkeys(THREAD_VARS, "1")}
-    start = time.time()
-    total = len(pending)
-    say(
-        f"truth: computing {total} cases, {jobs} at a time, longest first "
-        f"(about {left_seconds(pending, [], quick, jobs) / 60:.0f} min here): {', '.join(pending)}"
-    )
-    running: list[Job] = []
-    failed: list[str] = []
-    done = 0
+    """Compute and cache `cases`, `jobs` processes at a time (longest first); returns the cases
+    whose worker failed (each said in one line with its exit code)."""
+    work = TruthJobs(cases, quick, jobs, say)
     try:
-        while pending or running:
-            while pending and len(running) < jobs:
-                case = pending.pop(0)
-                process = subprocess.Popen(
-                    worker_command(case, quick),
-                    stdout=subprocess.PIPE,
-                    stderr=subprocess.STDOUT,
-                    text=True,
-                    env=env,
-                )
-                job = Job(case, process)
-                job.reader = threading.Thread(target=_forward, args=(job, say), daemon=True)
-                job.reader.start()
-                running.append(job)
-                say(f"truth: started {case} (about {expected_seconds(case, quick):.0f} s)")
-            time.sleep(POLL_SECONDS)
-            interrupt.checkpoint(MPI.COMM_SELF)
-            for job in list(running):
-                ended = ended_with_cpu(job.process)
-                if ended is None:
-                    continue
-                code, cpu = ended
-                running.remove(job)
-                if job.reader is not None:
-                    job.reader.join()
-                done += 1
-                if code != 0:
-                    failed.append(job.case)
-                took = time.time() - job.started
-                say(
-                    f"truth: {job.case} {'done' if code == 0 else f'FAILED (exit {code})'} in "
-                    f"{took:.0f} s ({cpu:.0f} s of CPU; {done} of {total}, "
-                    f"{time.time() - start:.0f} s in all; "
-                    f"about {left_seconds(pending, running, quick, jobs) / 60:.0f} min left)"
-                )
+        work.start()
+        return work.wait()
     finally:
-        stop(running)
-    return failed
+        work.stop()
 
 
 def stop(running: list[Job]) -> None:

@@ -53,6 +53,7 @@ from tissuebench.solvers.truth.estimate import estimate_error, interior_differen
 from tissuebench.solvers.truth.floor import FLOOR_CASES, FLOOR_RTOL, FloorTruth
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import MIXED_NU, VOLUMETRIC, Truth, TruthRun
+from tissuebench.solvers.truth.split import compute_split, split_share, splittable
 
 SAMPLING = 2  # the version of sample() and compute(): part of the inputs (the cache key)
 QUADRATURE_POINTS = 3  # Gauss-Legendre points per direction (metrics/crossmesh.py's rule)
@@ -660,9 +661,19 @@ def compute(
 TEMPORARY = re.compile(r"\..+\.npz\.(?P<pid>\d+)\.tmp\.npz")  # TruthSamples.save's temporary
 
 
-def expected_words(case: str, quick: bool = False) -> str:
-    """How long the first computation of a case takes here, in words ("about 3 min")."""
-    minutes = expected_seconds(case, quick) / 60
+def expected_wall(case: str, quick: bool = False, jobs: int = 1) -> float:
+    """About how long the first computation of a case takes here, s, its runs `jobs` at a time
+    where it is splittable (split.py: the longest runs first), else on one core."""
+    seconds = expected_seconds(case, quick)
+    if jobs > 1 and not quick and splittable(case):
+        return seconds * split_share(levels_of(case, quick), CASES[case][0], jobs)
+    return seconds
+
+
+def expected_words(case: str, quick: bool = False, jobs: int = 1) -> str:
+    """How long the first computation of a case takes here, in words ("about 3 min"), its runs
+    `jobs` at a time where it is splittable."""
+    minutes = expected_wall(case, quick, jobs) / 60
     return f"about {minutes:.0f} min" if minutes >= 1.5 else f"about {60 * minutes:.0f} s"
 
 
@@ -1037,12 +1048,14 @@ def truth_samples(
     quick: bool = False,
     comm: MPI.Comm = MPI.COMM_WORLD,
     log: Callable[[str], None] | None = None,
+    jobs: int = 1,
 ) -> TruthSamples | None:
     """The TruthSamples of a SPEC 10 case, from the cache or computed (and then cached): on
     rank 0, None elsewhere. Collective. `log(line)` (rank 0) hears where it comes from and,
     before a computation, how long it is expected to take; an unreadable cache file is said in
     one line (to `log`, else stderr) and computed again. UserError for a case that has no
-    truth."""
+    truth. On one rank with jobs > 1, a linear case's runs are computed `jobs` at a time
+    (split.py: the same numbers)."""
     check_case(case)
     say = log if (log is not None and comm.rank == 0) else (lambda line: None)
     path = cache_path(case, quick) if comm.rank == 0 else None
@@ -1060,21 +1073,28 @@ def truth_samples(
         say(f"truth {case}{' (quick)' if quick else ''}: from the cache, {path}")
         return samples
     try:
-        return _compute_and_store(case, quick, comm, log, say, path, problem)
+        return _compute_and_store(case, quick, comm, log, say, path, problem, jobs)
     finally:
         if comm.rank == 0:
             _release_lock(case, quick)
 
 
-def _compute_and_store(case, quick, comm, log, say, path, problem) -> TruthSamples | None:
+def _compute_and_store(
+    case, quick, comm, log, say, path, problem, jobs: int = 1
+) -> TruthSamples | None:
     """truth_samples' computation, under the case's lock."""
     if problem:
         (log or _stderr)(f"truth {case}{' (quick)' if quick else ''}: {problem}; computed again")
+    split = jobs > 1 and comm.size == 1 and not quick and splittable(case)
+    where = f"here, its runs {jobs} at a time" if split else "on one core here"
     say(
         f"truth {case}{' (quick)' if quick else ''}: not in the cache, computing it once "
-        f"({expected_words(case, quick)} on one core here; later runs read {path})"
+        f"({expected_words(case, quick, jobs if split else 1)} {where}; later runs read {path})"
     )
-    samples = compute(case, quick, comm, log=say)
+    if split:
+        samples = compute_split(case, quick, jobs, log=say)
+    else:
+        samples = compute(case, quick, comm, log=say)
     if samples is not None:
         judge(samples)
 

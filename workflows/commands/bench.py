@@ -16,6 +16,9 @@ neo-hookean and corotational at the paper's loads.
 remedy beside the linear one (1 rank, the full sizes unless --quick) into
 DIR/performance-explicit.md and .json, leaving DIR/performance.* alone.
 
+`--only paths` times the commands a user waits on, each whole, with the estimates they print
+(workflows/bench/paths.py), into DIR/performance-paths.md and .json.
+
 `--only leaderboard-users` times `tissuebench leaderboard` grading --users copies (200; 20
 with --quick) of one user's compare folder, serial and under `mpiexec -n 2` (--ranks 1,2),
 into DIR/performance-leaderboard.md and .json (workflows/bench/leaderboard_users.py; the
@@ -59,14 +62,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
     p.add_argument(
         "--only",
-        choices=["explicit-models", "leaderboard-users", "contact"],
+        choices=["explicit-models", "leaderboard-users", "contact", "paths"],
         default=None,
         help="explicit-models: only the explicit-lumped step with each elastic model and "
         "remedy against the linear one (1 rank), into DIR/performance-explicit.md and .json, "
         "leaving DIR/performance.* alone; leaderboard-users: only `tissuebench leaderboard` "
         "grading --users user rows on each of --ranks, into DIR/performance-leaderboard.md "
         "and .json; contact: only the explicit-lumped step with the needle as contact against "
-        "it glued (SPEC 12), into DIR/performance-contact.md and .json",
+        "it glued (SPEC 12), into DIR/performance-contact.md and .json; paths: the commands "
+        "a user waits on, each timed whole (a first and a warm `paper`, `truth rod`, `run`'s "
+        "phases, a 1e5-node `compare`, a 200-user leaderboard) with their printed estimates, "
+        "into DIR/performance-paths.md and .json (about 20 min)",
     )
     p.add_argument(
         "--users",
@@ -153,6 +159,21 @@ def leaderboard_users(args: argparse.Namespace) -> int:
         raise UserError(" ".join(str(err).split())[:2000]) from None
 
 
+def paths(args: argparse.Namespace) -> int:
+    """`tissuebench bench --only paths`: workflows/bench/paths.py (no quick form: its paths are
+    the user's, whole)."""
+    from tissuebench.workflows.bench import paths as bench
+
+    if args.quick:
+        raise UserError("--only paths has no --quick: it times the user's commands as they are")
+    out = Path(args.out) if args.out is not None else Path("results")
+    print("tissuebench bench --only paths: each command a user waits on, timed whole", flush=True)
+    try:
+        return bench.run(out, lambda line: print(line, flush=True))
+    except RuntimeError as err:
+        raise UserError(" ".join(str(err).split())[:2000]) from None
+
+
 def quick_out() -> Path:
     """Where `bench --quick` writes without --out."""
     return Path(tempfile.gettempdir()) / "tissuebench-bench-quick"
@@ -176,6 +197,8 @@ def main(args: argparse.Namespace) -> int:
         return leaderboard_users(args)
     if getattr(args, "only", None) == "contact":
         return contact(args)
+    if getattr(args, "only", None) == "paths":
+        return paths(args)
     try:
         import pyamg  # noqa: F401
         import scipy  # noqa: F401

@@ -88,8 +88,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--jobs",
         type=int,
         default=min(2, os.cpu_count() or 1),
-        help="cases computed at a time, each in a process of its own on one core (default: "
-        "the cores, at most 2; one rank only: under mpiexec the ranks share each case)",
+        help="processes at a time, one core each: cases side by side, and a linear case's "
+        "runs (its levels and steps) side by side (default: the cores, at most 2; one rank "
+        "only: under mpiexec the ranks share each case)",
     )
     # a worker of --jobs: compute and cache the cases, write no report
     p.add_argument("--compute-only", action="store_true", help=argparse.SUPPRESS)
@@ -123,8 +124,9 @@ def main(args: argparse.Namespace) -> int:
     if args.jobs < 1:
         raise UserError(f"--jobs must be at least 1, not {args.jobs}")
     if args.compute_only:  # a worker of --jobs
+        jobs = args.jobs if comm.size == 1 else 1  # a linear case's runs side by side
         for case in cases:
-            truth_samples(case, args.quick, comm, log=lambda line: print(line, flush=True))
+            truth_samples(case, args.quick, comm, lambda line: print(line, flush=True), jobs)
         return 0
     out = args.out
     check_writable(out, comm, owned=[f"{NAME}.md", f"{NAME}.csv"])
@@ -152,7 +154,8 @@ def main(args: argparse.Namespace) -> int:
     for case in CASES:
         if case in cases and case not in failed:
             try:
-                samples = truth_samples(case, args.quick, comm, log=say)
+                jobs = args.jobs if comm.size == 1 else 1  # a linear case's runs side by side
+                samples = truth_samples(case, args.quick, comm, log=say, jobs=jobs)
             except RuntimeError as err:  # a Newton solve that failed: kept as evidence
                 say(f"truth {case}: FAILED: {err} (where: truth.md)")
                 failed.append(case)

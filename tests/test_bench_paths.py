@@ -1,0 +1,98 @@
+"""The bench of the user's paths (workflows/bench/paths.py): a command timed whole with its
+lines, the estimates it printed read back and set beside the times they estimated, and the
+report's verdicts, on commands and lines made here."""
+
+import sys
+
+import pytest
+
+from tissuebench.workflows.bench.paths import (
+    ESTIMATE_FACTOR,
+    Timed,
+    estimates,
+    report,
+    seconds_of,
+    timed,
+)
+
+pytestmark = pytest.mark.serial  # subprocesses
+
+
+def test_timed_keeps_lines_in_order_with_their_times():
+    said: list[str] = []
+    code = "import time; print('a', flush=True); time.sleep(0.3); print('b'); raise SystemExit(3)"
+    record = timed("probe", [sys.executable, "-c", code], {}, said.append)
+    assert record.code == 3
+    assert [line for _, line in record.lines] == ["a", "b"]
+    (ta, _), (tb, _) = record.lines
+    assert tb - ta >= 0.25 and record.wall_s >= tb  # b came after the sleep, before the end
+    assert said[-1].startswith("probe: ") and "(exit 3)" in said[-1]
+
+
+def test_seconds_of():
+    assert seconds_of("(about 62 s here)") == 62.0
+    assert seconds_of("x (about 7 min here); later") == 420.0
+    assert seconds_of("no estimate") is None
+
+
+def test_estimates_read_from_a_paper_and_a_truth():
+    paper = Timed("paper, empty truth cache", ["paper"], wall_s=700.0)
+    paper.lines = [
+        (
+            1.0,
+            "paper: the truths rod (about 1 min) are not cached on this machine: computed "
+            "once in this run, 2 processes at a time before the paper's cases (about 7 min here); "
+            "later runs read /c",
+        ),
+        (1.5, "truth: started block-MP2-w0.2 (about 300 s, its runs 2 at a time)"),
+        (
+            2.0,
+            "  [block-MP2-w0.2] truth block-MP2-w0.2: not in the cache, computing it once "
+            "(about 5 min here, its runs 2 at a time; later runs read /c)",
+        ),
+        (360.0, "truth: block-MP2-w0.2 done in 358 s (700 s of CPU; 1 of 1, 358 s in all)"),
+        (600.0, "paper: done"),
+    ]
+    found = {e["what"]: e for e in estimates(paper)}
+    # the worker's own line is not the paper's: only the truth and the paper's truths
+    assert set(found) == {"truth block-MP2-w0.2", "paper's truths"}
+    assert found["truth block-MP2-w0.2"]["ratio"] == pytest.approx(358 / 300)
+    assert found["paper's truths"]["about_s"] == 420.0
+    assert found["paper's truths"]["took_s"] == 360.0  # to its last truth's end
+    assert all(e["holds"] for e in found.values())
+
+    truth = Timed("truth rod, empty cache", ["truth"], wall_s=100.0)
+    truth.lines = [(0.5, "truth rod: not in the cache, computing it once (about 40 s here, x)")]
+    (e,) = estimates(truth)
+    assert e["ratio"] == pytest.approx(2.5) and not e["holds"]  # beyond ESTIMATE_FACTOR
+    assert ESTIMATE_FACTOR < 2.5
+
+
+def test_report_says_targets_met_or_not():
+    record = {
+        "name": "paper, empty truth cache",
+        "argv": [],
+        "code": 0,
+        "wall_s": 500.0,
+        "lines": [],
+        "load_before": (1.0, 1.0, 1.0),
+        "load_after": (2.0, 1.0, 1.0),
+    }
+    runs = {
+        "run rod --no-figures": {
+            "phases_s": {"mesh": 0.1, "run implicit": 1.0},
+            "loop_s": 1.0,
+            "outside_s": 3.0,
+        }
+    }
+    text = report(
+        {"when": "now", "slowdown": 1.0, "records": [record], "estimates": [], "runs": runs}, "m"
+    )
+    assert "| paper, empty truth cache | 500.0 | 480 | NOT met | ok | 1.0 / 2.0 |" in text
+    assert "NOT met (at most 3.0 s)" in text
+    record["wall_s"] = 479.0
+    runs["run rod --no-figures"]["outside_s"] = 1.5
+    text = report(
+        {"when": "now", "slowdown": 1.0, "records": [record], "estimates": [], "runs": runs}, "m"
+    )
+    assert "| 479.0 | 480 | met |" in text and "--no-figures: met." in text

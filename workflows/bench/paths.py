@@ -1,0 +1,291 @@
+"""The paths a user waits on, each timed as a whole command, in one run (issue 46):
+`tissuebench bench --only paths [--out results]` writes OUT/performance-paths.md and .json.
+
+In order, each in a process of its own (the venv's tissuebench), its output read line by line
+with the time each line came:
+
+1. `truth rod` from an empty truth cache (a folder of the run's own);
+2. `paper` from an empty truth cache (another), as a first `make paper` is: its truths
+   computed first, --jobs at a time, then the study; and `paper` again into a new folder, warm
+   (its truths cached, its forms compiled);
+3. `run rod` and `run block` (the paper's rod and block, their defaults), warm: with
+   --no-figures and with figures, their phases (summary.json's phases_s) split into the time
+   loops ("run ...") and the rest;
+4. `compare truth:rod CANDIDATE` of a candidate of about 1e5 nodes (the rod's hexahedra at
+   n = 36, 99,937 nodes, a synthesised series at the truth's 301 steps:
+   workflows/bench/grading.py's);
+5. `leaderboard` grading 200 users' rows (workflows/bench/leaderboard_users.py, one rank).
+
+Every estimate a command printed ("about N s", "about N min") is set beside the time it
+estimated: `truth`'s for its computation (its wall time), `paper`'s for its truths (from its
+start to its last truth's end) and each truth's (its worker's own line "done in T s"). The
+machine's speed (core/speed.py's slowdown, which scales every estimate) and load average are
+recorded around each command. Targets: TARGETS; estimates hold within ESTIMATE_FACTOR.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+NAMES = ("performance-paths.json", "performance-paths.md")
+ESTIMATE_FACTOR = 1.5  # an estimate holds if the time is within this factor of it, either way
+TARGETS = {  # s
+    "paper, empty truth cache": 480.0,
+    "run, outside the loop (warm, --no-figures)": 2.0,
+}
+ABOUT = re.compile(r"about (\d+(?:\.\d+)?) (s|min)\b")
+STARTED = re.compile(r"truth: started (\S+) \(about (\d+(?:\.\d+)?) s")
+DONE = re.compile(r"truth: (\S+) done in (\d+(?:\.\d+)?) s")
+CANDIDATE_N = 36  # the rod's mesh size of the 1e5-node candidate: (2n+1)(n+1)^2 = 99,937 nodes
+USERS = 200
+
+
+@dataclass
+class Timed:
+    """One command: its argv, exit code, wall time (s), lines with their time (s from its
+    start) and the load average (1, 5, 15 min) before and after."""
+
+    name: str
+    argv: list[str]
+    code: int = 0
+    wall_s: float = 0.0
+    lines: list[tuple[float, str]] = field(default_factory=list)
+    load_before: tuple[float, ...] = ()
+    load_after: tuple[float, ...] = ()
+
+
+def tissuebench() -> str:
+    """The tissuebench beside this Python (the venv's), else on PATH."""
+    here = Path(sys.executable).parent / "tissuebench"
+    return str(here) if here.exists() else shutil.which("tissuebench") or "tissuebench"
+
+
+def timed(name: str, argv: list[str], env: dict[str, str], log: Callable[[str], None]) -> Timed:
+    """Run argv to its end, its output (stdout and stderr) line by line with their times; each
+    line also to log, prefixed with the name."""
+    record = Timed(name, argv, load_before=os.getloadavg())
+    start = time.perf_counter()
+    env = {**env, "PYTHONUNBUFFERED": "1", "TISSUEBENCH_PROGRESS_BARS": "0"}
+    with subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+    ) as process:
+        assert process.stdout is not None
+        for line in process.stdout:
+            line = line.rstrip()
+            if line:
+                record.lines.append((time.perf_counter() - start, line))
+                log(f"  [{name}] {line}")
+    record.code = process.returncode
+    record.wall_s = time.perf_counter() - start
+    record.load_after = os.getloadavg()
+    log(f"{name}: {record.wall_s:.1f} s (exit {record.code})")
+    return record
+
+
+def seconds_of(text: str) -> float | None:
+    """The first "about N s" or "about N min" of a line, in s; None without one."""
+    found = ABOUT.search(text)
+    if found is None:
+        return None
+    return float(found[1]) * (60.0 if found[2] == "min" else 1.0)
+
+
+def estimates(record: Timed) -> list[dict]:
+    """The estimates a command printed, each with the time it estimated (s): a `truth`'s
+    computation ("computing it once (about ...)": the command's wall time), a `paper`'s truths
+    ("the truths ... are not cached": its start to its last truth's end) and each truth of
+    those ("truth: started CASE (about N s": its "done in T s")."""
+    found: list[dict[str, Any]] = []
+    started: dict[str, float] = {}
+    last_done = None
+    for at, line in record.lines:
+        if (hit := STARTED.search(line)) is not None:
+            started[hit[1]] = float(hit[2])
+        elif (hit := DONE.search(line)) is not None:
+            last_done = at
+            if hit[1] in started:
+                found.append(
+                    {"what": f"truth {hit[1]}", "about_s": started[hit[1]], "took_s": float(hit[2])}
+                )
+    for _, line in record.lines:
+        if record.name.startswith("truth") and "computing it once (about" in line:
+            found.append(
+                {"what": record.name, "about_s": seconds_of(line), "took_s": record.wall_s}
+            )
+        if line.startswith("paper: the truths") and last_done is not None:
+            about = seconds_of(line.rsplit("(", 1)[-1])
+            found.append({"what": "paper's truths", "about_s": about, "took_s": last_done})
+    for e in found:
+        ratio = e["took_s"] / e["about_s"] if e["about_s"] else None
+        e["ratio"] = ratio
+        e["holds"] = ratio is not None and 1 / ESTIMATE_FACTOR <= ratio <= ESTIMATE_FACTOR
+    return found
+
+
+def phases(folder: Path) -> dict:
+    """A run folder's phases (summary.json's phases_s, s): the loops ("run ...") and the rest."""
+    times = json.loads((folder / "summary.json").read_text()).get("phases_s") or {}
+    loop = sum(v for k, v in times.items() if k.startswith("run "))
+    return {"phases_s": times, "loop_s": loop, "outside_s": sum(times.values()) - loop}
+
+
+def candidate(folder: Path) -> Path:
+    """The 1e5-node candidate: the rod at n = CANDIDATE_N, 301 steps of h (grading.py's late
+    series)."""
+    import numpy as np
+
+    from tissuebench.workflows.bench import grading
+
+    mesh = grading.rod(CANDIDATE_N)
+    assert mesh is not None  # one process: its rank 0
+    points, cells = mesh
+    path = folder / "candidate.xdmf"
+    grading.write(path, points, cells, "hexahedron", np.arange(301) * grading.H, late=True)
+    return path
+
+
+def measure(work: Path, log: Callable[[str], None]) -> dict:
+    """Every path, timed in work (caches and outputs there)."""
+    from tissuebench.core.speed import slowdown
+    from tissuebench.workflows.bench import leaderboard_users
+
+    tb = tissuebench()
+    slow = slowdown()
+    log(f"machine speed: the probe takes {slow:.2f} x its time where the estimates were measured")
+    env = {k: v for k, v in os.environ.items() if k != "TISSUEBENCH_SLOWDOWN"}
+    first = {**env, "TISSUEBENCH_CACHE": str(work / "cache-truth")}
+    second = {**env, "TISSUEBENCH_CACHE": str(work / "cache-paper")}
+    commands = [
+        ("truth rod, empty cache", [tb, "truth", "rod", "--out", str(work / "truth")], first),
+        ("paper, empty truth cache", [tb, "paper", "--out", str(work / "paper-1")], second),
+        ("paper, warm", [tb, "paper", "--out", str(work / "paper-2")], second),
+    ]
+    records = [timed(name, argv, cache, log) for name, argv, cache in commands]
+    runs = {}
+    for benchmark in ("rod", "block"):
+        for figures in (False, True):
+            name = f"run {benchmark}" + ("" if figures else " --no-figures")
+            out = work / name.replace(" ", "_")
+            argv = [tb, "run", benchmark, "--out", str(out)] + ([] if figures else ["--no-figures"])
+            records.append(timed(name, argv, second, log))
+            if records[-1].code == 0:
+                runs[name] = phases(out)
+    path = candidate(work)
+    records.append(
+        timed(
+            "compare, 1e5-node candidate",
+            [tb, "compare", "truth:rod", str(path), "--out", str(work / "compare")],
+            second,
+            log,
+        )
+    )
+    os.environ["TISSUEBENCH_CACHE"] = second["TISSUEBENCH_CACHE"]  # the truth rod, computed
+    start, load = time.perf_counter(), os.getloadavg()
+    users = leaderboard_users.measure_users(USERS, [1], work / "users", log)
+    board = Timed(f"leaderboard, {USERS} users' rows", ["tissuebench", "leaderboard"])
+    board.wall_s = users["records"][0]["wall_s"]
+    board.load_before, board.load_after = load, os.getloadavg()
+    log(f"(the leaderboard's bench, preparation included: {time.perf_counter() - start:.0f} s)")
+    records.append(board)
+    return {
+        "when": time.strftime("%Y-%m-%d %H:%M %Z"),
+        "slowdown": slow,
+        "records": [asdict(r) for r in records],
+        "estimates": [e for r in records for e in estimates(r)],
+        "runs": runs,
+    }
+
+
+def _row(record: dict) -> str:
+    target = TARGETS.get(record["name"])
+    met = "" if target is None else ("met" if record["wall_s"] <= target else "NOT met")
+    return (
+        f"| {record['name']} | {record['wall_s']:.1f} | {'' if target is None else f'{target:g}'}"
+        f" | {met} | {'ok' if record['code'] == 0 else f'exit {record["code"]}'} | "
+        f"{record['load_before'][0]:.1f} / {record['load_after'][0]:.1f} |"
+    )
+
+
+def report(result: dict, machine: str) -> str:
+    """performance-paths.md from measure()'s result."""
+    lines = [
+        "# The paths a user waits on",
+        "",
+        f"`tissuebench bench --only paths` ({result['when']}; {machine}). Each path is one whole "
+        "command in a process of its own, from its start to its end, in one run; the machine's "
+        f"probe (core/speed.py) took {result['slowdown']:.2f} times its time on the machine the "
+        "estimates were measured on, and every printed estimate is scaled by it. The load "
+        "average (1 min) before and after each says how busy the 2 cores were.",
+        "",
+        "| path | wall s | target s | | exit | load before / after |",
+        "|---|---:|---:|---|---|---|",
+        *(_row(r) for r in result["records"]),
+        "",
+        "## Where `run` spends its time (warm: forms compiled, the truth cached)",
+        "",
+        "| command | time loops s | the rest s | phases (s) |",
+        "|---|---:|---:|---|",
+    ]
+    target = TARGETS["run, outside the loop (warm, --no-figures)"]
+    for name, r in result["runs"].items():
+        each = ", ".join(f"{k} {v:.2f}" for k, v in r["phases_s"].items())
+        lines.append(f"| {name} | {r['loop_s']:.2f} | {r['outside_s']:.2f} | {each} |")
+    outside = [r["outside_s"] for name, r in result["runs"].items() if "no-figures" in name]
+    if outside:
+        lines += [
+            "",
+            f"Target: the rest at most {target:g} s with --no-figures: "
+            + ("met" if max(outside) <= target else f"NOT met (at most {max(outside):.1f} s)")
+            + ".",
+        ]
+    lines += [
+        "",
+        "## Estimates against the times they estimated",
+        "",
+        f"An estimate holds if the time is within a factor {ESTIMATE_FACTOR:g} of it.",
+        "",
+        "| estimate of | about s | took s | took / about | holds |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for e in result["estimates"]:
+        ratio = "" if e["ratio"] is None else f"{e['ratio']:.2f}"
+        lines.append(
+            f"| {e['what']} | {e['about_s']:.0f} | {e['took_s']:.0f} | {ratio} | "
+            f"{'yes' if e['holds'] else 'NO'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def run(out: Path | None, log: Callable[[str], None] = print) -> int:
+    """The benchmark, in a temporary folder removed after; its report printed and, with out,
+    written to OUT/performance-paths.md and .json."""
+    from tissuebench.workflows.leaderboard.figures import machine
+    from tissuebench.workflows.output import check_writable, write_owned
+
+    if out is not None:
+        check_writable(out, owned=NAMES)
+    work = Path(tempfile.mkdtemp(prefix="tissuebench-paths-"))
+    try:
+        result = measure(work, log)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    result["machine"] = machine()
+    text = report(result, result["machine"])
+    log("\n" + text)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        write_owned(out / NAMES[0], lambda tmp: tmp.write_text(json.dumps(result, indent=1)))
+        write_owned(out / NAMES[1], lambda tmp: tmp.write_text(text))
+        log(f"wrote {out / NAMES[1]}")
+    return 0 if all(r["code"] == 0 for r in result["records"]) else 1
