@@ -46,18 +46,16 @@ def get_integrator(
     contact = system.benchmark.contact is not None
     if elastic.linear and not contact:
         return ALGORITHMS[name].build(system, h, solver=solver)
-    scheme = getattr(system, "scheme", "standard").partition(":")[0]
-    if contact and scheme != "standard":
-        from tissuebench.solvers.schemes import SchemeError
+    from tissuebench.solvers.schemes import STANDARD, SchemeError, nonlinear_forms, scheme_of
 
-        raise SchemeError(f"scheme {scheme} with contact: contact takes the standard element")
-    if scheme != "standard" and not (scheme == "mean-dilatation" and ALGORITHMS[name].explicit):
-        from tissuebench.solvers.schemes import SchemeError
-
+    scheme = scheme_of(system)
+    if contact and scheme.name != STANDARD:
+        raise SchemeError(f"scheme {scheme.name} with contact: contact takes the standard element")
+    if not scheme.takes_nonlinear(ALGORITHMS[name].explicit):
         raise SchemeError(
-            f"scheme {scheme} with the model {model!r}: only mean-dilatation has a nonlinear "
-            "form (F-bar), with the explicit algorithms (its J_bar is not differentiated, so "
-            "Newton would have no exact tangent)"
+            f"scheme {scheme.name} with the model {model!r} and {name}: only "
+            f"{nonlinear_forms()} (F-bar's J_bar is not differentiated, so Newton would have no "
+            "exact tangent)"
         )
     if system.gdim == 2 and system.plane != "strain":
         raise ValueError(f"model {model!r} is plane strain only in 2D (SPEC 8), not plane stress")

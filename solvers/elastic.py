@@ -138,7 +138,9 @@ class ElasticForces:
             self._R_dofs = T.dofmap.list[self._cells, 0]
         dx = ufl.dx(metadata={"quadrature_degree": QUADRATURE_DEGREE})
         self.Jbar: fem.Function | None = None
-        fbar = getattr(system, "scheme", "standard").partition(":")[0] == "mean-dilatation"
+        from tissuebench.solvers.schemes import scheme_of
+
+        fbar = scheme_of(system).fbar
         self.compiled = None
         from tissuebench.solvers import compiled_forces
 

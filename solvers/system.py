@@ -83,8 +83,8 @@ class System:
         self.f_form = fem.form(self.rho * ufl.inner(self.g, w) * ufl.dx)
 
         # SPEC 11: a scheme other than the plain Q1/P1 element assembles its own K_0
-        check_cells(scheme, mesh.topology.cell_name())
         name, parameters = parse_scheme(scheme)
+        check_cells(name, mesh.topology.cell_name())
         self.scheme = scheme
         if name == STANDARD:
             self.K = dolfinx.fem.petsc.assemble_matrix(self.k_form, kind=matrix_type)

@@ -27,4 +27,5 @@ SCHEME = Scheme(
     stiffness,
     cells=("triangle", "tetrahedron"),
     description="P1 with average nodal pressure (Bonet-Burton)",
+    colour="tab:red",
 )

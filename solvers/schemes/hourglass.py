@@ -56,4 +56,5 @@ SCHEME = Scheme(
         "c_hg": Parameter(C_HG, 0.0, C_HG_MAX, "hourglass stiffness in units of the shear modulus")
     },
     description="one-point Q1 (uniform gradient) with hourglass control, TLED's element",
+    colour="tab:olive",
 )

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dolfinx import fem
 
-from tissuebench.solvers.schemes.scheme import Scheme, split_stiffness
+from tissuebench.solvers.schemes.scheme import EXPLICIT, Scheme, split_stiffness
 
 
 def stiffness(V, mu, lmbda, parameters):
@@ -25,4 +25,9 @@ SCHEME = Scheme(
     stiffness,
     cells=("quadrilateral", "hexahedron"),
     description="Q1 with the cell's mean dilatation in the volumetric part (B-bar)",
+    # F-bar, its nonlinear form: the cell's mean J is not differentiated, so Newton would have
+    # no exact tangent; the explicit algorithms need none
+    nonlinear=(EXPLICIT,),
+    fbar=True,
+    colour="tab:green",
 )

@@ -53,4 +53,5 @@ SCHEME = Scheme(
         ),
     },
     description="P1 with a lowered Poisson ratio and a volume penalty (Picinbono)",
+    colour="tab:purple",
 )

@@ -52,11 +52,21 @@ class Parameter:
         return f"{self.low:g} {low} {name} {high} {self.high:g}"
 
 
+EXPLICIT, IMPLICIT = "explicit", "implicit"  # the kinds of algorithm (Algorithm.explicit)
+
+
 @dataclass(frozen=True)
 class Scheme:
     """stiffness(V, mu, lmbda, parameters) -> K (an assembled PETSc matrix on the vector
     space V, no boundary conditions). `cells`: the cell shapes it takes; `parameters`: {name:
-    Parameter}, numbers; `description`: one line for --help and reports."""
+    Parameter}, numbers; `description`: one line for --help and reports.
+
+    With a nonlinear model (SPEC 8): `nonlinear`, the kinds of algorithm (EXPLICIT, IMPLICIT)
+    that run the scheme with one, () for the linear model only; `fbar`, whether its nonlinear
+    form takes the cell's mean J (F-bar) instead of the plain deformation gradient.
+
+    In figures: `colour`, a matplotlib colour, or one per cell shape; None: one of the
+    figures' spare colours (schemes.colour_of)."""
 
     name: str
     stiffness: Callable[..., PETSc.Mat]
@@ -64,6 +74,13 @@ class Scheme:
     parameters: dict[str, Parameter] = field(default_factory=dict)
     description: str = ""
     check: Callable[[dict], None] | None = None  # refuses values that do not go together
+    nonlinear: tuple[str, ...] = ()
+    fbar: bool = False
+    colour: str | dict[str, str] | None = None
+
+    def takes_nonlinear(self, explicit: bool) -> bool:
+        """Whether an explicit (or implicit) algorithm runs the scheme with a nonlinear model."""
+        return (EXPLICIT if explicit else IMPLICIT) in self.nonlinear
 
 
 def deviator(eps: ufl.core.expr.Expr) -> ufl.core.expr.Expr:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import ufl
 
 from tissuebench.solvers.models.model import small_strain_stress
-from tissuebench.solvers.schemes.scheme import Scheme, assemble
+from tissuebench.solvers.schemes.scheme import EXPLICIT, IMPLICIT, Scheme, assemble
 
 
 def stiffness(V, mu, lmbda, parameters):
@@ -20,4 +20,11 @@ SCHEME = Scheme(
     stiffness,
     cells=("quadrilateral", "hexahedron", "triangle", "tetrahedron"),
     description="Q1 (P1 on simplices), full integration: the paper's element",
+    nonlinear=(IMPLICIT, EXPLICIT),  # every model with every algorithm
+    colour={
+        "quadrilateral": "tab:blue",
+        "hexahedron": "tab:blue",
+        "triangle": "tab:orange",
+        "tetrahedron": "tab:orange",
+    },
 )

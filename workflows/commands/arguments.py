@@ -131,9 +131,9 @@ def add_posed_options(p: argparse.ArgumentParser, benchmarks: dict[str, Entry]) 
     )
 
 
-def add_scheme_options(p: argparse.ArgumentParser) -> None:
-    """--scheme and --substeps (SPEC 11): the element's remedy against locking, and the
-    explicit schemes' sub-steps."""
+def schemes_described() -> str:
+    """Every registered scheme in words, from its Scheme: its parameters (default, meaning,
+    range), its cells and its description."""
     from tissuebench.solvers.schemes import SCHEMES
 
     def parameters(s):
@@ -142,16 +142,29 @@ def add_scheme_options(p: argparse.ArgumentParser) -> None:
         ]
         return "; ".join(said) or "no parameters"
 
-    described = "; ".join(
+    return "; ".join(
         f"{name} ({parameters(s)}, {'/'.join(s.cells)}): {s.description}"
         for name, s in SCHEMES.items()
     )
+
+
+def add_scheme_options(p: argparse.ArgumentParser) -> None:
+    """--scheme and --substeps (SPEC 11): the element's remedy against locking, and the
+    explicit schemes' sub-steps."""
+    from tissuebench.solvers.schemes import SCHEMES, STANDARD
+
+    described = schemes_described()
+    also = "".join(
+        f", and {name} also with a nonlinear model under the {' and '.join(s.nonlinear)} "
+        f"algorithms{', as F-bar' if s.fbar else ''}"
+        for name, s in SCHEMES.items()
+        if name != STANDARD and s.nonlinear
+    )
     p.add_argument(
         "--scheme",
-        default="standard",
+        default=STANDARD,
         metavar="NAME[:KEY=VALUE,...]",
-        help=f"the element's stiffness (SPEC 11; with the linear model, and mean-dilatation also "
-        f"with a nonlinear model under the explicit algorithms, as F-bar): {described}",
+        help=f"the element's stiffness (SPEC 11; with the linear model{also}): {described}",
     )
     p.add_argument(
         "--substeps",
@@ -172,28 +185,39 @@ def scheme_options(
     algorithms: list[str] | None = None,
 ) -> tuple[str, int | str]:
     """(scheme, substeps) from --scheme and --substeps, checked against the cells, the models
-    and the algorithms (UserError): F-bar, mean-dilatation's nonlinear form, runs with the
-    explicit algorithms only, beside a linear implicit reference."""
-    from tissuebench.solvers.schemes import STANDARD, check_cells, parse_scheme
+    and the algorithms (UserError): a scheme runs a nonlinear model with the kinds of algorithm
+    its Scheme.nonlinear states (F-bar, mean-dilatation's nonlinear form, with the explicit
+    ones only, beside a linear implicit reference)."""
+    from tissuebench.solvers.schemes import SCHEMES, check_cells, nonlinear_forms, parse_scheme
     from tissuebench.solvers.substeps import parse_substeps
 
     scheme = args.scheme.strip()
-    check_cells(scheme, options.get("cell", CELLS[gdim][0]))
-    nonlinear = [m for m in models if not MODELS[m].linear]
     name = parse_scheme(scheme)[0]
-    if name not in (STANDARD, "mean-dilatation") and nonlinear:
+    check_cells(name, options.get("cell", CELLS[gdim][0]))
+    entry = SCHEMES[name]
+    nonlinear = [m for m in models if not MODELS[m].linear]
+    if nonlinear and not entry.nonlinear:
         raise UserError(
             f"--scheme {name} runs the linear model only, not {', '.join(nonlinear)} "
-            "(mean-dilatation has a nonlinear form, F-bar, for the explicit algorithms)"
+            f"({nonlinear_forms()})"
         )
-    if name != STANDARD and nonlinear:
-        implicit = [a for a in algorithms or [] if not ALGORITHMS[a].explicit]
-        if implicit or LINEAR not in models:
+    if nonlinear:
+        takes = [a for a in ALGORITHMS if entry.takes_nonlinear(ALGORITHMS[a].explicit)]
+        refused = [a for a in algorithms or [] if a not in takes]
+        # without a nonlinear implicit form, the implicit reference runs the linear model
+        reference = not entry.takes_nonlinear(explicit=False)
+        if refused or (reference and LINEAR not in models):
+            form = "F-bar" if entry.fbar else f"{name}'s nonlinear form"
+            why = (
+                " (its cell-mean J is not differentiated: Newton would have no exact tangent)"
+                if entry.fbar
+                else ""
+            )
+            keep = " and keep linear among --models for the implicit reference" if reference else ""
             raise UserError(
-                f"--scheme {name} with {', '.join(nonlinear)}: F-bar runs with the explicit "
-                "algorithms only (its cell-mean J is not differentiated: Newton would have no "
-                "exact tangent); give --algorithms explicit or explicit-lumped and keep linear "
-                "among --models for the implicit reference"
+                f"--scheme {name} with {', '.join(nonlinear)}: {form} runs with the "
+                f"{' and '.join(entry.nonlinear)} algorithms only{why}; give --algorithms "
+                f"{' or '.join(takes)}{keep}"
             )
     try:
         substeps = parse_substeps(args.substeps)

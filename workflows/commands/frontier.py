@@ -1,14 +1,13 @@
 """`tissuebench frontier --out results`: the real-time frontier of SPEC 11.
 
 For block-MP2-w0.2, block-MP1-w0.2, rod-MP2 and the rod in MP3 (the compressible control),
-every scheme (Q1 or P1, mean-dilatation, hourglass, anp, penalty, with the hourglass and
-penalty parameters swept on the middle size) with implicit, explicit-lumped (at h = 1/30 s,
-and with the sub-steps that keep it stable) and explicit (consistent mass, with the sub-steps
-that keep it stable, on the two smaller sizes) on four mesh sizes, graded against the truth
-(E_i, E_n) and timed on one core. Writes OUT/frontier/frontier.csv (a row as each run ends:
-an interrupted study resumes from it), OUT/frontier/frontier.md and a figure per case,
-OUT/frontier/frontier-CASE.png (about 45 min here, the truths cached; missing truths are
-computed first)."""
+every scheme of solvers/schemes/ (listed below, with the parameters swept on the middle size)
+with implicit, explicit-lumped (at h = 1/30 s, and with the sub-steps that keep it stable) and
+explicit (consistent mass, with the sub-steps that keep it stable, on the two smaller sizes) on
+four mesh sizes, graded against the truth (E_i, E_n) and timed on one core. Writes
+OUT/frontier/frontier.csv (a row as each run ends: an interrupted study resumes from it),
+OUT/frontier/frontier.md and a figure per case, OUT/frontier/frontier-CASE.png (about 45 min
+here, the truths cached; missing truths are computed first)."""
 
 from __future__ import annotations
 
@@ -21,9 +20,11 @@ from mpi4py import MPI
 
 from tissuebench.core.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.commands.arguments import schemes_described
 from tissuebench.workflows.frontier import (
     FRONTIER_CASES,
     RETIME,
+    SWEEPS,
     read_rows,
     retime,
     row_key,
@@ -40,6 +41,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "frontier",
         help="the real-time frontier: every scheme against the truth, at its cost (SPEC 11)",
         description=__doc__.split("\n\n")[1],
+        epilog=f"The schemes, each at its defaults: {schemes_described()}. Swept on the middle "
+        f"size: {', '.join(s for swept in SWEEPS.values() for s in swept)}.",
     )
     p.add_argument(
         "--out", type=Path, default=Path("results"), help="output folder (default results)"

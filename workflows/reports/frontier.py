@@ -217,14 +217,26 @@ def _k(r: dict) -> str:
     return f", {r['substeps']} sub-steps of h/{r['substeps']}" if r["substeps"] > 1 else ""
 
 
-COLOURS = {
-    "Q1": "tab:blue",
-    "mean-dilatation": "tab:green",
-    "hourglass": "tab:olive",
-    "P1": "tab:orange",
-    "anp": "tab:red",
-    "penalty": "tab:purple",
-}
+def colour(row: dict) -> str:
+    """The colour of a run's scheme on its cell shape (Scheme.colour, or a spare one)."""
+    from tissuebench.solvers.schemes import colour_of
+
+    return colour_of(row["scheme"].partition(":")[0], row["cell"])
+
+
+def colours() -> dict[str, str]:
+    """{name as a reader knows it (scheme_name): colour} of every registered scheme on every
+    cell shape it takes, the quadrilateral and hexahedral ones first: the figures' legend."""
+    from tissuebench.solvers.schemes import SCHEMES, STANDARD, colour_of
+
+    out: dict[str, str] = {}
+    for cell, plain in PLAIN.items():
+        for name, scheme in SCHEMES.items():
+            if cell in scheme.cells:
+                out.setdefault(plain if name == STANDARD else name, colour_of(name, cell))
+    return out
+
+
 MARKERS = {
     ("implicit", "1"): "o",
     ("explicit-lumped", "1"): "^",
@@ -245,11 +257,10 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
     fig, ax = plt.subplots(figsize=(10.5, 5.5), constrained_layout=True)
     done = [r for r in rows if _ok(r)]
     for r in done:
-        family = scheme_name(r).split(":")[0]
         ax.scatter(
             r["cost"],
             r["interior_error_mean"],
-            c=COLOURS[family],
+            c=colour(r),
             marker=MARKERS[(r["algorithm"], r["requested"])],
             s=20
             + 12
@@ -287,8 +298,8 @@ def plot(path: Path, case: str, rows: list[dict]) -> None:
     ax.set_xlabel("cost: wall s per simulated s (time loop, one core)")
     ax.set_ylabel(f"E_i time-mean against the truth ({units_of(benchmark)})")
     ax.set_title(f"{case}: error against cost (size of marker: mesh size)")
-    for family, colour in COLOURS.items():
-        ax.scatter([], [], c=colour, marker="o", label=family)
+    for family, drawn in colours().items():
+        ax.scatter([], [], c=drawn, marker="o", label=family)
     for (algorithm, requested), marker in MARKERS.items():
         steps = ", auto sub-steps" if requested == "auto" else ", h = 1/30 s"
         ax.scatter([], [], c="w", edgecolors="k", marker=marker, label=algorithm + steps)
