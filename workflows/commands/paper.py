@@ -206,8 +206,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--jobs",
         type=int,
         default=min(2, os.cpu_count() or 1),
-        help="truths not cached computed at a time before the cases, each in a process of its "
-        "own on one core (default: the cores, at most 2; one rank only)",
+        help="processes, one core each, that compute the truths not cached while the cases "
+        "run (a linear truth's runs side by side; default: the cores, at most 2; one rank "
+        "only)",
     )
     add_common(p)
     p.set_defaults(func=main)
