@@ -60,6 +60,7 @@ from tissuebench.workflows.leaderboard.page_words import (
     source_of,
     tip_lines,  # noqa: F401 (read here before)
 )
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, finite
 
 TEMPLATES = "templates"  # the package's folder of the template, stylesheet and script
@@ -182,7 +183,7 @@ def division_view(board: Board, rows: list[Row], truth: bool, open_: bool, unit:
             max=g(error_of(r, truth, "max")),
             cost=g(cost),
             real_time="yes" if finite(cost) and cost <= REAL_TIME else "-",
-            user=r.source == "user",
+            user=r.kind is Kind.USER,
             model=model_of(board, r),
             mesh_facet=mesh_of(r),
         )
@@ -204,9 +205,10 @@ def boxes(board: Board, rows: list[Row]) -> tuple[list[Box], list[Box], list[Box
         key=lambda m: int(m.split()[0].replace(",", "")) if m[0].isdigit() else 0,
     )
     models = list(dict.fromkeys(model_of(board, r) for r in rows))
-    colour = {s: COLOURS.get(s) for s in sources}
-    if USERS in colour:
-        colour[USERS] = USER_COLOURS[0]
+    colour: dict[str, str | None] = {}  # each source's swatch: the users' the first user's
+    for r in rows:
+        mine = USER_COLOURS[0] if r.kind is Kind.USER else COLOURS.get(source_of(r))
+        colour.setdefault(source_of(r), mine)
     return (
         [Box("source", s, colour[s]) for s in sources],
         [Box("mesh", m) for m in meshes],
@@ -219,7 +221,7 @@ def case_view(board: Board, rows: list[Row], notes: list[str], unit: str) -> Cas
     truth), `unit` E_i's."""
     truth = any(error_of(r, True) is not None for r in rows)
     if not truth:  # the frontier is graded against the truth only
-        rows = [r for r in rows if r.source != FRONTIER]
+        rows = [r for r in rows if r.kind is not Kind.FRONTIER]
     svg, users = case_plot(board, rows, unit)
     sources, meshes, models = boxes(board, rows)
     facets = [b.value for b in sources]
@@ -242,7 +244,7 @@ def case_view(board: Board, rows: list[Row], notes: list[str], unit: str) -> Cas
         users=list(users.items()),
         users_listed=USERS_LISTED,
         plot=Markup(svg),  # page_svg escapes what it reads
-        frontier=any(r.source == FRONTIER for r in rows),
+        frontier=any(r.kind is Kind.FRONTIER for r in rows),
         budget=Markup(budget_plot(board, rows, unit)),
         closed=division_view(board, rows, truth, False, unit),
         open=division_view(board, rows, truth, True, unit),
@@ -266,7 +268,7 @@ def page_view(
             case_view(b, rows.get(b.name, []), notes.get(b.name, []), unit_of(b)) for b in boards
         ],
         users=[
-            (b.name, r.label) for b in boards for r in rows.get(b.name, []) if r.source == "user"
+            (b.name, r.label) for b in boards for r in rows.get(b.name, []) if r.kind is Kind.USER
         ],
     )
 
