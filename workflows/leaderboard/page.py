@@ -157,6 +157,7 @@ def division_view(board: Board, rows: list[Row], truth: bool, open_: bool, unit:
     rest listed after. The Closed division: the case's own mesh and step (closed); the Open
     one: every row, the SPEC 11 frontier's included."""
     dofs = next((r.dofs for r in rows if r.reference), None)
+    contact = board.benchmark == "contact"  # SPEC 12: two more columns
     ranked: list[tuple[float, str, Row, bool]] = []
     for r in rows:
         if not (open_ or closed(r, board, dofs)):
@@ -187,12 +188,11 @@ def division_view(board: Board, rows: list[Row], truth: bool, open_: bool, unit:
             model=model_of(board, r),
             mesh_facet=mesh_of(r),
         )
-        if board.benchmark == "contact":
+        if contact:
             entry.force_error = g(r.contact.get("force_error"))
             entry.force_how = r.contact.get("force_error_how") or ""
             entry.interpenetration = g(r.contact.get("interpenetration_max"))
         entries.append(entry)
-    contact = board.benchmark == "contact"
     return Division(board.name, unit, contact, entries, entries[:TOP_RANKED])
 
 
