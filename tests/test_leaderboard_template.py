@@ -13,6 +13,7 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
+import pytest
 from test_newcomer_leaderboard import compare_summary
 
 from tissuebench.workflows.leaderboard import document, page
@@ -25,6 +26,8 @@ from tissuebench.workflows.output import seal
 ROOT = Path(__file__).resolve().parents[1]
 FILES = ("page.html.j2", "parts.html.j2", "page.css", "page.js")
 HOSTILE = 'it\'s "<script>alert(1)</script>" & more'
+
+pytestmark = pytest.mark.serial  # user folders in tmp_path, which mpiexec's ranks share
 
 
 def test_the_templates_are_found_in_the_installed_package():
