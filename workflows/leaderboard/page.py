@@ -224,7 +224,7 @@ def case_view(board: Board, rows: list[Row], notes: list[str], unit: str) -> Cas
         rows = [r for r in rows if r.kind is not Kind.FRONTIER]
     svg, users = case_plot(board, rows, unit)
     sources, meshes, models = boxes(board, rows)
-    facets = [b.value for b in sources]
+    kinds = {r.kind for r in rows}  # an "only" button for ours and for the users
     how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
     return CaseView(
         name=board.name,
@@ -240,7 +240,7 @@ def case_view(board: Board, rows: list[Row], notes: list[str], unit: str) -> Cas
         sources=sources,
         meshes=meshes,
         models=models,
-        only=[s for s in (OURS, USERS) if s in facets],
+        only=[facet for kind, facet in ((Kind.OURS, OURS), (Kind.USER, USERS)) if kind in kinds],
         users=list(users.items()),
         users_listed=USERS_LISTED,
         plot=Markup(svg),  # page_svg escapes what it reads
