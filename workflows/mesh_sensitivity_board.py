@@ -12,6 +12,7 @@ from tissuebench.meshes import get_entry
 from tissuebench.meshes.benchmark import CELLS
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.workflows.io.tables import CSVError, read_rows
+from tissuebench.workflows.leaderboard.row import OUR_SOURCE, Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, fmt
 from tissuebench.workflows.mesh_sensitivity_cases import MARKER, NAME, STUDIES, Study, shapes
 
@@ -70,7 +71,7 @@ def leaderboard_boards(out: Path, log: Callable[[str], None] = lambda line: None
                 Row(
                     board.name,
                     f"{r['algorithm']} ({r['shape']}, size {r['size']})",
-                    "tissuebench",
+                    OUR_SOURCE,
                     f"{r['algorithm']}, linear (SPEC 3), on its own mesh (SPEC 9)",
                     f"{r['shape']}: {r['nodes']} nodes",
                     r["dofs"],
@@ -82,6 +83,7 @@ def leaderboard_boards(out: Path, log: Callable[[str], None] = lambda line: None
                     r["wall_time_s"],
                     r["end_time_s"],
                     f"tissuebench sensitivity, {', '.join(sessions)}",
+                    kind=Kind.OURS,
                 )
             )
         boards.append((board, rows))

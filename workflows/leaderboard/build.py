@@ -43,6 +43,7 @@ from tissuebench.workflows.leaderboard.record import (
     record_folder,
     record_of,
 )
+from tissuebench.workflows.leaderboard.row import Kind, kind_of
 from tissuebench.workflows.leaderboard.rows import (
     BOARDS,
     mark_pareto,
@@ -98,14 +99,14 @@ def check_target(
             for name, rows in record[1].items()
             if rerun is None or name in rerun
             for r in rows
-            if r.source not in ("user", "tissuebench")
+            if r.kind not in (Kind.USER, Kind.OURS)
         ]
     elif old.is_file():
         try:  # a simulator's rows only: a user's label or ours never names a simulator
             labels = [
                 row.get("label") or ""
                 for row in read_rows(old, errors="replace")
-                if row.get("source") not in ("user", "tissuebench")
+                if kind_of(row.get("source") or "") not in (Kind.USER, Kind.OURS)
             ]
         except CSVError:
             labels = []  # not a leaderboard's table: nothing in it to keep
@@ -254,7 +255,7 @@ def main(args: argparse.Namespace) -> int:
             for b in kept_boards
             if b.name not in (rerun or [])
             for r in kept_rows[b.name]
-            if r.source == "user"
+            if r.kind is Kind.USER
         }
         progress = users.Progress(out, sum(len(v) for v in found.values()))
         graded.update(progress.resumed())

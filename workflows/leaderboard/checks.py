@@ -19,7 +19,15 @@ from tissuebench.workflows.leaderboard.cases import (
     options_words,
     same_options,
 )
-from tissuebench.workflows.leaderboard.row import Row, error_keys, finite, one_line, real
+from tissuebench.workflows.leaderboard.row import (
+    USER_SOURCE,
+    Kind,
+    Row,
+    error_keys,
+    finite,
+    one_line,
+    real,
+)
 from tissuebench.workflows.output import MANIFEST, changes, file_hash
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.summary import read_summary
@@ -304,7 +312,7 @@ def user_rows(
                 Row(
                     board.name,
                     label,
-                    "user",
+                    USER_SOURCE,
                     f"{one_line(sub.name)[:80]}: its series graded by the leaderboard",
                     "?",
                     0,
@@ -316,6 +324,7 @@ def user_rows(
                     "reported by the user",
                     **found,
                     force=given,
+                    kind=Kind.USER,  # whatever its label says
                 )
             )
             folders.append(sub.name)

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
-from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
 from tissuebench.workflows.leaderboard.record import FOLDER, MARKER
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, fmt, md
 
 PAGE = "leaderboard/index.html"
@@ -27,7 +27,7 @@ def best_per_source(rows: list[Row], truth: bool) -> list[tuple[str, Row]]:
     best overall first; a source none of whose runs finished shows its first row."""
     by: dict[str, list[Row]] = {}
     for r in rows:
-        key = f"user {r.label}" if r.source == "user" else source_of(r)
+        key = f"user {r.label}" if r.kind is Kind.USER else source_of(r)
         by.setdefault(key, []).append(r)
 
     def rank(r: Row) -> float:
@@ -42,9 +42,11 @@ def best_per_source(rows: list[Row], truth: bool) -> list[tuple[str, Row]]:
 
 def frontier_line(board: Board, rows: list[Row], unit: str) -> str:
     """The SPEC 11 frontier of the case's truth in one line (or why there is none): the
-    closest of the frontier's runs (rows of source FRONTIER) at a whole-run cost of at most
+    closest of the frontier's runs (rows of kind FRONTIER) at a whole-run cost of at most
     REAL_TIME."""
-    ok = [r for r in rows if r.source == FRONTIER and finished(r) and (error_of(r, True) or 0) > 0]
+    ok = [
+        r for r in rows if r.kind is Kind.FRONTIER and finished(r) and (error_of(r, True) or 0) > 0
+    ]
     if not ok:
         return ""
     fast = [r for r in ok if r.cost is not None and r.cost <= REAL_TIME]
@@ -87,7 +89,7 @@ def case_lines(board: Board, rows: list[Row], notes: list[str], session: str) ->
         "|---|---|---|---|---|---|" + ("---|---|" if contact else ""),
     ]
     best = best_per_source(rows, truth)
-    users = [source for source, _ in best if source.startswith("user ")]
+    users = [source for source, r in best if r.kind is Kind.USER]
     hidden = set(users[USERS_SHOWN:])  # the best USERS_SHOWN users' runs; the rest on the page
     for source, r in best:
         if source in hidden:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from mpi4py import MPI
 
 from tissuebench.workflows.leaderboard.caches import Caches
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import E_I, Board, Row, finite
 
 if TYPE_CHECKING:
@@ -69,7 +70,7 @@ def error_budget(
                 "our implicit on our tetrahedron grid (6 per hexahedron on the same nodes; "
                 "the diagonals may differ)"
             )
-        elif row.source == "user" and board is not None and truth is not None and row.series:
+        elif row.kind is Kind.USER and board is not None and truth is not None and row.series:
             from tissuebench.workflows.user_mesh import budget_on_mesh
 
             if caches is None:
@@ -84,9 +85,9 @@ def error_budget(
                 )
             row.budget = {**b, **parts}  # our implicit on its mesh
             continue
-        elif row.source == "user" and board is not None and truth is None:
+        elif row.kind is Kind.USER and board is not None and truth is None:
             how = f"the truth {board.truth} is not computed here to grade our implicit on its mesh"
-        elif row.source == "user" and row.mesh == "?":  # compare recorded no mesh
+        elif row.kind is Kind.USER and row.mesh == "?":  # compare recorded no mesh
             how = "its mesh is not known here"
         else:
             how = "no run of our implicit on its mesh in this case"

@@ -23,6 +23,7 @@ from typing import Any
 
 from tissuebench.meshes import get_entry
 from tissuebench.workflows.io.tables import CSVError, ends_whole, read_rows
+from tissuebench.workflows.leaderboard.row import FRONTIER_SOURCE, Kind
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
@@ -35,7 +36,7 @@ from tissuebench.workflows.leaderboard.rows import (
     truth_error,
 )
 
-FRONTIER = "SPEC 11 frontier"  # a frontier row's source (and its facet on the page)
+FRONTIER = FRONTIER_SOURCE  # a frontier row's source (and its facet on the page)
 TIMING = "tissuebench frontier"  # a frontier row's timing
 TEXT_CELLS = {"case": 40, "scheme": 80, "algorithm": 40, "cell": 40, "status": 40}  # characters
 WHOLE_CELLS = ("mesh_size", "dofs", "substeps")  # whole numbers >= 1
@@ -200,12 +201,13 @@ def as_row(board: Board, f: dict) -> Row:
         float(simulated),
         TIMING,
         truth={k: (v if finite(v) else None) for k, v in truth.items()},
+        kind=Kind.FRONTIER,
     )
 
 
 def strip_frontier(rows: dict[str, list[Row]]) -> dict[str, list[Row]]:
     """The rows of each case without the frontier's (a record's: they are read again)."""
-    return {name: [r for r in rs if r.source != FRONTIER] for name, rs in rows.items()}
+    return {name: [r for r in rs if r.kind is not Kind.FRONTIER] for name, rs in rows.items()}
 
 
 def join_frontier(

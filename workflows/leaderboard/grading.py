@@ -30,6 +30,7 @@ from tissuebench.workflows.leaderboard.caches import (  # noqa: F401 (read here 
     case_reference,
 )
 from tissuebench.workflows.leaderboard.error_budget import complete, error_budget, summarized
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
     E_N,
@@ -251,7 +252,7 @@ def grade_users(
     if comm.rank == 0:
         for board in boards:
             mine = list(users.get(board.name, []))
-            rows[board.name] = [r for r in rows[board.name] if r.source != "user"] + mine
+            rows[board.name] = [r for r in rows[board.name] if r.kind is not Kind.USER] + mine
             kept = set()  # ids of the rows whose budget the record holds, complete
             for row in mine:
                 before = (graded or {}).get(user_key(row)) if row.series_hash else None

@@ -12,13 +12,27 @@ case like any other (frontier_rows.py: grey diamonds, their cost the whole run's
 row's); filters by source, mesh size (dofs) and model; each user's row by its own label, in
 its own colour; the error budget as a dot plot; the Closed division (the case's own mesh and
 step) and the Open one (any mesh, step or sub-steps, the frontier's runs included), each
-ranked. The little JavaScript at the end only shows tooltips and applies the filters;
-every text that was read is escaped (html.escape) and the tooltips are set as text.
+ranked. The little JavaScript at the end only shows tooltips and applies the filters.
+
+Made in two steps: the view model (PageView, CaseView, Division, Entry, Box: plain data,
+every text as read and unescaped, computed from the rows here) and the Jinja2 templates
+templates/page.html.j2 (the page) and templates/parts.html.j2 (its division tables and filter
+boxes), with the stylesheet templates/page.css and the script templates/page.js (package data,
+read with importlib.resources), rendered with autoescape on. Every value the
+template prints is made one line and escaped as html.escape does (finalize: esc), unless it
+is Markup: the plots (page_svg.py, which escapes what it reads itself), the stylesheet and the
+script. The tooltips are set as text by the script.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+
+import jinja2
+from markupsafe import Markup
 
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import sessions_line
@@ -28,7 +42,6 @@ from tissuebench.workflows.leaderboard.frontier_rows import (  # noqa: F401 (rea
     frontier_row,
     read_frontier,
 )
-from tissuebench.workflows.leaderboard.page_assets import SCRIPT, STYLE
 from tissuebench.workflows.leaderboard.page_svg import budget_plot, case_plot
 from tissuebench.workflows.leaderboard.page_words import (
     COLOURS,
@@ -47,224 +60,252 @@ from tissuebench.workflows.leaderboard.page_words import (
     source_of,
     tip_lines,  # noqa: F401 (read here before)
 )
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, finite
 
-# --- tables -------------------------------------------------------------------------------------
+TEMPLATES = "templates"  # the package's folder of the template, stylesheet and script
+USERS_LISTED = 20  # users' labels listed above a case's plot; more are folded
+
+# --- the view model -----------------------------------------------------------------------------
 
 
-def division(board: Board, rows: list[Row], truth: bool, open_: bool, unit: str) -> str:
+@dataclass
+class Entry:
+    """A line of a division's table, as text (unescaped)."""
+
+    rank: str  # its place, or "-" where it does not rank
+    label: str
+    status: str  # "" where it finished (ok), else its status
+    over: str  # what its numbers cover (budget.covers)
+    source: str  # the row's source as recorded
+    facet: str  # its source facet (page_words.source_of)
+    mesh: str
+    dofs: str  # with thousands separators
+    mean: str  # E_i, time-mean and max, in the case's unit
+    max: str
+    cost: str  # s per simulated s
+    real_time: str  # "yes" or "-"
+    user: bool
+    model: str
+    mesh_facet: str
+    force_error: str = "-"  # a contact case's columns (SPEC 12): dimensionless, how, m
+    force_how: str = ""
+    interpenetration: str = "-"
+
+
+@dataclass
+class Division:
+    """A division's ranked table: every line, the best first, and those shown unfolded."""
+
+    case: str
+    unit: str  # E_i's
+    contact: bool  # SPEC 12's two more columns
+    entries: list[Entry]
+    top: list[Entry]
+
+
+@dataclass
+class Box:
+    """A filter's checkbox: its facet (source, mesh, model), its value and its swatch."""
+
+    facet: str
+    value: str
+    colour: str | None = None
+
+
+@dataclass
+class CaseView:
+    """A case's section."""
+
+    name: str
+    description: str
+    session: str
+    machine: str
+    runs: int
+    unit: str
+    truth: bool  # graded against a truth
+    truth_name: str
+    band: str  # the truth's own E_i max
+    truth_note: str
+    sources: list[Box]
+    meshes: list[Box]
+    models: list[Box]
+    only: list[str]  # the sources with an "only" button
+    users: list[tuple[str, str]]  # each user's label and colour
+    users_listed: int
+    plot: Markup  # the inline SVG (page_svg.case_plot)
+    frontier: bool  # the SPEC 11 frontier's runs among the points
+    budget: Markup  # the error budget's SVG, or empty
+    closed: Division
+    open: Division
+    contact: bool
+    force_against: str  # a contact case's: what its force error is against
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class PageView:
+    """The page: when and where it was timed, every case, and every user's run."""
+
+    sessions: str
+    cases: list[CaseView]
+    users: list[tuple[str, str]]  # (case, label) of each user's run
+
+
+def division_view(board: Board, rows: list[Row], truth: bool, open_: bool, unit: str) -> Division:
     """A division's ranked table: the finished rows by time-mean E_i, the best first; the
     rest listed after. The Closed division: the case's own mesh and step (closed); the Open
     one: every row, the SPEC 11 frontier's included."""
     dofs = next((r.dofs for r in rows if r.reference), None)
-    mine = [r for r in rows if open_ or closed(r, board, dofs)]
-    entries = []
-    for r in mine:
+    contact = board.benchmark == "contact"  # SPEC 12: two more columns
+    ranked: list[tuple[float, str, Row, bool]] = []
+    for r in rows:
+        if not (open_ or closed(r, board, dofs)):
+            continue
         e = error_of(r, truth)
         ranks = finished(r) and e is not None and not (r.reference and not truth)
-        entries.append(
-            (
-                e if ranks else math.inf,
-                {
-                    "label": r.label + (" (the reference)" if r.reference else ""),
-                    "source": r.source,
-                    "facet": source_of(r),
-                    "mesh": "the case's" if r.mesh == "reference" else r.mesh,
-                    "dofs": r.dofs,
-                    "mean": e,
-                    "max": error_of(r, truth, "max"),
-                    "cost": r.cost,
-                    "status": r.status,
-                    "ranks": ranks,
-                    "user": r.source == "user",
-                    "model": model_of(board, r),
-                    "meshf": mesh_of(r),
-                    "contact": r.contact,
-                },
-            )
+        label = r.label + (" (the reference)" if r.reference else "")
+        ranked.append((e if ranks and e is not None else math.inf, label, r, ranks))
+    ranked.sort(key=lambda x: (x[0], x[1]))
+    entries, k = [], 0
+    for _, label, r, ranks in ranked:
+        k += ranks
+        cost = r.cost
+        entry = Entry(
+            rank=str(k) if ranks else "-",
+            label=label,
+            status="" if r.status == "ok" else r.status,
+            over=covers(r.status),
+            source=r.source,
+            facet=source_of(r),
+            mesh="the case's" if r.mesh == "reference" else r.mesh,
+            dofs=f"{r.dofs:,}",
+            mean=g(error_of(r, truth)),
+            max=g(error_of(r, truth, "max")),
+            cost=g(cost),
+            real_time="yes" if finite(cost) and cost <= REAL_TIME else "-",
+            user=r.kind is Kind.USER,
+            model=model_of(board, r),
+            mesh_facet=mesh_of(r),
         )
-    entries.sort(key=lambda e: (e[0], e[1]["label"]))
-    contact = board.benchmark == "contact"  # SPEC 12: two more columns
-    head = (
-        "<tr><th>#</th><th>run</th><th>source</th><th>mesh</th><th>dofs</th>"
-        f"<th>E_i mean ({unit})</th><th>E_i max</th><th>s per simulated s</th>"
-        "<th>real time</th>"
-        + ("<th>force error</th><th>interpenetration (m)</th>" if contact else "")
-        + "</tr>"
-    )
-
-    def line(k: int, e: dict) -> str:
-        rt = "yes" if finite(e["cost"]) and e["cost"] <= REAL_TIME else "-"
-        rank = str(k) if e["ranks"] else "-"
-        status = "" if e["status"] == "ok" else f" ({esc(e['status'])}: over {covers(e['status'])})"
-        return (
-            f'<tr class="f{" userrow" if e["user"] else ""}" data-case="{esc(board.name)}" '
-            f'data-source="{esc(e["facet"])}" data-model="{esc(e["model"])}" '
-            f'data-mesh="{esc(e["meshf"])}"><td>{rank}</td><td>{esc(e["label"])}{status}</td>'
-            f"<td>{esc(e['source'])}</td><td>{esc(e['mesh'])}</td><td>{e['dofs']:,}</td>"
-            f"<td>{g(e['mean'])}</td><td>{g(e['max'])}</td><td>{g(e['cost'])}</td>"
-            f"<td>{rt}</td>" + (contact_cells(e["contact"]) if contact else "") + "</tr>"
-        )
-
-    ranked = [e for _, e in entries]
-    numbered, k = [], 0
-    for e in ranked:
-        if e["ranks"]:
-            k += 1
-        numbered.append(line(k, e))
-    top = numbered[:TOP_RANKED]
-    rest = numbered[TOP_RANKED:]
-    table = f'<table class="rank">{head}{"".join(top)}</table>'
-    if rest:
-        table += (
-            f"<details><summary>all {len(numbered)} runs</summary>"
-            f'<table class="rank">{head}{"".join(numbered)}</table></details>'
-        )
-    return table
+        if contact:
+            entry.force_error = g(r.contact.get("force_error"))
+            entry.force_how = r.contact.get("force_error_how") or ""
+            entry.interpenetration = g(r.contact.get("interpenetration_max"))
+        entries.append(entry)
+    return Division(board.name, unit, contact, entries, entries[:TOP_RANKED])
 
 
-def contact_cells(contact: dict) -> str:
-    """A contact case's two cells: the force error (its basis as the cell's title) and the
-    interpenetration (m)."""
-    how = contact.get("force_error_how") or ""
-    return (
-        f'<td title="{esc(how)}">{g(contact.get("force_error"))}</td>'
-        f"<td>{g(contact.get('interpenetration_max'))}</td>"
-    )
-
-
-def contact_note(board: Board, rows: list[Row]) -> str:
-    """A contact case's paragraph: what its two columns are, and its force figure."""
-    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
-    against = "; ".join(h for h in how if h) or "no run handed its needle force"
-    return (
-        '<p class="note">Force error: max over the steps of |F - F_ref| / max |F_ref|, F the '
-        f"needle force per unit thickness (N/m): {esc(against)}. Interpenetration: the largest "
-        "-g_n over the deformed right edge and the steps (m). The needle force F_x against time: "
-        f'<a href="{esc(board.name)}-force.png">{esc(board.name)}-force.png</a>.</p>'
-    )
-
-
-# --- the page -----------------------------------------------------------------------------------
-
-
-def filters(board: Board, rows: list[Row], users: dict) -> str:
-    """The case's filter boxes: source (ours, each simulator, users, the frontier), mesh size
-    (dofs) and model, each box ticked."""
+def boxes(board: Board, rows: list[Row]) -> tuple[list[Box], list[Box], list[Box]]:
+    """The case's filter boxes, each ticked: source (ours, each simulator, users, the
+    frontier; each in its colour), mesh size (dofs, the smallest first) and model."""
     sources = list(dict.fromkeys(source_of(r) for r in rows))
     meshes = sorted(
         {mesh_of(r) for r in rows},
         key=lambda m: int(m.split()[0].replace(",", "")) if m[0].isdigit() else 0,
     )
     models = list(dict.fromkeys(model_of(board, r) for r in rows))
-
-    def box(facet: str, value: str, colour: str | None = None) -> str:
-        sw = f'<span class="swatch" style="background:{colour}"></span>' if colour else ""
-        return (
-            f'<label><input type="checkbox" checked data-facet="{facet}" value="{esc(value)}">'
-            f"{sw}{esc(value)}</label>"
-        )
-
-    colour = {s: COLOURS.get(s) for s in sources}
-    if USERS in colour:
-        colour[USERS] = USER_COLOURS[0]
-    out = ['<div class="filters">']
-    out.append(
-        "<fieldset><legend>source</legend>"
-        + "".join(box("source", s, colour[s]) for s in sources)
-        + " ".join(
-            f'<button class="only" data-value="{esc(s)}">only {esc(s)}</button>'
-            for s in [OURS, USERS]
-            if s in sources
-        )
-        + ' <button class="only" data-value="*">all</button></fieldset>'
+    colour: dict[str, str | None] = {}  # each source's swatch: the users' the first user's
+    for r in rows:
+        mine = USER_COLOURS[0] if r.kind is Kind.USER else COLOURS.get(source_of(r))
+        colour.setdefault(source_of(r), mine)
+    return (
+        [Box("source", s, colour[s]) for s in sources],
+        [Box("mesh", m) for m in meshes],
+        [Box("model", m) for m in models],
     )
-    out.append(
-        "<fieldset><legend>mesh size</legend>"
-        + "".join(box("mesh", m) for m in meshes)
-        + "</fieldset>"
-    )
-    out.append(
-        "<fieldset><legend>model</legend>"
-        + "".join(box("model", m) for m in models)
-        + "</fieldset>"
-    )
-    out.append("</div>")
-    if users:
-        listed = ", ".join(
-            f'<b style="color:{c}">&#9733; {esc(label)}</b>' for label, c in users.items()
-        )
-        if len(users) <= 20:
-            out.append(f'<p class="users">Users&#39; runs on this case: {listed}</p>')
-        else:  # many: folded (the browser's find still finds a label in it)
-            out.append(
-                f'<details class="users"><summary>{len(users)} users&#39; runs on this case '
-                f"(each in its own colour)</summary>{listed}</details>"
-            )
-    return "".join(out)
 
 
-def case_section(board: Board, rows: list[Row], notes: list[str], unit: str) -> str:
+def case_view(board: Board, rows: list[Row], notes: list[str], unit: str) -> CaseView:
+    """A case's section: its rows (the frontier's only where the case is graded against the
+    truth), `unit` E_i's."""
     truth = any(error_of(r, True) is not None for r in rows)
     if not truth:  # the frontier is graded against the truth only
-        rows = [r for r in rows if r.source != FRONTIER]
-    frontier = any(r.source == FRONTIER for r in rows)
+        rows = [r for r in rows if r.kind is not Kind.FRONTIER]
     svg, users = case_plot(board, rows, unit)
-    against = (
-        f"against the truth <b>{esc(board.truth)}</b> (SPEC 10; its own E_i max "
-        f"{g(board.truth_band)} {unit}, shaded)"
-        if truth
-        else "against the case's reference (our implicit on its mesh: SPEC 6)"
-        + (f"; truth: {esc(board.truth_note.rstrip('.'))}" if board.truth_note else "")
+    sources, meshes, models = boxes(board, rows)
+    kinds = {r.kind for r in rows}  # an "only" button for ours and for the users
+    how = sorted({r.contact.get("force_error_how") or "" for r in rows if r.force})
+    return CaseView(
+        name=board.name,
+        description=board.description,
+        session=board.session or "",
+        machine=board.machine or "this machine",
+        runs=len(rows),
+        unit=unit,
+        truth=truth,
+        truth_name=board.truth or "",
+        band=g(board.truth_band),
+        truth_note=(board.truth_note or "").rstrip("."),
+        sources=sources,
+        meshes=meshes,
+        models=models,
+        only=[facet for kind, facet in ((Kind.OURS, OURS), (Kind.USER, USERS)) if kind in kinds],
+        users=list(users.items()),
+        users_listed=USERS_LISTED,
+        plot=Markup(svg),  # page_svg escapes what it reads
+        frontier=any(r.kind is Kind.FRONTIER for r in rows),
+        budget=Markup(budget_plot(board, rows, unit)),
+        closed=division_view(board, rows, truth, False, unit),
+        open=division_view(board, rows, truth, True, unit),
+        contact=board.benchmark == "contact",
+        force_against="; ".join(h for h in how if h) or "no run handed its needle force",
+        notes=list(notes),
     )
-    budget = budget_plot(board, rows, unit)
-    parts = [
-        f'<section class="case" id="{esc(board.name)}" data-case="{esc(board.name)}">',
-        f"<h2>{esc(board.name)}</h2>",
-        f'<p class="note">{esc(board.description)} Timed {esc(board.session or "")} on '
-        f"{esc(board.machine or 'this machine')}. {len(rows)} runs; E_i {against}.</p>",
-        filters(board, rows, users),
-        svg,
-        '<p class="note">Each point is a run (hover for its numbers). Filled: plotted; '
-        "hollow: in a strip (did not finish, or below the axis). Dashed black: the Pareto front "
-        "(no other run at most as costly and at most as wrong); red: real time. "
-        + (
-            f"Grey diamonds: the SPEC 11 frontier's runs of {esc(board.truth)} "
-            "(results/frontier; their cost, as every run's, is the whole run's: set-up "
-            "included; the loop's alone in their tooltips)."
-            if frontier
-            else ""
-        )
-        + "</p>",
-    ]
-    if budget:
-        parts += [
-            "<h3>Error budget (SPEC 10)</h3>",
-            '<p class="note">total: the run against the truth; discretisation: our implicit on '
-            "the run's mesh against the truth; algorithm: the run against our implicit on its "
-            "mesh; model: not measured where the run's model is the truth's. The parts are not "
-            "additive.</p>",
-            budget,
-        ]
-    parts += [
-        '<div class="cols"><div>',
-        "<h3>Closed division: the case's own mesh and step</h3>",
-        division(board, rows, truth, False, unit),
-        "</div><div>",
-        "<h3>Open division: any mesh, step or sub-steps</h3>",
-        division(board, rows, truth, True, unit),
-        "</div></div>",
-    ]
-    if board.benchmark == "contact":
-        parts.append(contact_note(board, rows))
-    if notes:
-        parts.append(
-            f"<details><summary>notes ({len(notes)})</summary><ul>"
-            + "".join(f"<li>{esc(n)}</li>" for n in notes)
-            + "</ul></details>"
-        )
-    parts.append("</section>")
-    return "\n".join(parts)
+
+
+def page_view(
+    boards: list[Board],
+    rows: dict[str, list[Row]],
+    notes: dict[str, list[str]],
+    session: str,
+    unit_of,
+) -> PageView:
+    """The page's view model: `rows` and `notes` by case, `unit_of(board)` E_i's unit."""
+    return PageView(
+        sessions=sessions_line(boards, session),
+        cases=[
+            case_view(b, rows.get(b.name, []), notes.get(b.name, []), unit_of(b)) for b in boards
+        ],
+        users=[
+            (b.name, r.label) for b in boards for r in rows.get(b.name, []) if r.kind is Kind.USER
+        ],
+    )
+
+
+# --- the template -------------------------------------------------------------------------------
+
+
+def asset(name: str) -> str:
+    """A file of the package's templates/ folder (a template, page.css, page.js), as text."""
+    return resources.files(__package__).joinpath(TEMPLATES, name).read_text(encoding="utf-8")
+
+
+def finalize(value):
+    """Every value the template prints: Markup as it is, anything else made one line and
+    escaped, quotes included (esc)."""
+    return value if isinstance(value, Markup) else Markup(esc(value))
+
+
+@cache
+def environment() -> jinja2.Environment:
+    """The templates of the package's templates/ folder (page.html.j2, parts.html.j2), with
+    autoescape on (every value printed: finalize)."""
+    return jinja2.Environment(
+        loader=jinja2.FunctionLoader(asset),
+        autoescape=True,
+        finalize=finalize,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+        undefined=jinja2.StrictUndefined,
+    )
+
+
+def division(board: Board, rows: list[Row], truth: bool, open_: bool, unit: str) -> str:
+    """A division's table as the page shows it: division_view through parts.html.j2's macro."""
+    table = environment().get_template("parts.html.j2").module.division  # type: ignore[attr-defined]
+    return str(table(division_view(board, rows, truth, open_, unit)))
 
 
 def render(
@@ -276,42 +317,12 @@ def render(
 ) -> str:
     """The page (text of index.html): `rows` by case, the SPEC 11 frontier's among them
     (frontier_rows.join_frontier); `unit_of(board)` is E_i's unit on the case."""
-    users = [(b.name, r.label) for b in boards for r in rows.get(b.name, []) if r.source == "user"]
-    index = " · ".join(f'<a href="#{esc(b.name)}">{esc(b.name)}</a>' for b in boards)
-    head = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        "<title>tissuebench leaderboard</title>",
-        f"<style>{STYLE}</style></head><body>",
-        '<div id="tip" hidden></div>',
-        "<header><h1>tissuebench leaderboard: accuracy against cost</h1>",
-        '<p class="note">Written by <code>tissuebench leaderboard</code> from '
-        "the record <code>leaderboard.json</code> (every row also in <code>leaderboard.csv</code>"
-        "; the summary is <code>leaderboard.md</code>). Per case: E_i, the interior error "
-        "(SPEC 6: m^3 on the rod, m^2 on the block), time-mean over the steps, against the "
-        "truth where the case has one graded (SPEC 10), else against the case's reference; "
-        f"cost: wall time per simulated second, {esc(sessions_line(boards, session))} on one "
-        "core; a user's run carries the wall time given to compare. "
-        "This page works offline.</p>",
-        f"<p>Cases: {index}</p>",
-    ]
-    if users:
-        head.append(
-            '<p class="users">Users&#39; runs: '
-            + ", ".join(
-                f'<a href="#{esc(case)}">{esc(label)}</a> ({esc(case)})' for case, label in users
-            )
-            + "</p>"
+    return (
+        environment()
+        .get_template("page.html.j2")
+        .render(
+            page=page_view(boards, rows, notes, session, unit_of),
+            style=Markup(asset("page.css")),  # ours, inlined as it is
+            script=Markup(asset("page.js")),
         )
-    head.append("</header>")
-    body = [
-        case_section(
-            b,
-            rows.get(b.name, []),
-            notes.get(b.name, []),
-            unit_of(b),
-        )
-        for b in boards
-    ]
-    return "\n".join(head + body + [f"<script>{SCRIPT}</script></body></html>", ""])
+    )

@@ -9,14 +9,12 @@ import math
 from typing import cast
 
 from tissuebench.workflows.leaderboard.budget import marked
-from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER
 from tissuebench.workflows.leaderboard.page_words import (
     COLOURS,
     GROUP_SHAPE,
     REAL_TIME,
     SHAPES,
     USER_COLOURS,
-    USERS,
     error_of,
     esc,
     finished,
@@ -26,6 +24,7 @@ from tissuebench.workflows.leaderboard.page_words import (
     source_of,
     tip_lines,
 )
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, finite
 
 
@@ -188,11 +187,12 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
     users: dict[str, str] = {}
     labels: list[tuple[float, float, float]] = []  # placed labels: x, y, width
     # the frontier's runs first (under the others), users last (on top)
-    order = sorted(rows, key=lambda r: (r.source != FRONTIER, r.source == "user"))
+    order = sorted(rows, key=lambda r: (r.kind is not Kind.FRONTIER, r.kind is Kind.USER))
     for r in order:
         src = source_of(r)
+        user = r.kind is Kind.USER
         colour = COLOURS.get(src, "#555")
-        if src == USERS:
+        if user:
             colour = users.setdefault(r.label, USER_COLOURS[len(users) % len(USER_COLOURS)])
         shape = GROUP_SHAPE if r.group else SHAPES.get(src, "circle")
         e = error_of(r, truth)
@@ -204,13 +204,13 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
         else:
             px = ax.x(r.cost) if finite(r.cost) and r.cost > 0 else ax.W - ax.RIGHT - 8
             py, placed = ax.TOP - 14, "strip"
-        size = 6.5 if src == USERS else 5.0
+        size = 6.5 if user else 5.0
         hollow = placed != "plotted" or not r.status == "ok"
         style = f'fill="{"none" if hollow else colour}" stroke="{colour}"'
         if shape == "cross":
             style = f'fill="none" stroke="{colour}" stroke-width="2.2"'
         out.append(
-            f'<path class="pt f{" user" if src == USERS else ""}" '
+            f'<path class="pt f{" user" if user else ""}" '
             f'd="{symbol(shape, px, py, size)}" '
             f"{style} "
             f'data-case="{esc(board.name)}" data-source="{esc(src)}" '
@@ -218,11 +218,11 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
             f'data-label="{esc(r.label)}" data-placed="{placed}" '
             f'data-tip="{esc(json.dumps(tip_lines(board, r, unit)))}"/>'
         )
-        if src == USERS or r in front:
-            text = (r.label if src == USERS else r.label.split(":", 1)[-1])[:48]
-            cls = "ulabel" if src == USERS else "flabel"
-            fill = f' fill="{colour}"' if src == USERS else ""
-            width = (7.5 if src == USERS else 6.2) * len(text)
+        if user or r in front:
+            text = (r.label if user else r.label.split(":", 1)[-1])[:48]
+            cls = "ulabel" if user else "flabel"
+            fill = f' fill="{colour}"' if user else ""
+            width = (7.5 if user else 6.2) * len(text)
             right = px + 8 + width > ax.W  # near the right edge: the label to the left
             anchor = ' text-anchor="end"' if right else ""
             x0 = px - 8 - width if right else px + 8

@@ -9,6 +9,7 @@ import html
 
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
 
 OURS = "ours"
@@ -33,12 +34,12 @@ TOP_RANKED = 10  # rows of each division shown before "all"
 
 
 def source_of(row: Row) -> str:
-    """The source facet of a row: ours, a simulator's name, or users."""
-    if row.source == "tissuebench":
+    """The source facet of a row: ours, a simulator's name, users, or the frontier."""
+    if row.kind is Kind.OURS:
         return OURS
-    if row.source == "user":
+    if row.kind is Kind.USER:
         return USERS
-    if row.source == FRONTIER:
+    if row.kind is Kind.FRONTIER:
         return FRONTIER
     return row.source.split()[0]
 
@@ -47,15 +48,15 @@ def model_of(board: Board, row: Row) -> str:
     """The elastic model a row ran with: ours name it after +, the simulators were given
     the case's simulator model, a user's is the one stated to compare (--model), else the
     case's, as posed."""
-    if row.source == "tissuebench":
+    if row.kind is Kind.OURS:
         return (
             row.label.split(" ")[0].split("+", 1)[1]
             if "+" in row.label.split(" ")[0]
             else ("linear")
         )
-    if row.source == "user":
+    if row.kind is Kind.USER:
         return row.model or board.model
-    if row.source == FRONTIER:  # the frontier runs the truth's (linear) model
+    if row.kind is Kind.FRONTIER:  # the frontier runs the truth's (linear) model
         return board.model
     return board.simulator_model or board.model
 
@@ -71,7 +72,7 @@ def closed(row: Row, board: Board, case_dofs: int | None) -> bool:
     Every row of the record is at the case's step (users are checked for it)."""
     if row.mesh == "reference":
         return True
-    if row.source != "user" or not case_dofs or row.dofs != case_dofs:
+    if row.kind is not Kind.USER or not case_dofs or row.dofs != case_dofs:
         return False
     kind = row.mesh.split(":")[0]
     return kind in ("hexahedra", "quadrilaterals")
@@ -79,12 +80,12 @@ def closed(row: Row, board: Board, case_dofs: int | None) -> bool:
 
 def wall_meaning(row: Row) -> str:
     """What a row's wall time covers."""
-    if row.source == "tissuebench" and row.timing == "this session":
+    if row.kind is Kind.OURS and row.timing == "this session":
         return (
             "assembly of M, K and f, the integrator's setup and its time loop, in process, "
             "1 rank (timed in the case's session)"
         )
-    if row.source == "user":
+    if row.kind is Kind.USER:
         return "as reported by the user to compare (--wall-time)"
     if "timed: " in row.description:
         return row.description.split("timed: ", 1)[1]
@@ -114,11 +115,15 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
     ref = row.errors
     lines = [
         row.label + (" (the reference)" if row.reference else ""),
-        f"source: {row.source}" + (" (tissuebench)" if row.source == "user" else ""),
+        f"source: {row.source}" + (" (tissuebench)" if row.kind is Kind.USER else ""),
         f"mesh: {'the case' + chr(39) + 's own' if row.mesh == 'reference' else row.mesh}; "
         f"{row.dofs:,} dofs",
         f"model: {model_of(board, row)}"
-        + (" (the case's: not stated to compare)" if row.source == "user" and not row.model else "")
+        + (
+            " (the case's: not stated to compare)"
+            if row.kind is Kind.USER and not row.model
+            else ""
+        )
         + f"; status: {row.status}"
         + (f" ({row.reason})" if row.reason else ""),
         f"against the reference: E_i mean {g(ref.get(E_I + '_mean'))}, max "
@@ -142,7 +147,7 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
         f"{g(row.end_time)} s)"
     )
     lines.append(f"wall time: {wall_meaning(row)}")
-    if row.source == FRONTIER:  # its loop's own cost, SPEC 11's figure
+    if row.kind is Kind.FRONTIER:  # its loop's own cost, SPEC 11's figure
         lines.append(row.description.split("; timed: ")[0])
     return [" ".join(str(x).split()) for x in lines]
 

@@ -149,15 +149,23 @@ def board_of(d: Any) -> Board:
 def row_of(d: dict) -> Row:
     """A Row from its record, checked (check_row)."""
     check_row(d)
-    known = {f.name for f in fields(Row)}
+    known = {f.name for f in fields(Row)} - {"kind"}  # the kind: its recorded source's
     return Row(**{k: v for k, v in d.items() if k in known})
+
+
+def row_fields(row: Row) -> dict:
+    """Every field of a Row but its kind, which its source says (row_of)."""
+    d = asdict(row)
+    d.pop("kind", None)
+    return d
 
 
 def row_record(row: Row) -> dict:
     """A Row as the record holds it: every field (series_hash only where it has one: a user's
     row, model only where its user stated one, and contact and force only on a contact case's
-    row, so that a record of our rows reads as before)."""
-    d = asdict(row)
+    row, so that a record of our rows reads as before; its kind is not kept: its source says
+    it, row_of)."""
+    d = row_fields(row)
     if d.get("series_hash") is None:
         d.pop("series_hash", None)
     if not d.get("contact"):

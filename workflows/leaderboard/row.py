@@ -7,12 +7,37 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TypeGuard
 
 from tissuebench.metrics.table import METRICS
 
 E_I = "interior_error"
 E_N = "relative_error"
+
+# the sources of the rows that are not a simulator's (whose source is its name and version)
+OUR_SOURCE = "tissuebench"
+USER_SOURCE = "user"
+FRONTIER_SOURCE = "SPEC 11 frontier"  # frontier_rows.py (FRONTIER)
+
+
+class Kind(StrEnum):
+    """What a row is: one of our runs, an outside simulator's, a user's (graded from a compare
+    folder) or one of the SPEC 11 frontier's runs. Set once, where the row is made or read
+    (Row.kind); nothing else tells them apart by a row's source or label."""
+
+    OURS = "ours"
+    SIMULATOR = "simulator"
+    USER = "user"
+    FRONTIER = "frontier"
+
+
+def kind_of(source: str) -> Kind:
+    """The kind of a row by the source it was recorded with (leaderboard.json, leaderboard.csv,
+    which keep no kind): our, a user's and the frontier's sources are fixed (OUR_SOURCE,
+    USER_SOURCE, FRONTIER_SOURCE), any other is a simulator's name."""
+    known = {OUR_SOURCE: Kind.OURS, USER_SOURCE: Kind.USER, FRONTIER_SOURCE: Kind.FRONTIER}
+    return known.get(source, Kind.SIMULATOR)
 
 
 @dataclass
@@ -21,7 +46,7 @@ class Row:
 
     case: str
     label: str
-    source: str  # "tissuebench", "CalculiX 2.20", ..., "user"
+    source: str  # OUR_SOURCE, "CalculiX 2.20", ..., USER_SOURCE, FRONTIER_SOURCE
     description: str
     mesh: str
     dofs: int
@@ -48,6 +73,13 @@ class Row:
     contact: dict = field(default_factory=dict)
     force: str | None = None  # a contact case's row: its needle force file (write_force_csv)
     model: str | None = None  # a user's row: its model as stated to compare (None: the case's)
+    # what the row is: given by the code that makes it (rows.our_rows, rows.external_rows,
+    # checks.user_rows, frontier_rows.as_row); where none is given, its source's (kind_of: a
+    # row read back from the record). Not written to the record (record.row_record).
+    kind: Kind | None = None
+
+    def __post_init__(self) -> None:
+        self.kind = kind_of(self.source) if self.kind is None else Kind(self.kind)
 
     @property
     def cost(self) -> float | None:

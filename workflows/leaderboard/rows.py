@@ -72,7 +72,9 @@ from tissuebench.workflows.leaderboard.checks import (  # noqa: F401 (read here 
 from tissuebench.workflows.leaderboard.row import (  # noqa: F401 (read here before)
     E_I,
     E_N,
+    OUR_SOURCE,
     TRUTH_KEYS,
+    Kind,
     Row,
     error_keys,
     finite,
@@ -95,7 +97,7 @@ def our_rows(case: str, summary: CaseSummary) -> list[Row]:
             Row(
                 case,
                 label,
-                "tissuebench",
+                OUR_SOURCE,
                 f"{run.algorithm}, {run.model} (SPEC 3, 8)",
                 "reference",
                 int(summary.num_dofs),
@@ -106,6 +108,7 @@ def our_rows(case: str, summary: CaseSummary) -> list[Row]:
                 float(summary.end_time),
                 "this session",
                 reference=label == summary.reference,
+                kind=Kind.OURS,
             )
         )
     return rows
@@ -131,6 +134,7 @@ def external_rows(case: str, summary: Mapping[str, Any]) -> list[Row]:
                 run.get("wall_time_s"),
                 float(summary["end_time"]),
                 "this session",
+                kind=Kind.SIMULATOR,
             )
         )
     return rows

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import asdict
 from pathlib import Path
 
-from tissuebench.workflows.leaderboard.record import FOLDER, Invalid, row_of
+from tissuebench.workflows.leaderboard.record import FOLDER, Invalid, row_fields, row_of
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, misplaced, user_rows
 from tissuebench.workflows.output import file_hash, read_manifest, write_owned
 
@@ -68,11 +68,11 @@ class Progress:
             found = [row_of(d) for d in json.loads(self.path.read_text())]
         except (OSError, ValueError, TypeError, RecursionError, Invalid):
             return {}
-        return {user_key(r): r for r in found if r.source == "user"}
+        return {user_key(r): r for r in found if r.kind is Kind.USER}
 
     def __call__(self, board: Board, row: Row, seconds: float) -> None:
         self.rows.append(row)
-        text = json.dumps([asdict(r) for r in self.rows])
+        text = json.dumps([row_fields(r) for r in self.rows])
         write_owned(self.path, lambda tmp: tmp.write_text(text))
         self.log(
             f"graded user row {len(self.rows)} (of {self.total} user rows): {row.label} "
