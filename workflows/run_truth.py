@@ -79,17 +79,21 @@ def truth_lines(
             )
             continue
         size = truth.own_error["size"] if comm.rank == 0 and truth is not None else np.nan
+        located: dict = {}  # the runs share one mesh: the truth's points located in it once
         for label in labels:
-            lines.append(_graded(truth, case, folder / f"{label}.xdmf", label, size, comm))
+            path = folder / f"{label}.xdmf"
+            lines.append(_graded(truth, case, path, label, size, comm, located))
     return lines if comm.rank == 0 else []
 
 
-def _graded(truth, case: str, path: Path, label: str, size: float, comm: MPI.Comm) -> str:
+def _graded(
+    truth, case: str, path: Path, label: str, size: float, comm: MPI.Comm, located: dict
+) -> str:
     """One run's line against the truth: its E_i max and mean (m^gdim), and max as a share of
-    the truth's size (its E_i against rest)."""
+    the truth's size (its E_i against rest); `located` as grade_truth's."""
     try:
         (cand,) = read_on_rank0(comm, (path, "displacement"))
-        g = grade_truth(truth, cand, comm, label=label, surface=False)
+        g = grade_truth(truth, cand, comm, label=label, surface=False, located=located)
     except InputError as err:
         return f"{label}: against the truth {case}: not graded ({err})"
     curve = np.asarray(g.curves[E_I], dtype=float)
