@@ -342,7 +342,7 @@ def write_explicit_report(records: list[dict], mode: str, wall: float, out: Path
         f"{mode} mode, {wall:.0f} s wall. Machine: {machine_description()}. One worker process "
         f"per size, 1 rank, {', '.join(THREAD_VARS)} = 1. The machine is shared: timings are "
         "noisy, so the cases of a size run side by side in their worker "
-        "(workflows/bench/measure.py explicit_worker): every integrator is built and started, "
+        "(workflows/bench/workers.py explicit_worker): every integrator is built and started, "
         f"then in each of {ROUNDS} rounds every case takes {BLOCK} steps in a row, the last "
         f"{BLOCK - BLOCK_WARM} timed (the first {BLOCK_WARM} bring its own data back into the "
         "caches); a change of load during the run weighs on every case alike.",

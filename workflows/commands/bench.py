@@ -27,7 +27,8 @@ truth `rod` must be computed).
 A quick run never replaces a full one: without --out it writes into a folder of the system's
 temporary directory, and it refuses an --out whose performance.json holds a full run.
 
-The measurements (worker processes, budgets, capacity search) are workflows/bench/measure.py;
+The measurements (budgets, capacity search) are workflows/bench/measure.py, its worker processes
+workflows/bench/workers.py;
 the tables are workflows/bench/tables.py (the targets targets.py), the figure and report
 workflows/bench/report.py.
 Writes DIR/performance.md, DIR/performance.png and DIR/performance.json. Only the driver (one
