@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from tissuebench.workflows.commands.paper import cases
 from tissuebench.workflows.frontier import read_rows
+from tissuebench.workflows.paper_cases import cases
 from tissuebench.workflows.reports.claims import claims
 from tissuebench.workflows.reports.frontier import answer
 from tissuebench.workflows.summary import read_case_summary

@@ -1,6 +1,8 @@
 """The leaderboard across mesh sizes (issue 27, item 2): the cases of one series at several
 mesh sizes, each run's E_i max against the truth and cost at each size, in one table."""
 
+import pytest
+
 from tissuebench.workflows.leaderboard.figures import size_series, size_table
 from tissuebench.workflows.leaderboard.rows import Board, Row
 
@@ -126,3 +128,27 @@ def test_the_contact_boards_are_three_cases_at_three_sizes():
     assert len(nhb.models) == 5
     mp2 = series["contact-MP2-s0.5"][1]
     assert mp2.material == "MP2" and "fallback for contact-MP2" in mp2.description
+
+
+def test_a_registered_board_is_a_case_of_the_leaderboard_until_it_is_taken_out():
+    """A benchmark defined elsewhere (tests/toy_benchmark.py) adds its leaderboard case with
+    boards.register: in BOARDS wherever it was imported, so --rerun names it; a name taken is
+    refused; unregister takes it out again."""
+    from tissuebench.workflows import boards
+    from tissuebench.workflows.leaderboard import build
+    from tissuebench.workflows.leaderboard.record import LeaderboardError
+    from tissuebench.workflows.leaderboard.rows import BOARDS
+
+    before = [b.name for b in BOARDS]
+    mine = Board("rod-MP3-mine", "rod", "MP3", "linear", simulators=(), truth="rod")
+    boards.register(mine)
+    try:
+        assert [b.name for b in build.BOARDS] == [*before, mine.name]
+        assert build.check_rerun([mine.name]) == [mine.name]
+        with pytest.raises(ValueError, match="already has a case 'rod-MP3'"):
+            boards.register(Board("rod-MP3", "rod", "MP3", "linear"))
+    finally:
+        boards.unregister(mine.name)
+    assert [b.name for b in BOARDS] == before
+    with pytest.raises(LeaderboardError, match="--rerun rod-MP3-mine: no such case"):
+        build.check_rerun([mine.name])

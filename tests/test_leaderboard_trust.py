@@ -21,7 +21,8 @@ from tissuebench.workflows import output
 from tissuebench.workflows.leaderboard import build, record
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, Row, error_keys
-from tissuebench.workflows.output import seal, write_owned
+from tissuebench.workflows.manifest import seal
+from tissuebench.workflows.output import write_owned
 
 pytestmark = pytest.mark.serial  # rank 0's files and signals
 

@@ -23,7 +23,7 @@ from tissuebench.workflows import limits
 from tissuebench.workflows.grading import candidate_file, compare
 from tissuebench.workflows.io.series import read_series, series_size
 from tissuebench.workflows.leaderboard import rows as ranking
-from tissuebench.workflows.output import seal
+from tissuebench.workflows.manifest import seal
 
 pytestmark = pytest.mark.serial  # files written in serial, command lines run as subprocesses
 

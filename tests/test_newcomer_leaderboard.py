@@ -19,7 +19,7 @@ from tissuebench.solvers.truth import store
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard.rows import BOARDS, board_case, error_keys, export_options
-from tissuebench.workflows.output import seal
+from tissuebench.workflows.manifest import seal
 
 ROOT = Path(__file__).resolve().parents[1]
 COMM = MPI.COMM_WORLD

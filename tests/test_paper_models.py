@@ -7,6 +7,7 @@ figures' geometry against fields whose Jacobian and outline are known in closed 
 
 import csv
 import json
+from dataclasses import replace
 from types import SimpleNamespace
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
@@ -18,11 +19,11 @@ from summaries import case_summary, update
 from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import run_label
-from tissuebench.workflows.commands.paper import cases, model_cases
+from tissuebench.workflows.paper_cases import cases, model_cases
 from tissuebench.workflows.reports import divergence
 from tissuebench.workflows.reports import large_deformation as part2
 from tissuebench.workflows.reports import model_figures as figures_models
-from tissuebench.workflows.study import RunSpec
+from tissuebench.workflows.study import RunSpec, algorithm_case, model_case
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
 
@@ -106,6 +107,48 @@ def test_part_2_has_the_four_named_cases_of_spec_section_8():
         assert figures_models.is_model_case(case)
     # part 1 keeps its cases, all linear, so its figures and fingerprints stay as they were
     assert not any(figures_models.is_model_case(c) for c in cases())
+
+
+def test_a_registered_case_joins_its_part_with_the_papers_solver_until_it_is_taken_out():
+    from tissuebench.workflows import paper_cases
+
+    before = [c.name for c in cases()], [c.name for c in model_cases()]
+    mine = algorithm_case("rod-MP3-mine", "rod", "MP3", ["explicit"], end_time=1.0)
+    theirs = model_case("rod-MP3-theirs", "rod", "MP3", ["implicit"], list(MODELS))
+    paper_cases.register(mine)
+    paper_cases.register(theirs, large=True)
+    try:
+        first, second = cases("iterative", "-ksp_rtol 1e-9"), model_cases()
+        assert [c.name for c in first] == [*before[0], mine.name]
+        assert [c.name for c in second] == [*before[1], theirs.name]
+        added = first[-1]  # as registered, with the paper's solver and PETSc options
+        assert (added.solver, added.petsc, added.end_time) == ("iterative", "-ksp_rtol 1e-9", 1.0)
+        assert added.runs == mine.runs and mine.solver == "direct"  # the registered one as it was
+        with pytest.raises(ValueError, match="already has a case 'rod-MP3'"):
+            paper_cases.register(algorithm_case("rod-MP3", "rod", "MP3", []))
+        with pytest.raises(ValueError, match="rod-MP3-mine"):  # a name of the other part
+            paper_cases.register(replace(theirs, name=mine.name), large=True)
+    finally:
+        paper_cases.unregister(mine.name)
+        paper_cases.unregister(theirs.name)
+    assert ([c.name for c in cases()], [c.name for c in model_cases()]) == before
+
+
+def test_paper_cases_names_the_cases_it_runs_and_refuses_others_in_one_line():
+    from tissuebench.core.errors import UserError
+    from tissuebench.workflows import paper_truth
+    from tissuebench.workflows.commands.paper import select
+
+    first, truth, second = cases(), paper_truth.cases(), model_cases()
+    assert select(None, first, truth, second) == (first, truth, second)
+    chosen = select(["rod-MP3", "rod-MP3-s3"], first, truth, second)
+    assert [[c.name for c in part] for part in chosen] == [["rod-MP3"], [], ["rod-MP3-s3"]]
+    # the truth's two folders run together (paper_truth grades them as one)
+    assert select(["block-MP1", "truth-rod-MP3"], first, truth, second)[1] == truth
+    with pytest.raises(UserError, match="--cases rod-MP4: no such case; name some of block-MP1"):
+        select(["rod-MP3", "rod-MP4"], first, truth, second)
+    with pytest.raises(UserError, match="at least one case of part 1"):
+        select(["rod-MP3-s3"], first, truth, second)
 
 
 # --- figures ------------------------------------------------------------------------------

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from tissuebench.metrics import METRICS
-from tissuebench.workflows.commands.paper import cases
+from tissuebench.workflows.paper_cases import cases
 from tissuebench.workflows.study import run_case
 
 RESULTS = Path(__file__).parent.parent / "results"

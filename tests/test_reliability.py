@@ -625,7 +625,7 @@ def test_committed_results_are_ours_and_unchanged():
     """Every folder of results/ that tissuebench wrote whole carries its manifest, and every
     committed loose output is listed in its folder's manifest with its present hash: `make
     paper`, `leaderboard` and the other commands may replace them, and nothing else."""
-    from tissuebench.workflows.output import changes, file_hash, read_manifest
+    from tissuebench.workflows.manifest import changes, file_hash, read_manifest
 
     root = Path(__file__).parents[1]
     results = root / "results"

@@ -14,7 +14,8 @@ import pytest
 from tissuebench.core.errors import UserError
 from tissuebench.metrics.table import METRICS
 from tissuebench.workflows import paper_truth
-from tissuebench.workflows.commands.paper import LARGE, cases, model_cases
+from tissuebench.workflows.commands.paper import LARGE
+from tissuebench.workflows.paper_cases import cases, model_cases
 from tissuebench.workflows.summary import (
     SCHEMA_VERSION,
     CaseSummary,

@@ -26,6 +26,7 @@ from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.figures import markdown
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto, pareto
+from tissuebench.workflows.manifest import seal
 from tissuebench.workflows.mesh_sensitivity import (
     MARKER,
     STUDIES,
@@ -33,7 +34,6 @@ from tissuebench.workflows.mesh_sensitivity import (
     leaderboard_boards,
     run_study,
 )
-from tissuebench.workflows.output import seal
 
 COMM = MPI.COMM_WORLD
 TINY = Study("rod-MP3", "rod", "MP3", 4, end_time=0.2)  # grids 1, 2, 4; 6 steps of 1/30 s

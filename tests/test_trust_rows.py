@@ -41,7 +41,8 @@ from tissuebench.workflows.leaderboard import build, grading, page, record
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys
-from tissuebench.workflows.output import seal, write_owned
+from tissuebench.workflows.manifest import seal
+from tissuebench.workflows.output import write_owned
 from tissuebench.workflows.posing import export, reference_path
 
 pytestmark = pytest.mark.serial  # rank 0's files, the command run on them
@@ -105,7 +106,7 @@ def graded_by_compare(case, name: str, folder: Path, label: str, wall: float) ->
 
 
 def forge(folder: Path, change) -> None:
-    """Change the folder's summary.json and seal it again, as anyone can (output.seal: the
+    """Change the folder's summary.json and seal it again, as anyone can (manifest.seal: the
     manifest the project writes)."""
     summary = json.loads((folder / "summary.json").read_text())
     change(summary)

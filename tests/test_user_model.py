@@ -20,7 +20,8 @@ from tissuebench.workflows.grading import compare
 from tissuebench.workflows.leaderboard import page
 from tissuebench.workflows.leaderboard.record import Invalid, check_row, row_of, row_record
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, Row, error_keys, user_rows
-from tissuebench.workflows.output import OutputError, seal
+from tissuebench.workflows.manifest import seal
+from tissuebench.workflows.output import OutputError
 from tissuebench.workflows.study import model_case, run_case
 
 H, STEPS = 1 / 30, 30  # s: the quick truth's step and steps (T = 1 s)

@@ -4,8 +4,10 @@ under gravity 0.01 s m/s^2 in -y (s the load scale), material MP3, h = 0.01 s to
 (20 steps: the explicit schemes are stable at n <= 4). Its probe: the free end's top corner.
 
 `registered()` adds it to the registry (meshes.register) with one linear truth case, "plate"
-(solvers.truth.cases.register_case), for as long as the context lasts; everything the commands
-know of it is in its ENTRY."""
+(solvers.truth.cases.register_case), its leaderboard case plate-MP3 graded against that truth
+(workflows.boards.register) and its two cases of the paper, plate-MP3 in part 1 and plate-MP3-s1
+in part 2 (workflows.paper_cases.register), for as long as the context lasts; everything the
+commands know of it is in its ENTRY, its BOARD and its PAPER cases."""
 
 from __future__ import annotations
 
@@ -28,7 +30,11 @@ from tissuebench.meshes.benchmark import (
 )
 from tissuebench.meshes.gmshio import check_positive_int, start_gmsh, to_dolfinx
 from tissuebench.meshes.regions import Posing, Region, Term, on_mesh
+from tissuebench.solvers import ALGORITHMS, MODELS
+from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.solvers.truth.cases import register_case, remove_case
+from tissuebench.workflows import boards, paper_cases
+from tissuebench.workflows.study import algorithm_case, model_case
 
 NAME = "plate"
 SIZE = (0.4, 0.1)  # m
@@ -130,13 +136,37 @@ ENTRY = Entry(
 )
 
 
+# its leaderboard case: ours (linear) on the default mesh, no outside simulator, graded against
+# its truth "plate"
+BOARD = boards.Board(
+    "plate-MP3", NAME, "MP3", "linear", simulators=(), truth=NAME, description="the plate"
+)
+# its cases of the paper: part 1, every algorithm against implicit; part 2, every algorithm with
+# every model against implicit with the reference model
+PAPER = algorithm_case("plate-MP3", NAME, "MP3", list(ALGORITHMS), description="Plate")
+LARGE = model_case(
+    "plate-MP3-s1",
+    NAME,
+    "MP3",
+    list(ALGORITHMS),
+    list(MODELS),
+    run_label("implicit", REFERENCE_MODEL),
+)
+
+
 @contextlib.contextmanager
 def registered():
-    """The plate in the registry, with its truth case, for the context's length."""
-    register(NAME, ENTRY)
-    register_case(NAME, NAME, "MP3", "linear")
-    try:
+    """The plate in the registry, with its truth case, its leaderboard case and its cases of
+    the paper, for the context's length (each taken out again, in the reverse order)."""
+    with contextlib.ExitStack() as added:
+        register(NAME, ENTRY)
+        added.callback(unregister, NAME)
+        register_case(NAME, NAME, "MP3", "linear")
+        added.callback(remove_case, NAME)
+        boards.register(BOARD)
+        added.callback(boards.unregister, BOARD.name)
+        paper_cases.register(PAPER)
+        added.callback(paper_cases.unregister, PAPER.name)
+        paper_cases.register(LARGE, large=True)
+        added.callback(paper_cases.unregister, LARGE.name)
         yield ENTRY
-    finally:
-        remove_case(NAME)
-        unregister(NAME)

@@ -1,7 +1,7 @@
 """The leaderboard's cases (`BOARDS`): each a benchmark posed once (material, model, options,
 mesh size, h, T), the models of ours it runs, the outside simulators and their variants, and
 its truth (SPEC 10). workflows/leaderboard/rows.py reads and ranks them; a case is one entry
-here."""
+here, and a benchmark defined elsewhere (a test's) adds its own with register(board)."""
 
 from __future__ import annotations
 
@@ -297,6 +297,19 @@ def contact_board(case: str, n: int) -> Board:
 
 
 BOARDS += [contact_board(case, n) for case in CONTACT_CASES for n in CONTACT_SIZES]
+
+
+def register(board: Board) -> None:
+    """Add `board` to BOARDS (the same list, wherever it was imported); ValueError if a case
+    has its name."""
+    if any(b.name == board.name for b in BOARDS):
+        raise ValueError(f"the leaderboard already has a case {board.name!r}")
+    BOARDS.append(board)
+
+
+def unregister(name: str) -> None:
+    """Take case `name`, which register added, out of BOARDS."""
+    BOARDS[:] = [b for b in BOARDS if b.name != name]
 
 
 def is_contact(board: Board) -> bool:

@@ -50,7 +50,8 @@ from tissuebench.workflows.contact.grading import (
 )
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
-from tissuebench.workflows.output import RunFolder, collective, file_hash
+from tissuebench.workflows.manifest import file_hash
+from tissuebench.workflows.output import RunFolder, collective
 from tissuebench.workflows.summary import (  # candidate_file: read here by others
     SCHEMA_VERSION,
     SUMMARY,

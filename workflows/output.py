@@ -26,12 +26,12 @@ Rules (README, "Output folders"):
   removed: anything else under those names is refused in one line.
 
 Rank 0 does every file operation; errors are broadcast so that every rank raises the same.
+The manifests themselves (written, read, checked) are workflows/manifest.py's.
 """
 
 from __future__ import annotations
 
 import errno
-import hashlib
 import json
 import os
 import shutil
@@ -47,10 +47,19 @@ from mpi4py import MPI
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
+from tissuebench.workflows.manifest import (
+    MANIFEST,
+    MARK,
+    changes,
+    file_hash,
+    is_complete,
+    is_ours,
+    read_manifest,
+    seal,
+    stage_manifest,
+)
 from tissuebench.workflows.summary import read_summary
 
-MANIFEST = ".tissuebench.json"  # what we wrote, with hashes
-MARK = ".tissuebench-temporary"  # inside our temporary and backup folders
 PREFIX = ".tissuebench-"  # of our temporary, backup and lock names beside a target
 
 T = TypeVar("T")  # what a collective action returns
@@ -64,108 +73,11 @@ class WriteFailure(RuntimeError):
     """The environment failed while writing (disk full, permission lost): one line, exit 1."""
 
 
-# --- manifests --------------------------------------------------------------------------------
-
-
-def file_hash(path: Path) -> str:
-    """The SHA-256 of a file's bytes, as hex."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def read_manifest(folder: Path, kind: str) -> dict[str, str] | None:
-    """{relative path: SHA-256} of the folder's manifest of this kind ("folder": every file
-    below it; "files": loose files in a shared folder), or None if there is none."""
-    try:
-        data = json.loads((Path(folder) / MANIFEST).read_text())
-    except (OSError, ValueError, RecursionError):
-        return None
-    if not isinstance(data, dict) or data.get("tissuebench") != kind:
-        return None
-    files = data.get("files")
-    if not isinstance(files, dict) or not all(isinstance(v, str) for v in files.values()):
-        return None
-    return files
-
-
-def _stage_manifest(folder: Path, kind: str, files: dict[str, str]) -> Path:
-    """The manifest written whole under a staging name beside its place, which
-    os.replace(staged, folder / MANIFEST) puts in place (removed again if writing it fails)."""
-    text = json.dumps({"tissuebench": kind, "files": dict(sorted(files.items()))}, indent=1)
-    tmp = folder / f"{MANIFEST}.{os.getpid()}.tmp"
-    try:
-        tmp.write_text(text + "\n")
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return tmp
-
-
-def _write_manifest(folder: Path, kind: str, files: dict[str, str]) -> None:
-    tmp = _stage_manifest(folder, kind, files)
-    try:
-        os.replace(tmp, folder / MANIFEST)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def _below(folder: Path) -> Iterator[tuple[str, Path]]:
-    """(relative path, path) of every file and link below folder, the manifest and our
-    temporary marker left out."""
-    for root, dirs, files in os.walk(folder):
-        for name in sorted(files) + sorted(d for d in dirs if Path(root, d).is_symlink()):
-            path = Path(root, name)
-            rel = path.relative_to(folder).as_posix()
-            if rel not in (MANIFEST, MARK):
-                yield rel, path
-
-
-def seal(folder: Path) -> None:
-    """Write the manifest of a folder that we wrote whole: every file below it, hashed."""
-    _write_manifest(folder, "folder", {rel: file_hash(path) for rel, path in _below(folder)})
-
-
-def changes(folder: Path) -> tuple[list[str], list[str], list[str]] | None:
-    """(added, modified, missing) relative paths since we sealed the folder, or None if the
-    folder has no manifest of ours. A link, or anything that is not a plain file, counts as
-    added."""
-    listed = read_manifest(folder, "folder")
-    if listed is None:
-        return None
-    added, modified, seen = [], [], set()
-    for rel, path in _below(folder):
-        seen.add(rel)
-        if rel not in listed or path.is_symlink() or not path.is_file():
-            added.append(rel)
-        elif file_hash(path) != listed[rel]:
-            modified.append(rel)
-    return added, modified, sorted(set(listed) - seen)
+# --- a folder of ours, checked ------------------------------------------------------------------
 
 
 def _listing(names: list[str]) -> str:
     return names[0] + (f" and {len(names) - 1} more" if len(names) > 1 else "")
-
-
-def is_ours(folder: Path) -> bool:
-    """True if the folder carries our manifest and nothing in it was added or changed."""
-    found = changes(folder)
-    return found is not None and not found[0] and not found[1]
-
-
-def is_complete(folder: Path) -> bool:
-    """A folder of ours is complete when no file of its manifest is gone and every file its
-    summary lists exists."""
-    found = changes(folder)
-    summary = read_summary(folder)
-    if found is None or any(found) or summary is None:
-        return False
-    try:
-        return all((Path(folder) / f).is_file() for f in summary["files"])
-    except (KeyError, TypeError):
-        return False
 
 
 def check_foreign(path: Path) -> None:
@@ -580,7 +492,7 @@ def write_set(
         for folder in folders:  # every manifest written whole before any file moves
             listed = read_manifest(folder, "files") or {}
             mine = {p.name: digests[p] for p in staged if p.parent == folder}
-            manifests[folder] = _stage_manifest(folder, "files", {**listed, **mine})
+            manifests[folder] = stage_manifest(folder, "files", {**listed, **mine})
         interrupt.check()  # the last point at which a signal leaves the old set whole
         with interrupt.deferred():  # renames only: no disk space needed
             for folder in folders:

@@ -60,7 +60,7 @@ def prepare(users: int, template: Path, log=print) -> None:
     """template/results: the committed results with `users` copies of one user's compare
     folder of rod-MP3, none graded yet; template/rod.json, mine/ and rod.reference.xdmf, how
     the user made it."""
-    from tissuebench.workflows.output import seal
+    from tissuebench.workflows.manifest import seal
     from tissuebench.workflows.summary import read_compare_summary, write_summary
 
     tb, _ = tools()

@@ -21,6 +21,9 @@ OUT/large-deformation/: the block
 (MP1) at the paper's load (s = 1, the point needle) and at s = 2 with a 0.2 m needle, the rod
 (MP3) at s = 1 and s = 3. The report also gives the linear critical step of the explicit
 schemes on each of their meshes (solvers/stability.py), which says why explicit runs diverge.
+
+The cases are workflows/paper_cases.py's (with those a benchmark defined elsewhere registered
+there); `--cases NAME ...` runs and reports only those named.
 """
 
 import argparse
@@ -31,9 +34,6 @@ from mpi4py import MPI
 
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
-from tissuebench.meshes import get_entry
-from tissuebench.solvers import ALGORITHMS, MODELS
-from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.workflows import paper_truth
 from tissuebench.workflows.checks import check_common
 from tissuebench.workflows.commands.arguments import add_common
@@ -43,135 +43,13 @@ from tissuebench.workflows.output import (
     collective,
     write_owned,
 )
+from tissuebench.workflows.paper_cases import cases, model_cases
 from tissuebench.workflows.reports import paper as report
-from tissuebench.workflows.study import Case, algorithm_case, model_case, run_case
+from tissuebench.workflows.study import Case, run_case
 from tissuebench.workflows.summary import CaseSummary
 from tissuebench.workflows.truth_jobs import TruthJobs
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
-
-
-def cases(solver: str = "direct", petsc: str = "") -> list[Case]:
-    names = list(ALGORITHMS)
-    vs = [
-        ("implicit-MP2", "implicit", "MP2"),
-        *((f"{a}-MP1", a, "MP1") for a in names),
-        ("quasi-static-MP2", "quasi-static", "MP2"),
-    ]
-    return [
-        algorithm_case(
-            "block-MP1",
-            "block",
-            "MP1",
-            names,
-            solver=solver,
-            petsc=petsc,
-            description=(
-                "Block and needle, MP1: the five algorithms against implicit MP1 (paper Figs. 5-7)"
-            ),
-        ),
-        algorithm_case(
-            "block-MP2",
-            "block",
-            "MP2",
-            names,
-            solver=solver,
-            petsc=petsc,
-            description=(
-                "Block and needle, MP2 (human prostate): the five algorithms against implicit MP2"
-            ),
-        ),
-        algorithm_case(
-            "rod-MP3",
-            "rod",
-            "MP3",
-            names,
-            solver=solver,
-            petsc=petsc,
-            description=(
-                "Bending rod, MP3: the five algorithms against implicit MP3 (paper Figs. 8-10)"
-            ),
-        ),
-        Case(
-            "block-MP2-vs-MP1",
-            "block",
-            vs,
-            "implicit-MP2",
-            solver=solver,
-            petsc=petsc,
-            description=(
-                "Block: every MP1 run and quasi-static MP2 against implicit MP2 (paper Fig. 11)"
-            ),
-        ),
-        # Beyond the paper's 10 s, on the same meshes: the checks of claims 3 and 6 (SPEC section 7)
-        algorithm_case(
-            "block-MP1-40s",
-            "block",
-            "MP1",
-            names,
-            end_time=40.0,
-            solver=solver,
-            petsc=petsc,
-            description=(
-                "Block and needle, MP1, as block-MP1 but run to 40 s: do all schemes settle on "
-                "the quasi-static solution? (claim 3)"
-            ),
-        ),
-        # the reference and its static deflection only: the rod's surface error costs ~10 ms a step
-        algorithm_case(
-            "rod-MP3-30s",
-            "rod",
-            "MP3",
-            ["quasi-static"],
-            end_time=30.0,
-            solver=solver,
-            petsc=petsc,
-            description=(
-                "Bending rod, MP3, implicit and quasi-static as in rod-MP3 but run to 30 s: the "
-                "oscillation about the static shape (claim 6)"
-            ),
-        ),
-    ]
-
-
-# SPEC section 8's named cases: (name, benchmark, material, load scale s, needle width w,
-# the reference's model: neo-hookean at the paper's loads, neo-hookean-barrier at large ones)
-LARGE_CASES = [
-    ("block-MP1-s1", "block", "MP1", 1.0, 0.0, REFERENCE_MODEL),
-    ("block-MP1-s2-w0.2", "block", "MP1", 2.0, 0.2, "neo-hookean-barrier"),
-    ("rod-MP3-s1", "rod", "MP3", 1.0, None, REFERENCE_MODEL),
-    ("rod-MP3-s3", "rod", "MP3", 3.0, None, "neo-hookean-barrier"),
-]
-
-
-def model_cases(solver: str = "direct", petsc: str = "") -> list[Case]:
-    """Part 2 (SPEC section 8): the five algorithms times every model on each named case,
-    against implicit with the case's reference model (SPEC 8's table)."""
-    result = []
-    for name, benchmark, material, scale, width, model in LARGE_CASES:
-        reference = run_label("implicit", model)
-        options = {"load_scale": scale}
-        load = f"s = {scale:g}"
-        if width is not None:
-            options["needle_width"] = width
-            load += f", needle width w = {width:g} m" if width else ", point needle (w = 0)"
-        what = get_entry(benchmark).title
-        result.append(
-            model_case(
-                name,
-                benchmark,
-                material,
-                list(ALGORITHMS),
-                list(MODELS),
-                reference,
-                options=options,
-                solver=solver,
-                petsc=petsc,
-                description=f"{what}, {material}, load scale {load}: the five algorithms with the "
-                f"{len(MODELS)} elastic models against {reference} (SPEC section 8)",
-            )
-        )
-    return result
 
 
 def explicit_limits(case: Case, comm: MPI.Comm) -> dict:
@@ -188,6 +66,30 @@ def explicit_limits(case: Case, comm: MPI.Comm) -> dict:
     material = case.runs[0].material
     limits = stability_limits(System(bench, material), list(explicit_schemes()))
     return {name: limit.critical_dt for name, limit in limits.items()}
+
+
+def select(
+    names: list[str] | None, first: list[Case], truth: list[Case], second: list[Case]
+) -> tuple[list[Case], list[Case], list[Case]]:
+    """Part 1's, the truth's and part 2's cases that --cases names (None: all of them); the
+    truth's cases run together (paper_truth grades them as one) when either is named. A name
+    of no case, or none of part 1 (the report's claims rest on them), is refused in one line."""
+    if names is None:
+        return first, truth, second
+    known = [c.name for c in first + truth + second]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise UserError(f"--cases {unknown[0]}: no such case; name some of {', '.join(known)}")
+    if not any(c.name in names for c in first):
+        raise UserError(
+            f"--cases: name at least one case of part 1 ({', '.join(c.name for c in first)}): "
+            "the report's claims rest on them"
+        )
+    return (
+        [c for c in first if c.name in names],
+        truth if any(c.name in names for c in truth) else [],
+        [c for c in second if c.name in names],
+    )
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -210,6 +112,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "run (a linear truth's runs side by side; default: the cores, at most 2; one rank "
         "only)",
     )
+    p.add_argument(
+        "--cases",
+        nargs="+",
+        metavar="CASE",
+        help="run and report only these cases (default: all of them; the truth's two run "
+        "together), at least one of part 1",
+    )
     add_common(p)
     p.set_defaults(func=main)
 
@@ -225,11 +134,15 @@ def main(args: argparse.Namespace) -> int:
     summaries: dict[str, CaseSummary] = {}
     large: dict[str, CaseSummary] = {}
     limits: dict[str, dict[str, float]] = {}
-    first, second = cases(args.solver, args.petsc), model_cases(args.solver, args.petsc)
-    truth_cases = paper_truth.cases(args.solver, args.petsc)
+    first, truth_cases, second = select(
+        getattr(args, "cases", None),
+        cases(args.solver, args.petsc),
+        paper_truth.cases(args.solver, args.petsc),
+        model_cases(args.solver, args.petsc),
+    )
     parts = [out / c.name for c in first + truth_cases] + [out / LARGE / c.name for c in second]
     interrupt.will_write([*parts, out / "README.md"])  # named on a signal if not written
-    uncached = paper_truth.missing(comm)
+    uncached = paper_truth.missing(comm) if truth_cases else []
     jobs = args.jobs if comm.size == 1 else 1  # under mpiexec the ranks share each truth
     if uncached and comm.rank == 0:
         print(paper_truth.first_run_line(uncached, jobs), flush=True)
@@ -255,7 +168,9 @@ def main(args: argparse.Namespace) -> int:
     finally:
         work.stop()
     # the paper against the truth (SPEC 10): its runs, graded against the truths
-    truth = paper_truth.compute(out, comm, args.solver, args.petsc, force=args.force)
+    truth = None
+    if truth_cases:
+        truth = paper_truth.compute(out, comm, args.solver, args.petsc, force=args.force)
     for case in truth_cases:
         interrupt.written(out / case.name)
 

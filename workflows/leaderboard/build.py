@@ -51,14 +51,13 @@ from tissuebench.workflows.leaderboard.rows import (
 )
 from tissuebench.workflows.leaderboard.runs import run_board
 from tissuebench.workflows.leaderboard.users import read_users, user_key
+from tissuebench.workflows.manifest import file_hash, read_manifest
 from tissuebench.workflows.mesh_sensitivity import NAME as SENSITIVITY
 from tissuebench.workflows.mesh_sensitivity_board import leaderboard_boards
 from tissuebench.workflows.output import (
     OutputError,
     check_writable,
     collective,
-    file_hash,
-    read_manifest,
     write_set,
 )
 from tissuebench.workflows.simulators import get_simulator

@@ -95,7 +95,7 @@ class Caches:
 def case_reference(board: Board, out: Path | None = None) -> Series:
     """The case's reference series: our implicit with the case's model on its mesh, h and
     steps. OUT/leaderboard/CASE/ours/LABEL.xdmf where a rerun of the case left it as we wrote
-    it (its folder is ours, unchanged: output.is_ours) and of the case's steps and nodes;
+    it (its folder is ours, unchanged: manifest.is_ours) and of the case's steps and nodes;
     else run here as `tissuebench export` runs the reference it writes beside the benchmark
     (posing.export into a temporary folder, read back, removed): the series a user compared
     against. Rank 0's (one process)."""
@@ -103,7 +103,7 @@ def case_reference(board: Board, out: Path | None = None) -> Series:
     from tissuebench.solvers.materials import get_material
     from tissuebench.solvers.models import run_label
     from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.output import is_ours
+    from tissuebench.workflows.manifest import is_ours
     from tissuebench.workflows.posing import export, reference_path
 
     case = board_case(board)

@@ -28,7 +28,7 @@ from tissuebench.workflows.leaderboard.row import (
     one_line,
     real,
 )
-from tissuebench.workflows.output import MANIFEST, changes, file_hash
+from tissuebench.workflows.manifest import MANIFEST, changes, file_hash
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.summary import read_summary
 
@@ -437,7 +437,7 @@ def series_problem(summary: dict, found: dict) -> str | None:
 
 def edited(folder: Path) -> str | None:
     """Why a compare folder is not as compare wrote it (None: it is): a file of it changed
-    since compare wrote it (its manifest, output.MANIFEST, holds another hash: compare itself
+    since compare wrote it (its manifest, manifest.MANIFEST, holds another hash: compare itself
     refuses such a folder), or no manifest to check it against. A file added beside them
     changes nothing read and is let be. The manifest is a guard against accidents (a file
     edited by hand, a copy cut short), not a signature: anyone can compute it again, so the

@@ -12,7 +12,8 @@ from pathlib import Path
 from tissuebench.workflows.leaderboard.record import FOLDER, Invalid, row_fields, row_of
 from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, misplaced, user_rows
-from tissuebench.workflows.output import file_hash, read_manifest, write_owned
+from tissuebench.workflows.manifest import file_hash, read_manifest
+from tissuebench.workflows.output import write_owned
 
 GRADED = "graded-users.json"  # in OUT/leaderboard: the users' rows graded so far (resumed from)
 
