@@ -23,7 +23,8 @@ substitutions (`small`), which keep the whole block to a few minutes on one core
   form and runs the whole study (about 2.5 minutes on a quiet core, 5 or more under load,
   beyond this test's few minutes); without it the line is not run and a warning says so;
 - `make bench`: `tissuebench bench --quick` (what it runs), where the bench extra is installed;
-  `bench --only explicit-models`: its `--quick`.
+  `bench --only explicit-models`: its `--quick`; `bench --only paths` times the user's commands
+  whole (a first `paper` among them: about 20 minutes, no quick form) and is not run.
 
 A line whose tool is missing here (ccx for the CalculiX line, the bench extra for `make bench`)
 or whose truths are not computed here (`paper`, `frontier` and `compare truth:rod` grade
@@ -172,6 +173,11 @@ def small(argv: list[str], folder: Path) -> tuple[list[str] | None, str | None]:
         if missing:
             return None, f"paper: the truths {', '.join(missing)} are not computed here"
         return argv, None
+    if command == "bench" and "paths" in argv:
+        return None, (
+            "bench --only paths: the user's commands timed whole, a first paper among them (about "
+            "20 minutes; no quick form: its committed run is results/performance-paths.md)"
+        )
     if command == "bench":
         return option(argv, "--quick", None), None
     return argv, None
