@@ -44,13 +44,12 @@ def pytest_configure(config):
 
 
 def pytest_collection_modifyitems(config, items):
+    marked = [item for item in items if item.get_closest_marker("parallel")]
+    both = [item.nodeid for item in marked if item.get_closest_marker("serial")]
+    if both:  # the mpiexec pass (-m parallel) would skip them
+        raise pytest.UsageError(f"marked both serial and parallel: {', '.join(both)}")
     # the files with a slow test first (with --dist loadfile --no-loadscope-reorder: handed out
     # first), each file's tests in their order
-    both = [
-        item.nodeid for item in items if "serial" in item.keywords and "parallel" in item.keywords
-    ]
-    if both:
-        raise pytest.UsageError(f"marked both serial and parallel: {', '.join(both)}")
     slow = {item.path for item in items if item.get_closest_marker("slow")}
     items.sort(key=lambda item: item.path not in slow)
     if MPI.COMM_WORLD.size == 1:
