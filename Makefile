@@ -1,8 +1,8 @@
 # Two entry points, both self-contained on a fresh machine:
 #   make paper   set up .venv, then run the paper's study into results/
 #   make test    set up .venv, then ruff, then the import contract (make imports), then mypy (make
-#                typecheck), then the test suite in serial and, for the tests not
-#                marked serial, under mpiexec -n 2
+#                typecheck), then the test suite in serial and, for the tests marked parallel
+#                (those about the ranks: tests/conftest.py), under mpiexec -n 2
 # PYTHON must be 3.12 (the DOLFINx wheel needs it); .python-version makes pyenv's python3 one.
 PYTHON ?= python3
 VENV   ?= .venv
@@ -29,7 +29,7 @@ test: setup
 	$(MAKE) --no-print-directory imports
 	$(MAKE) --no-print-directory typecheck
 	$(BIN)/pytest -n auto --dist loadfile --no-loadscope-reorder
-	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "not serial"
+	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m parallel
 
 # The package as it installs, tissuebench.*, as one tree of folders: the code folders install
 # through pyproject's package-dir, which neither mypy nor import-linter can map. .typecheck/ holds

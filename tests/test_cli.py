@@ -21,7 +21,8 @@ COLUMNS = [
     "status",
 ]
 
-pytestmark = [pytest.mark.serial, pytest.mark.slow]  # drives the command line in subprocesses
+# drives the command line in subprocesses; their runs are not graded against a cached truth
+pytestmark = [pytest.mark.serial, pytest.mark.slow, pytest.mark.usefixtures("empty_truth_cache")]
 
 
 def read_metrics(path):
@@ -292,7 +293,8 @@ def test_interrupted_output_is_replaced_whole(tmp_path):
     ],
 )
 def test_run_serial_equals_mpiexec(tmp_path, benchmark, size, shape):
-    args = ("run", benchmark, "--mesh-size", size, "--end-time", 1.0, *shape)
+    # the numbers only: the figures are drawn under mpiexec in test_signals and the README's line
+    args = ("run", benchmark, "--mesh-size", size, "--end-time", 1.0, "--no-figures", *shape)
     serial = tissuebench(*args, "--out", tmp_path / "serial")
     parallel = tissuebench(*args, "--out", tmp_path / "parallel", ranks=2)
     assert serial.returncode == 0 and parallel.returncode == 0, parallel.stderr[-2000:]

@@ -3,9 +3,9 @@ component of any dimension, and displacements beyond 100 times the domain's exte
 section 3) are a divergence from that step, never "ok" with an inf metric; a series whose
 steps move or renumber their nodes is refused.
 
-The library tests are collective (files written by rank 0): run them also with
-`mpiexec -n 2 pytest -m "not serial"`; the command-line tests run compare serially and under
-mpiexec -n 2."""
+The library tests are collective (files written by rank 0, a divergence seen on every rank)
+and marked parallel: `make test` runs them also with `mpiexec -n 2 pytest -m parallel`; the
+command-line tests run compare serially and under mpiexec -n 2."""
 
 import shutil
 from pathlib import Path
@@ -96,6 +96,7 @@ def assert_never_ok_with_inf(g):
 # --- complex fields ----------------------------------------------------------------------------
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("imaginary", [1.0, 0.0])
 def test_complex_field_is_refused(tmp_path, imaginary):
     """A complex-valued field is refused in one line, even with a zero imaginary part, never
@@ -122,6 +123,7 @@ def test_complex_field_is_refused(tmp_path, imaginary):
 # --- values beyond the divergence bound --------------------------------------------------------
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("dim", [2, 3])
 def test_huge_values_are_a_divergence_from_their_step(tmp_path, dim):
     """A candidate at 1e300 from step 2 (its norms overflow to inf) has diverged there: status
@@ -160,6 +162,7 @@ def test_huge_values_are_a_divergence_from_their_step(tmp_path, dim):
     assert_never_ok_with_inf(r)
 
 
+@pytest.mark.parallel
 def test_the_bound_is_100_times_the_extent(tmp_path):
     """One node moved by 99 times the domain's largest extent is graded (finite metrics, "ok");
     by 101 times, the step has diverged (SPEC section 3), with the magnitude in the reason."""
@@ -190,6 +193,7 @@ def test_the_bound_is_100_times_the_extent(tmp_path):
         np.testing.assert_array_equal(beyond.curves[name][:3], below.curves[name][:3])
 
 
+@pytest.mark.parallel
 def test_a_collapsed_reference_gives_no_infinite_surface_error():
     """A reference domain shrunk to a point (within the bound, so graded) has zero area or
     volume: E_s is NaN there, as E_n is where the reference is zero, never inf."""
@@ -201,6 +205,7 @@ def test_a_collapsed_reference_gives_no_infinite_surface_error():
         assert all(np.isfinite(v) for k, v in values.items() if k != "surface_error")
 
 
+@pytest.mark.parallel
 def test_coordinates_the_metrics_cannot_hold_are_refused(tmp_path):
     """A mesh whose coordinates reach 1e60 (its volumes would overflow) is refused in one line."""
     points, cells, cell_type, ref, cand, _ = series(2)
@@ -212,6 +217,7 @@ def test_coordinates_the_metrics_cannot_hold_are_refused(tmp_path):
 # --- NaN in any component ---------------------------------------------------------------------
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("where", ["all", "third", "inf-third", "one-3d"])
 def test_nan_in_any_component_is_a_divergence(tmp_path, where):
     """A candidate stored with three components per node: NaN in all of them at step 3 (a 2D
@@ -244,6 +250,7 @@ def test_nan_in_any_component_is_a_divergence(tmp_path, where):
     assert_never_ok_with_inf(g)
 
 
+@pytest.mark.parallel
 def test_a_finite_non_zero_third_component_of_2d_data_is_still_refused(tmp_path):
     points, cells, cell_type, ref, cand, _ = series(2)
     stored = [np.c_[u, np.zeros(len(u))] for u in cand]
@@ -256,6 +263,7 @@ def test_a_finite_non_zero_third_component_of_2d_data_is_still_refused(tmp_path)
 # --- node order --------------------------------------------------------------------------------
 
 
+@pytest.mark.parallel
 def test_a_pvd_series_that_renumbers_its_nodes_is_refused(tmp_path):
     """Steps 2..4 of a PVD series written with the nodes in another order (the same mesh): the
     series is refused in one line naming the step's file and a node that moved; a series
@@ -289,6 +297,7 @@ def test_a_pvd_series_that_renumbers_its_nodes_is_refused(tmp_path):
     assert "moved or numbered otherwise" in message and "\n" not in message
 
 
+@pytest.mark.parallel
 def test_an_xdmf_series_whose_steps_change_their_nodes_is_refused(tmp_path):
     """XDMF steps that each hold their own geometry: the same points at every step are graded
     as meshio's series (one mesh for all steps); renumbered or moved points (the deformed
@@ -320,6 +329,7 @@ def test_an_xdmf_series_whose_steps_change_their_nodes_is_refused(tmp_path):
         assert "moved or numbered otherwise" in message
 
 
+@pytest.mark.parallel
 def test_a_nameless_xdmf_attribute_is_left_out(tmp_path):
     """An Attribute without a Name beside the named field is left out (no name asked for can
     match it), not a failure to read the file (sorting the names with None among them was a

@@ -72,6 +72,7 @@ def test_ufl_gap_matches_numpy():
     assert np.allclose(values[..., 1:].reshape(-1, 2), outward_normal(deformed, c.value))
 
 
+@pytest.mark.parallel
 def test_hertz_law_and_the_committed_record():
     """SPEC 12: the truth's static 5 mm push holds Hertz's line-contact law within 1 % (p0) and
     2 % (a) on the finest level; the stiffer penalty changes p0 by less than 0.1 %; the finest

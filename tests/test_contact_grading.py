@@ -23,7 +23,9 @@ from tissuebench.workflows.grading import GradingError, compare
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.io.tables import read_rows, write_force_csv
 
-pytestmark = pytest.mark.serial  # the command on rank 0's files; parallel: its own test
+# the command on rank 0's files; parallel: its own test; its runs are not graded against a
+# cached truth
+pytestmark = [pytest.mark.serial, pytest.mark.usefixtures("empty_truth_cache")]
 
 MOVE = 0.01  # m, the candidate moved into the needle
 

@@ -2,7 +2,8 @@
 the reference's body, the refusal of another body, simplices read from files, and the
 reference's own mesh graded exactly as before.
 
-The in-memory tests (grade_series) are collective and run again under mpiexec -n 2; the
+The in-memory tests (grade_series) are collective; those about the ranks (the farthest node
+named, the nodes in another order) are marked parallel and run again under mpiexec -n 2; the
 tests that write files run in serial only, one of them checking serial against 2 ranks."""
 
 import json
@@ -180,6 +181,7 @@ def test_reference_split_into_simplices_on_its_own_nodes(dim):
         assert np.all(np.abs(c["surface_error"]) <= 1e-15)
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_larger_body_is_refused_naming_the_farthest_node(dim):
     """The body 10 % larger: its far corner (node N - 1) is farthest from the reference's
@@ -221,6 +223,7 @@ def test_a_hole_without_nodes_is_refused_by_the_volumes():
         grade_series(ref, series("holed.xdmf", holed, AFFINE[2][1]))
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("dim", [2, 3])
 def test_the_reference_mesh_is_graded_node_for_node_as_before(dim):
     """A candidate on the reference's nodes (stored in another order) and cells takes the path

@@ -54,6 +54,7 @@ def table(path):
 # --- JSON -------------------------------------------------------------------------------------
 
 
+@pytest.mark.parallel
 def test_json_round_trips_and_holds_the_benchmark(tmp_path):
     """The block with a needle width: read_json gives back what was exported, nodes are the
     reference XDMF's, the sets are where the SPEC puts them (by coordinates), and the needle's

@@ -17,7 +17,9 @@ from tissuebench.workflows.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard.rows import Board, pareto
 
-pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it first
+# a minute or more in all: make test starts it first; its runs are not graded against a cached
+# truth
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("empty_truth_cache")]
 
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not on PATH")
 SMALL = ["--mesh-size", "2", "--material", "MP3", "--end-time", "0.5"]  # 15 steps of 1/30 s

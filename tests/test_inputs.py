@@ -19,7 +19,9 @@ from tissuebench.meshes.benchmark import check_load_scale
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.solvers.materials import LARGEST, SMALLEST, Material, MaterialError
 
-pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it first
+# a minute or more in all: make test starts it first; its runs are not graded against a cached
+# truth
+pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("empty_truth_cache")]
 
 ROD = ("rod", "--mesh-size", 2, "--end-time", 0.1)  # 3 steps of 1/30 s
 # CG + Jacobi with one iteration cannot solve M a0 = f: the initial state (step 0) fails
@@ -316,6 +318,7 @@ def test_argument_error_is_one_line(ranks):
     assert first.endswith("(usage: tissuebench export -h)"), first
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize(
     "args, line",
     [

@@ -128,6 +128,7 @@ def lines_of(capsys) -> list[str]:
     return (captured.out + captured.err).strip().splitlines()
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("kind", list(CORRUPTIONS))
 def test_a_reader_says_it_in_one_line_and_counts_it_not_computed(cache, capsys, kind):
     corrupt, why = CORRUPTIONS[kind]
@@ -149,6 +150,7 @@ def test_a_reader_says_it_in_one_line_and_counts_it_not_computed(cache, capsys, 
     assert agreed(failures) == []
 
 
+@pytest.mark.parallel
 def test_a_memory_error_while_reading_is_an_unreadable_entry(cache, capsys, monkeypatch):
     """Whatever the read raises, MemoryError included, is the entry's fault, not a crash."""
     corrupt_entry(cache, lambda path: None)
@@ -167,6 +169,7 @@ def test_a_memory_error_while_reading_is_an_unreadable_entry(cache, capsys, monk
     assert agreed(failures) == []
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("kind", ["huge header", "cut short"])
 def test_truth_and_compare_compute_it_again(cache, capsys, monkeypatch, kind):
     """truth_samples (the `truth` command's reader) and compare's load_truth: one line naming
@@ -206,6 +209,7 @@ def test_truth_and_compare_compute_it_again(cache, capsys, monkeypatch, kind):
     assert agreed(failures) == []
 
 
+@pytest.mark.parallel
 def test_a_killed_writes_temporary_is_removed_at_the_next_write(cache, capsys, monkeypatch):
     """TruthSamples.save writes .NAME.npz.PID.tmp.npz and renames it: a write killed before
     the rename leaves it. The next write removes those of processes no longer running, and

@@ -12,6 +12,8 @@ from tissuebench.metrics import METRICS
 from tissuebench.workflows.paper_cases import cases
 from tissuebench.workflows.study import run_case
 
+pytestmark = pytest.mark.parallel  # the committed (serial) numbers on 2 ranks too
+
 RESULTS = Path(__file__).parent.parent / "results"
 
 

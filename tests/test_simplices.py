@@ -68,6 +68,7 @@ def test_mesh_holds_the_body_the_needle_and_the_clamped_face(name, size, cell, k
         assert np.allclose(constrained_points(bench, "clamped")[:, 0], 0.0)
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("name,size,cell,kind", SHAPES)
 def test_lumped_mass_is_positive_and_conserves_the_mass(name, size, cell, kind):
     """Row sums of the P1 mass matrix: every entry positive, and their sum is the body's mass

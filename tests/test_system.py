@@ -28,6 +28,7 @@ def vec(s, values):
     return x
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("name, size, volume", [("block", 6, 1.0), ("rod", 2, 0.5 * 0.25 * 0.25)])
 def test_mass_totals(name, size, volume):
     s = System(get_benchmark(name, mesh_size=size))
@@ -113,6 +114,7 @@ def test_patch_linear_field(name, size, plane):
     )
 
 
+@pytest.mark.parallel
 def test_node_counts_and_needle():
     for N in (4, 20):
         m = block_mesh(N).mesh
@@ -139,6 +141,7 @@ def test_node_counts_and_needle():
     assert np.allclose(coords[0, :2], [1.0, 0.5])
 
 
+@pytest.mark.parallel
 def test_needle_width_takes_right_edge_nodes():
     # nodes of N = 20 on the right edge are 0.05 apart: w = 0.2 covers y in [0.4, 0.6], 5 nodes
     s = System(get_benchmark("block", mesh_size=20, needle_width=0.2))

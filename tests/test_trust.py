@@ -312,6 +312,7 @@ def test_sensitivity_report_that_cannot_be_read_is_left_out(tmp_path):
     assert all_ranks(True)
 
 
+@pytest.mark.parallel
 def test_saved_rows_that_do_not_parse_are_recomputed(study, tmp_path):
     """A truncated rows-*.json, and one whose rows lost a key, are run again (one line
     each); the other meshes are read back untouched; the numbers are those of the first

@@ -25,6 +25,7 @@ from tissuebench.workflows.grading import compare
 TIMES = np.array([0.0, 0.25, 0.5, 0.75])  # s, t_i = i h
 OWN = 4.7e-6  # the synthetic truths' own error, m^d
 LENGTHS = {2: SQUARE, 3: ROD}
+pytestmark = pytest.mark.parallel  # every rank must get the serial numbers
 COMM = MPI.COMM_WORLD
 
 

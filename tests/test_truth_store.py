@@ -38,6 +38,7 @@ def agreed(failures: list) -> list:
     return COMM.bcast(failures if COMM.rank == 0 else None)
 
 
+@pytest.mark.parallel
 @pytest.mark.parametrize("gdim", [2, 3])
 @pytest.mark.parametrize("nu", [0.3, 0.49])  # Q2 alone; Taylor-Hood (V collapsed from W)
 def test_samples_of_a_known_field(gdim, nu):
@@ -130,6 +131,7 @@ def cache(tmp_path_factory):
     return Path(COMM.bcast(str(tmp_path_factory.mktemp("cache")) if COMM.rank == 0 else None))
 
 
+@pytest.mark.parallel
 def test_the_cache_is_read_back_and_keyed_by_the_inputs(cache, monkeypatch):
     monkeypatch.setenv("TISSUEBENCH_CACHE", str(cache))
     first = store.truth_samples("rod", quick=True)

@@ -75,6 +75,7 @@ def test_the_compiled_loop_is_the_numpy_sum():
         interior_norms(cells + nodes, phi, u, uq, w)
 
 
+@pytest.mark.parallel
 def test_a_located_mesh_is_reused_and_gives_the_same_numbers():
     """grade_truth(located=...) locates a candidate mesh once: a second candidate on it takes
     the same TruthMetrics, and its curves are those of a grading without the dict."""
