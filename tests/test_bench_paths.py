@@ -2,6 +2,7 @@
 lines, the estimates it printed read back and set beside the times they estimated, and the
 report's verdicts, on commands and lines made here."""
 
+import json
 import sys
 
 import pytest
@@ -10,6 +11,7 @@ from tissuebench.workflows.bench.paths import (
     ESTIMATE_FACTOR,
     Timed,
     estimates,
+    phases,
     report,
     seconds_of,
     timed,
@@ -20,10 +22,13 @@ pytestmark = pytest.mark.serial  # subprocesses
 
 def test_timed_keeps_lines_in_order_with_their_times():
     said: list[str] = []
-    code = "import time; print('a', flush=True); time.sleep(0.3); print('b'); raise SystemExit(3)"
+    code = (
+        "import time; print('a', flush=True); print('run:  50%|#####     | 1/2'); "
+        "time.sleep(0.3); print('b'); raise SystemExit(3)"
+    )
     record = timed("probe", [sys.executable, "-c", code], {}, said.append)
     assert record.code == 3
-    assert [line for _, line in record.lines] == ["a", "b"]
+    assert [line for _, line in record.lines] == ["a", "b"]  # the progress bar's left out
     (ta, _), (tb, _) = record.lines
     assert tb - ta >= 0.25 and record.wall_s >= tb  # b came after the sleep, before the end
     assert said[-1].startswith("probe: ") and "(exit 3)" in said[-1]
@@ -96,3 +101,12 @@ def test_report_says_targets_met_or_not():
         {"when": "now", "slowdown": 1.0, "records": [record], "estimates": [], "runs": runs}, "m"
     )
     assert "| 479.0 | 480 | met |" in text and "--no-figures: met." in text
+
+
+def test_phases_take_the_truth_grading_that_follows_them(tmp_path):
+    phases_s = {"mesh": 0.5, "run implicit": 1.0, "run explicit": 2.0, "metrics": 3.0}
+    (tmp_path / "summary.json").write_text(json.dumps({"phases_s": phases_s}))
+    record = Timed("run rod", ["run"], wall_s=9.0)
+    record.lines = [(8.0, "out: against the truth     1.25 s"), (8.1, "results in out")]
+    r = phases(tmp_path, record)
+    assert r["loop_s"] == 3.0 and r["outside_s"] == 0.5 + 3.0 + 1.25 and r["command_s"] == 9.0

@@ -44,7 +44,8 @@ def test_a_first_run_says_which_truths_it_computes_and_how_long(cache):
         f"{store.cache_dir()}"
     )
     # two processes: each linear case's runs side by side (split.py), one case after another,
-    # each as long as its busiest process: 0.62 x 62 + 0.54 x 146 + 0.54 x 559 s = 421 s
+    # each as long as its busiest process, then 10 s in one: 0.62 x 52 + 0.54 x 136 + 0.54 x 549
+    # + 3 x 10 s = 434 s
     assert (
         "computed once in this run, 2 processes at a time beside the paper's cases (about 7 min "
         "here)"

@@ -661,12 +661,21 @@ def compute(
 TEMPORARY = re.compile(r"\..+\.npz\.(?P<pid>\d+)\.tmp\.npz")  # TruthSamples.save's temporary
 
 
+# s: what a case split into runs (split.py) still does in one process after them: the
+# differences between levels and steps, the estimate and the sampling of the finest level
+# (measured by `tissuebench bench --only paths`: about 11 s on the rod and on the blocks)
+SPLIT_FIXED_SECONDS = 10.0
+
+
 def expected_wall(case: str, quick: bool = False, jobs: int = 1) -> float:
     """About how long the first computation of a case takes here, s, its runs `jobs` at a time
-    where it is splittable (split.py: the longest runs first), else on one core."""
+    where it is splittable (split.py: the longest runs first, then SPLIT_FIXED_SECONDS in one
+    process), else on one core."""
     seconds = expected_seconds(case, quick)
     if jobs > 1 and not quick and splittable(case):
-        return seconds * split_share(levels_of(case, quick), CASES[case][0], jobs)
+        fixed = min(scaled(SPLIT_FIXED_SECONDS), seconds)
+        share = split_share(levels_of(case, quick), CASES[case][0], jobs)
+        return (seconds - fixed) * share + fixed
     return seconds
 
 
