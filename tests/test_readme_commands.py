@@ -20,7 +20,7 @@ substitutions (`small`), which keep the whole block to a few minutes on one core
   seconds);
 - `stability block ...`: `--mesh-size 4 --no-sweep`; `convergence`: `--end-time 0.1`;
 - `paper --out results`: as written, only with TISSUEBENCH_README_PAPER=1 set: it has no quick
-  form and runs the whole study (about 2.5 minutes on a quiet core, 5 or more under load,
+  form and runs the whole study (about 3 minutes on a quiet core, 5 or more under load,
   beyond this test's few minutes); without it the line is not run and a warning says so;
 - `make bench`: `tissuebench bench --quick` (what it runs), where the bench extra is installed;
   `bench --only explicit-models`: its `--quick`; `bench --only paths` times the user's commands
