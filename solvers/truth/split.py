@@ -35,7 +35,7 @@ import numpy as np
 
 from tissuebench.core import interrupt
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
+from tissuebench.solvers.truth.estimate import interior_difference
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import TruthRun
 
@@ -214,8 +214,8 @@ def compute_split(
         inputs,
         level_truth,
         levels_of,
+        own_error,
         sample,
-        time_order,
     )
 
     say = log or (lambda line: None)
@@ -265,19 +265,7 @@ def compute_split(
     half = None
     if tips:
         info["tip"], info["static_tip"] = tips, statics
-    info["time_order"] = order = time_order(*info["time_order_differences"])
-    est = estimate_error(
-        [max(d) for d in info["level_differences"]], float(time_ei.max()), time_order=order
-    )
-    own = {
-        "interior_error_max": est.total,
-        "order": est.order,
-        "space": est.space,
-        "time": est.time,
-        "units": "m^3" if dim == 3 else "m^2",
-        "how": "E_i max between the last two levels / (2^p - 1) plus E_i max(step, step/2) "
-        "2^q / (2^q - 1), q the time order observed on the coarsest level",
-    }
+    own = own_error(info, time_ei, dim)
     samples = sample(truth, run, case, own, given, info)
     if samples is not None:
         samples.hierarchy["total_wall"] = time.perf_counter() - start

@@ -561,6 +561,25 @@ def penalty_check(
     say(f"{case} n={n} with {PENALTY_CHECK:g} k at the half step: {info['penalty_wall']:.1f} s")
 
 
+def own_error(info: dict, time_ei: np.ndarray, gdim: int) -> dict:
+    """A hierarchy's own error (estimate.estimate_error: m^3 in 3D, m^2 in 2D) from its level
+    differences and `time_ei`, the finest level's E_i at each step between the step and its
+    half; info["time_order"] is set from info["time_order_differences"] on the way."""
+    info["time_order"] = order = time_order(*info["time_order_differences"])
+    est = estimate_error(
+        [max(d) for d in info["level_differences"]], float(time_ei.max()), time_order=order
+    )
+    return {
+        "interior_error_max": est.total,
+        "order": est.order,
+        "space": est.space,
+        "time": est.time,
+        "units": "m^3" if gdim == 3 else "m^2",
+        "how": "E_i max between the last two levels / (2^p - 1) plus E_i max(step, step/2) "
+        "2^q / (2^q - 1), q the time order observed on the coarsest level",
+    }
+
+
 def compute(
     case: str,
     quick: bool = False,
@@ -635,20 +654,7 @@ def compute(
     half = None
     if tips:
         info["tip"], info["static_tip"] = tips, statics
-    info["time_order"] = order = time_order(*info["time_order_differences"])
-    est = estimate_error(
-        [max(d) for d in info["level_differences"]], float(time_ei.max()), time_order=order
-    )
-    gdim = bench.mesh.geometry.dim
-    own = {
-        "interior_error_max": est.total,
-        "order": est.order,
-        "space": est.space,
-        "time": est.time,
-        "units": "m^3" if gdim == 3 else "m^2",
-        "how": "E_i max between the last two levels / (2^p - 1) plus E_i max(step, step/2) "
-        "2^q / (2^q - 1), q the time order observed on the coarsest level",
-    }
+    own = own_error(info, time_ei, bench.mesh.geometry.dim)
     samples = sample(truth, run, case, own, given, info)
     wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     if samples is not None:
