@@ -7,6 +7,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
+from tissuebench.workflows.boards import is_contact
 from tissuebench.workflows.checks import check_common, posed
 from tissuebench.workflows.commands.arguments import add_common, add_posed_options
 from tissuebench.workflows.io.calculix_deck import ELEMENTS
@@ -149,7 +150,7 @@ def next_line(board: Board | None, out: Path, fmt: str) -> str:
     run = f"ccx -i {job}; " if fmt == "inp" else "run your simulator; "
     series = f"{job}.frd" if fmt == "inp" else "YOUR_SERIES"
     grade = f"tissuebench compare {reference_path(out.absolute())} {series}"
-    if board is not None and board.benchmark == "contact":  # SPEC 12: the force, if you have it
+    if board is not None and is_contact(board):  # SPEC 12: the force, if you have it
         series += " [--needle-force YOUR_FORCE.csv]"
         grade = f"tissuebench compare {reference_path(out.absolute())} {series}"
     if board is None:

@@ -121,7 +121,11 @@ class ContactGrades:
 
 
 def is_contact_benchmark(benchmark: object) -> bool:
-    return benchmark == BENCHMARK
+    """Whether `benchmark` names a benchmark whose entry has a rigid tool in contact (SPEC 12)."""
+    from tissuebench.meshes import BENCHMARKS
+
+    entry = BENCHMARKS.get(benchmark) if isinstance(benchmark, str) else None
+    return entry is not None and entry.tool is not None
 
 
 def truth_reference(truth) -> ContactReference:

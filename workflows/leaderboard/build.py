@@ -12,6 +12,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
+from tissuebench.workflows.boards import is_contact
 from tissuebench.workflows.checks import check_common
 from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard import document, page, users
@@ -284,7 +285,7 @@ def main(args: argparse.Namespace) -> int:
             # render keeps the committed figure of the same rows, and a render into another
             # folder copies it)
             drawn_now = unchanged(force) and stamp_of(force) == force_drawing_code()
-            if board.benchmark == "contact" and not (same and drawn_now):
+            if is_contact(board) and not (same and drawn_now):
                 if same and unchanged(theirs) and stamp_of(theirs) == force_drawing_code():
                     files[force] = lambda tmp, theirs=theirs: shutil.copyfile(theirs, tmp)
                 else:

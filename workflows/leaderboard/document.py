@@ -11,6 +11,7 @@ full rows stay in leaderboard.csv and leaderboard.json. Every text read is escap
 
 from __future__ import annotations
 
+from tissuebench.workflows.boards import is_contact
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of
@@ -81,7 +82,7 @@ def case_lines(board: Board, rows: list[Row], notes: list[str], session: str) ->
         + f". [All {len(rows)} runs, the budget and the divisions]({PAGE}#{board.name}).",
         "",
     ]
-    contact = board.benchmark == "contact"  # SPEC 12: two more columns
+    contact = is_contact(board)  # SPEC 12: two more columns
     more = " force error | interpenetration (m) |" if contact else ""
     out += [
         f"| source | best run | mesh, dofs | E_i mean ({unit}) | E_i max | s per simulated s |"

@@ -22,7 +22,7 @@ import numpy as np
 
 from tissuebench.core import interrupt
 from tissuebench.solvers.truth.fallbacks import FALLBACKS
-from tissuebench.workflows.boards import BOARDS
+from tissuebench.workflows.boards import BOARDS, is_contact
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.caches import (  # noqa: F401 (read here before)
     Caches,
@@ -209,7 +209,7 @@ def grade_truths(boards: list[Board], rows: dict[str, list[Row]], log=print) -> 
                 continue
             mark_truth_pareto(rows[board.name])
             error_budget(rows[board.name])
-            if board.benchmark == "contact":  # SPEC 12: the force error against the truth's
+            if is_contact(board):  # SPEC 12: the force error against the truth's
                 from tissuebench.workflows.leaderboard.contact import grade_forces, truth_force
 
                 force = truth_force(case, truth)
@@ -315,7 +315,7 @@ def grade_user_row(board: Board, board_rows: list[Row], row: Row, truth, caches:
         return time.perf_counter() - start
     if row.status == UNGRADED:
         grade_row_reference(board, row, caches)
-    if board.benchmark == "contact" and not row.contact and row.status != UNGRADED:
+    if is_contact(board) and not row.contact and row.status != UNGRADED:
         from tissuebench.workflows.leaderboard.contact import user_contact
 
         series = caches.series(str(row.series), row.series_field)

@@ -34,6 +34,7 @@ from importlib import resources
 import jinja2
 from markupsafe import Markup
 
+from tissuebench.workflows.boards import is_contact
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import sessions_line
 from tissuebench.workflows.leaderboard.frontier_rows import (  # noqa: F401 (read here before)
@@ -157,7 +158,7 @@ def division_view(board: Board, rows: list[Row], truth: bool, open_: bool, unit:
     rest listed after. The Closed division: the case's own mesh and step (closed); the Open
     one: every row, the SPEC 11 frontier's included."""
     dofs = next((r.dofs for r in rows if r.reference), None)
-    contact = board.benchmark == "contact"  # SPEC 12: two more columns
+    contact = is_contact(board)  # SPEC 12: two more columns
     ranked: list[tuple[float, str, Row, bool]] = []
     for r in rows:
         if not (open_ or closed(r, board, dofs)):
@@ -248,7 +249,7 @@ def case_view(board: Board, rows: list[Row], notes: list[str], unit: str) -> Cas
         budget=Markup(budget_plot(board, rows, unit)),
         closed=division_view(board, rows, truth, False, unit),
         open=division_view(board, rows, truth, True, unit),
-        contact=board.benchmark == "contact",
+        contact=is_contact(board),
         force_against="; ".join(h for h in how if h) or "no run handed its needle force",
         notes=list(notes),
     )
