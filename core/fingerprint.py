@@ -1,5 +1,5 @@
 """The fingerprint of a set of inputs: the SHA-256 of their canonical JSON. Every folder's
-summary.json carries one (workflows/output.py decides from it whether results are those of the
+summary.json carries one (workflows/io/output.py decides from it whether results are those of the
 same inputs), the truth cache is keyed by one (solvers/truth/store.py), and compare records
 the truth's. Computed here only."""
 

@@ -2,11 +2,11 @@
 that is not ours (a candidate's own, SPEC 9 and 10's "our implicit on M'").
 
 A region is the box's part where its nodes are constrained, stated as the export states it
-(workflows/posing.py's `geometry`: "x = 0", "x = 1 and |y - 0.5| <= 0.1"), with the motion its
-nodes follow. `on_mesh` finds each region's nodes on any first-order mesh of the benchmark's
-body within a tolerance (SPEC 9's τ = 1e-6 of the benchmark's extent by default) and returns
-the Benchmark with those constraints, the benchmark's gravity, load scale and needle motion,
-so that solvers.system.System assembles on that mesh as on ours.
+(workflows/compare/posing.py's `geometry`: "x = 0", "x = 1 and |y - 0.5| <= 0.1"), with the motion
+its nodes follow. `on_mesh` finds each region's nodes on any first-order mesh of the benchmark's
+body within a tolerance (SPEC 9's τ = 1e-6 of the benchmark's extent by default) and returns the
+Benchmark with those constraints, the benchmark's gravity, load scale and needle motion, so that
+solvers.system.System assembles on that mesh as on ours.
 
 A benchmark with a rigid tool in contact (SPEC 12) states it too (`Tool`: the surface that may
 touch it, as terms, and the tool's centre, radius and penalty), and `on_mesh` finds that

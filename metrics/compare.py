@@ -1,6 +1,6 @@
 """`grade`: the metrics of SPEC section 6 for two displacement time series read from files
 (how a user grades any simulator against our reference). The files that
-`tissuebench compare` writes are written by workflows/grading.py.
+`tissuebench compare` writes are written by workflows/compare/grading.py.
 
 Rank 0 reads and checks both series; the reference mesh is then distributed over `comm`
 and every step is measured in parallel. A candidate on the reference's mesh, node for node

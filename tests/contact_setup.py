@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.posing import build, run_reference
+from tissuebench.workflows.compare.posing import build, run_reference
 
 H = 1 / 30  # s
 

@@ -14,7 +14,7 @@ from dolfinx import fem
 from tissuebench.meshes.block import block_mesh
 from tissuebench.meshes.rod import rod_mesh
 from tissuebench.metrics import Metrics
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
 
 
 def reference(x):

@@ -9,7 +9,7 @@ from mpi4py import MPI
 from tissuebench.meshes import get_benchmark
 from tissuebench.solvers.stability import stability_limits
 from tissuebench.solvers.system import System
-from tissuebench.workflows.convergence import space_study
+from tissuebench.workflows.study.convergence import space_study
 
 
 def main():

@@ -1,8 +1,8 @@
 """Hand-built study case summaries for the report tests: a partial summary.json dict (the keys a
 test needs) completed with neutral defaults and read through CaseSummary.from_json, the one
-reader (workflows/summary.py), so that a test's summary is one the reader accepts."""
+reader (workflows/io/summary.py), so that a test's summary is one the reader accepts."""
 
-from tissuebench.workflows.summary import CaseSummary, RunSummary
+from tissuebench.workflows.io.summary import CaseSummary, RunSummary
 
 RUN = {  # a run's required keys, neutral
     "algorithm": "implicit",

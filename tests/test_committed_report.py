@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from tissuebench.workflows.frontier import read_rows
-from tissuebench.workflows.paper_cases import cases
-from tissuebench.workflows.reports.claims import claims
-from tissuebench.workflows.reports.frontier import answer
-from tissuebench.workflows.summary import read_case_summary
+from tissuebench.workflows.frontier.report import answer
+from tissuebench.workflows.frontier.runs import read_rows
+from tissuebench.workflows.io.summary import read_case_summary
+from tissuebench.workflows.study.cases import cases
+from tissuebench.workflows.study.claims import claims
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 pytestmark = pytest.mark.serial  # reads the repository's files only
@@ -52,7 +52,7 @@ def test_the_crease_section_is_what_the_committed_record_gives():
     """SPEC 10: results/README.md's section on the large rod's fold, written again from the
     committed crease.json (tissuebench truth), stands in it word for word, and its figures
     are committed."""
-    from tissuebench.workflows.reports.sweep import readme_section
+    from tissuebench.workflows.truth.sweep import readme_section
 
     section = readme_section(RESULTS / "crease" / "crease.json")
     assert section, "results/crease/crease.json is not committed"
@@ -78,7 +78,7 @@ def test_the_committed_leaderboard_figures_are_what_the_code_draws():
         if stamp_of(p) != (force_drawing_code() if p.stem.endswith("-force") else drawing_code())
     ]
     assert not stale, f"drawn by other code (tissuebench leaderboard --out results): {stale}"
-    from tissuebench.workflows.boards import BOARDS
+    from tissuebench.workflows.leaderboard.boards import BOARDS
 
     missing = [b.name for b in BOARDS if not (folder / f"{b.name}.png").is_file()]
     assert not missing, f"no figure (tissuebench leaderboard --out results --rerun): {missing}"

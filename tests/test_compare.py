@@ -19,7 +19,7 @@ from helpers import run_script, tissuebench
 from tissuebench.core.errors import UserError
 from tissuebench.metrics import NAMES, InputError, Metrics
 from tissuebench.metrics.compare import COLUMNS
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
 from tissuebench.workflows.io.series import read_series
 
 TIMES = [0.0, 0.1, 0.2, 0.3]
@@ -126,7 +126,7 @@ def assert_same_curves(out, expected, algorithm):
     assert np.isnan(float(rows[0][3]))  # E_n at step 0: the reference is zero there
     assert (out / "metrics.png").stat().st_size > 0
     assert sorted(p.name for p in out.iterdir()) == [
-        ".tissuebench.json",  # the manifest: the folder is ours (workflows/output.py)
+        ".tissuebench.json",  # the manifest: the folder is ours (workflows/io/output.py)
         "metrics.csv",
         "metrics.png",
         "summary.json",

@@ -19,7 +19,7 @@ from helpers import tissuebench
 from test_compare import fields, make_space, mesh_data, shuffled, write_meshio_xdmf, write_pvd
 
 from tissuebench.metrics import InputError, Metrics
-from tissuebench.workflows.grading import grade
+from tissuebench.workflows.compare.grading import grade
 
 COMM = MPI.COMM_WORLD
 TIMES = [0.0, 0.1, 0.2, 0.3, 0.4]

@@ -19,7 +19,7 @@ from helpers import tissuebench
 from tissuebench.core.errors import UserError
 from tissuebench.meshes.contact import centre
 from tissuebench.metrics.contact import interpenetration_curve
-from tissuebench.workflows.grading import GradingError, compare
+from tissuebench.workflows.compare.grading import GradingError, compare
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.io.tables import read_rows, write_force_csv
 

@@ -1,4 +1,4 @@
-"""The large rod's crease as a finding (SPEC 10; workflows/reports/crease.py): J at the corners
+"""The large rod's crease as a finding (SPEC 10; workflows/truth/crease.py): J at the corners
 of hexahedra under maps whose J is known, the fold's test on a hierarchy, and its figures on a
 grid where chosen cells are squashed."""
 
@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from tissuebench.workflows.reports.crease import FOLDED, corner_jacobians, crease_figures, creased
+from tissuebench.workflows.truth.crease import FOLDED, corner_jacobians, crease_figures, creased
 
 
 def box_grid(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -109,7 +109,7 @@ def test_sweep_takes_the_largest_load_that_meets_and_says_where_the_rest_folded(
     """SPEC 10's sweep: s = 2 folds on n = 4 (its J below 0.1 from t = 2 s) and misses the
     target, s = 1.75 does not fold but misses, s = 1.5 meets, s = 1.25 is not computed: L = 1.5,
     and truth.md's table says each of it."""
-    from tissuebench.workflows.reports.sweep import chosen, folded, sweep_lines
+    from tissuebench.workflows.truth.sweep import chosen, folded, sweep_lines
 
     summaries = {
         "rod-nhb-s2": sweep_summary([0.6, 0.05, 0.01], False),
@@ -131,7 +131,7 @@ def test_sweep_takes_the_largest_load_that_meets_and_says_where_the_rest_folded(
 def test_sweep_says_where_a_computation_failed():
     """A sweep case whose Newton failed (store.record_failure's record) is in the table with
     its level, time and smallest J, and is not taken as L."""
-    from tissuebench.workflows.reports.sweep import chosen, sweep_lines
+    from tissuebench.workflows.truth.sweep import chosen, sweep_lines
 
     failure = {"level": 8, "t": 4.3, "error": "truth: Newton did not converge at t = 4.3 s (-6)",
                "smallest_J": 0.08, "smallest_J_at": [0.01, 0.0, 0.0],

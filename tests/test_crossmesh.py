@@ -28,7 +28,7 @@ from test_compare import (
 from tissuebench.metrics import InputError, Metrics
 from tissuebench.metrics.compare import function_space, grade_series
 from tissuebench.metrics.series import Series
-from tissuebench.workflows.grading import compare, grade
+from tissuebench.workflows.compare.grading import compare, grade
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.io.xdmf import write_series
 

@@ -19,11 +19,11 @@ from tissuebench.meshes.block import needle_motion
 from tissuebench.metrics.compare import COLUMNS
 from tissuebench.metrics.series import InputError
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
+from tissuebench.workflows.compare.posing import build, export, truth_case
 from tissuebench.workflows.io.calculix import inp_text, kinks, read_frd, to_float
 from tissuebench.workflows.io.exported import read_json
 from tissuebench.workflows.io.series import read_series
-from tissuebench.workflows.posing import build, export, truth_case
 
 CCX = shutil.which("ccx")
 needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not on PATH")

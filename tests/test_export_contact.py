@@ -15,8 +15,8 @@ from tissuebench.solvers import get_integrator
 from tissuebench.solvers.contact import Measures
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.system import System
+from tissuebench.workflows.compare.posing import build, export
 from tissuebench.workflows.io.exported import to_json
-from tissuebench.workflows.posing import build, export
 
 
 def pushed(bench, steps: int = 15) -> tuple[float, float, float]:

@@ -12,9 +12,9 @@ import pytest
 
 from tissuebench.metrics.series import InputError
 from tissuebench.solvers.materials import get_material
+from tissuebench.workflows.compare.posing import export
 from tissuebench.workflows.io import exported
 from tissuebench.workflows.io.exported import CHANGES, SCHEMA_VERSION, read_json
-from tissuebench.workflows.posing import export
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.serial  # files in tmp_path, which mpiexec's ranks share

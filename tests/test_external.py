@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from helpers import tissuebench
 
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard.rows import Board, pareto
 
@@ -146,7 +146,7 @@ def test_leaderboard_on_a_small_rod(tmp_path, monkeypatch):
     assert (tmp_path / "leaderboard" / "rod-small.png").stat().st_size > 10_000
     # a full leaderboard (here: one with a simulator that is not installed) is kept
     # (written as ours: a record of another machine, listed in the folder's manifest)
-    from tissuebench.workflows.output import write_owned
+    from tissuebench.workflows.io.output import write_owned
 
     record = json.loads((tmp_path / "leaderboard.json").read_text())
     elsewhere = dict(record["cases"][0]["rows"][-1], label="elsewhere:fast", source="Elsewhere")

@@ -15,6 +15,7 @@ import pytest
 
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import case_truth
+from tissuebench.workflows.compare.posing import build
 from tissuebench.workflows.io.calculix import read_dat, read_frd
 from tissuebench.workflows.io.calculix_deck import (
     HEX20_EDGES,
@@ -22,7 +23,6 @@ from tissuebench.workflows.io.calculix_deck import (
     number,
     quadratic_hexahedra,
 )
-from tissuebench.workflows.posing import build
 from tissuebench.workflows.simulators import calculix
 
 CCX = shutil.which("ccx")

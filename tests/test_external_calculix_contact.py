@@ -14,7 +14,8 @@ import pytest
 
 from tissuebench.meshes.contact import signed_distance
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
+from tissuebench.workflows.compare.posing import build, run_reference
 from tissuebench.workflows.io.calculix import read_frd
 from tissuebench.workflows.io.calculix_contact import (
     BAND,
@@ -22,11 +23,10 @@ from tissuebench.workflows.io.calculix_contact import (
     needle_band,
     slave_faces,
 )
+from tissuebench.workflows.io.summary import read_compare_summary
 from tissuebench.workflows.io.tables import read_force_csv
 from tissuebench.workflows.io.xdmf import write_series
-from tissuebench.workflows.posing import build, run_reference
 from tissuebench.workflows.simulators import calculix, calculix_contact
-from tissuebench.workflows.summary import read_compare_summary
 
 CCX = shutil.which("ccx")
 needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not on PATH")

@@ -19,7 +19,7 @@ from p1 import p1_matrices
 pytest.importorskip("pydrake")
 
 from tissuebench.solvers.materials import Material, get_material  # noqa: E402
-from tissuebench.workflows.posing import build  # noqa: E402
+from tissuebench.workflows.compare.posing import build  # noqa: E402
 from tissuebench.workflows.simulators import drake as dk  # noqa: E402
 from tissuebench.workflows.simulators.newton import split_hexahedra  # noqa: E402
 

@@ -22,8 +22,8 @@ from tissuebench.solvers import get_integrator  # noqa: E402
 from tissuebench.solvers.materials import get_material  # noqa: E402
 from tissuebench.solvers.simulate import simulate  # noqa: E402
 from tissuebench.solvers.system import System  # noqa: E402
+from tissuebench.workflows.compare.posing import build  # noqa: E402
 from tissuebench.workflows.io.xdmf import gather_series  # noqa: E402
-from tissuebench.workflows.posing import build  # noqa: E402
 from tissuebench.workflows.simulators.newton import split_hexahedra  # noqa: E402
 
 H = 1 / 30  # the paper's h, s

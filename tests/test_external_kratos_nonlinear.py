@@ -22,7 +22,7 @@ except metadata.PackageNotFoundError:
     pytest.skip("KratosConstitutiveLawsApplication is not installed", allow_module_level=True)
 
 from tissuebench.solvers.materials import get_material  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
+from tissuebench.workflows.compare.posing import build, run_reference  # noqa: E402
 
 pytestmark = pytest.mark.serial
 

@@ -17,7 +17,7 @@ from p1 import p1_matrices as p1_system
 mujoco = pytest.importorskip("mujoco")
 
 from tissuebench.solvers.materials import get_material  # noqa: E402
-from tissuebench.workflows.posing import build  # noqa: E402
+from tissuebench.workflows.compare.posing import build  # noqa: E402
 from tissuebench.workflows.simulators import mujoco as mj  # noqa: E402
 
 H = 1 / 30  # the paper's h, s

@@ -14,7 +14,7 @@ from p1 import p1_matrices
 pytest.importorskip("newton")
 
 from tissuebench.solvers.materials import Material, get_material  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
+from tissuebench.workflows.compare.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.simulators import newton as nw  # noqa: E402
 
 H = 1 / 30  # the paper's h, s

@@ -16,8 +16,8 @@ import pytest
 pytest.importorskip("sfepy")
 
 from tissuebench.solvers.materials import get_material  # noqa: E402
-from tissuebench.workflows.grading import compare  # noqa: E402
-from tissuebench.workflows.posing import build, run_reference  # noqa: E402
+from tissuebench.workflows.compare.grading import compare  # noqa: E402
+from tissuebench.workflows.compare.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
 
 pytestmark = pytest.mark.serial

@@ -1,4 +1,4 @@
-"""The real-time frontier (SPEC 11, workflows/frontier.py and reports/frontier.py): which runs
+"""The real-time frontier (SPEC 11, workflows/frontier/runs.py and frontier/report.py): which runs
 it holds, that an interrupted study resumes where it stopped, and the frontier and Pareto
 selections on rows whose answer is known."""
 
@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from tissuebench.workflows import frontier as study
-from tissuebench.workflows.reports.frontier import frontier, markdown, pareto
+from tissuebench.workflows.frontier import runs as study
+from tissuebench.workflows.frontier.report import frontier, markdown, pareto
 
 pytestmark = pytest.mark.serial  # the study runs on one core, never under mpiexec
 
@@ -129,7 +129,7 @@ def test_the_answer_reads_the_rows():
     """results/README.md's SPEC 11 section: the closest real-time run with its share of the
     truth's size (E_i max / size), the paper's grid Q1 against mean-dilatation, and the
     paper's question where the penalty at h = 1/30 s diverged."""
-    from tissuebench.workflows.reports.frontier import answer
+    from tissuebench.workflows.frontier.report import answer
 
     rows = [
         row("standard", cost=0.02, mean=4e-5) | {"interior_error_max": 5e-5},
@@ -187,7 +187,7 @@ def test_a_row_carries_its_whole_run_time_also_from_an_older_file(tmp_path):
 def test_the_answer_says_why_explicit_lumped_loses_with_the_measured_rows():
     """On an MP2 case the answer compares, mean-dilatation on the paper's grid, explicit-lumped
     (alpha M_L damping) with explicit (alpha M + beta K_0) and implicit, from the rows."""
-    from tissuebench.workflows.reports.frontier import answer
+    from tissuebench.workflows.frontier.report import answer
 
     md = "mean-dilatation"
     rows = [

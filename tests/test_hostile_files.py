@@ -255,7 +255,7 @@ def test_a_frontier_csv_cut_mid_row_is_read_as_its_whole_rows(tmp_path, capsys, 
     """A frontier.csv that a kill or a full disk cut mid-row (an older tissuebench rewrote it
     in place): its whole rows are read, the cut one is left out in one line (the study runs it
     again); a TypeError traceback before."""
-    from tissuebench.workflows import frontier
+    from tissuebench.workflows.frontier import runs as frontier
 
     committed = Path(__file__).parents[1] / "results" / "frontier" / "frontier.csv"
     rows = frontier.read_rows(committed)[:3]
@@ -279,7 +279,7 @@ def test_a_full_disk_while_the_manifest_is_written_leaves_the_old_files_ours(
     full disk while the manifest is written left truth.csv in place and outside the manifest,
     and the rerun refused the folder as not ours. Now the manifest is staged before anything
     moves: the old files stay, listed, and the rerun writes."""
-    from tissuebench.workflows import output
+    from tissuebench.workflows.io import output
 
     out = tmp_path / "out"
     names = ("truth.csv", "truth.md")

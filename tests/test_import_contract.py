@@ -21,6 +21,7 @@ CONFIG = ROOT / "pyproject.toml"
 LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")  # the test extra installs it
 LAYERS = "The folders depend in one direction"
 COMMANDS = "Nothing imports the commands"
+FEATURES = "The features of workflows/ depend in one direction"
 
 
 def contracts() -> list[dict]:
@@ -67,12 +68,27 @@ def plant(path: Path, module: str, line: str) -> None:
     file.write_text(file.read_text() + "\n" + line + "\n")
 
 
+def contract(name: str) -> dict:
+    (found,) = [c for c in contracts() if c["name"].startswith(name)]
+    return found
+
+
 def test_the_layers_are_the_import_graphs_order():
-    """The layers contract names the folders in test_import_graph.py's ORDER, top first, so
-    that the two checks agree."""
-    layers = [c for c in contracts() if c["type"] == "layers"]
-    assert len(layers) == 1
-    assert layers[0]["layers"] == [f"tissuebench.{f}" for f in reversed(ORDER)]
+    """The folders' layers contract names the folders in test_import_graph.py's ORDER, top
+    first, so that the two checks agree."""
+    assert contract(LAYERS)["layers"] == [f"tissuebench.{f}" for f in reversed(ORDER)]
+
+
+def test_every_feature_folder_is_a_layer():
+    """Each folder and module of workflows/ is in the features' contract (the entry points in
+    its top layer), so that a new feature folder cannot stand outside it."""
+    features = contract(FEATURES)
+    assert features["containers"] == ["tissuebench.workflows"]
+    named = {n.strip() for layer in features["layers"] for n in layer.split(":")}
+    workflows = ROOT / "workflows"
+    folders = {p.name for p in workflows.iterdir() if (p / "__init__.py").is_file()}
+    modules = {p.stem for p in workflows.glob("*.py") if p.stem != "__init__"}
+    assert folders - {"package"} | modules == named  # package/: the tissuebench package itself
 
 
 def test_the_contract_holds_on_the_sources(tmp_path):
@@ -93,9 +109,22 @@ def test_the_contract_holds_on_the_sources(tmp_path):
             "def planted():\n    from tissuebench.metrics.table import METRICS\n    return METRICS",
             LAYERS,
         ),
-        # the commands' shared options, imported from outside the commands
+        # a loop between two features: the truth's report using the paper's study
         (
-            "tissuebench.workflows.leaderboard.build",
+            "tissuebench.workflows.truth.sweep",
+            "from tissuebench.workflows.study.common import METRICS",
+            FEATURES,
+        ),
+        # a file format (io/) using a run's case, inside a function
+        (
+            "tissuebench.workflows.io.summary",
+            "def planted():\n    from tissuebench.workflows.run import case\n    return case",
+            FEATURES,
+        ),
+        # the commands' shared options, imported from outside the commands (by the Python API,
+        # beside them in the features' top layer: only the commands' own contract breaks)
+        (
+            "tissuebench.workflows.api",
             "from tissuebench.workflows.commands.arguments import add_common",
             COMMANDS,
         ),

@@ -118,7 +118,7 @@ def test_a_planted_upward_import_fails():
         "solvers/ok.py": "from tissuebench.meshes import get_benchmark\nimport tissuebench.core\n",
         "metrics/ok.py": "from tissuebench.solvers.truth.samples import TruthSamples\n",
         "workflows/ok.py": "from tissuebench.metrics import METRICS\nfrom tissuebench import core",
-        "core/top.py": "from tissuebench.workflows.output import SUMMARY\n",
+        "core/top.py": "from tissuebench.workflows.io.output import SUMMARY\n",
         "meshes/inner.py": "def f():\n    from tissuebench.solvers.materials import LARGEST\n",
         "solvers/plain.py": "import tissuebench.metrics.table\n",
         "metrics/named.py": "from tissuebench import workflows\n",

@@ -117,7 +117,7 @@ def test_a_users_row_on_a_contact_case(board_out, tmp_path, monkeypatch):
     interpenetration our run's Measures recorded."""
     import shutil
 
-    from tissuebench.workflows.grading import compare
+    from tissuebench.workflows.compare.grading import compare
 
     out = tmp_path / "results"
     shutil.copytree(board_out, out)

@@ -15,7 +15,7 @@ import shutil
 import pytest
 from helpers import tissuebench
 
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard.rows import Board
 

@@ -134,8 +134,7 @@ def test_a_registered_board_is_a_case_of_the_leaderboard_until_it_is_taken_out()
     """A benchmark defined elsewhere (tests/toy_benchmark.py) adds its leaderboard case with
     boards.register: in BOARDS wherever it was imported, so --rerun names it; a name taken is
     refused; unregister takes it out again."""
-    from tissuebench.workflows import boards
-    from tissuebench.workflows.leaderboard import build
+    from tissuebench.workflows.leaderboard import boards, build
     from tissuebench.workflows.leaderboard.record import LeaderboardError
     from tissuebench.workflows.leaderboard.rows import BOARDS
 

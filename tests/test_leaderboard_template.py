@@ -16,12 +16,12 @@ from pathlib import Path
 import pytest
 from test_newcomer_leaderboard import compare_summary
 
+from tissuebench.workflows.io.output import seal
 from tissuebench.workflows.leaderboard import document, page
 from tissuebench.workflows.leaderboard.figures import unit_of
 from tissuebench.workflows.leaderboard.record import row_of, row_record
 from tissuebench.workflows.leaderboard.row import Kind, kind_of
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, Row, error_keys, user_rows
-from tissuebench.workflows.output import seal
 
 ROOT = Path(__file__).resolve().parents[1]
 FILES = ("page.html.j2", "parts.html.j2", "page.css", "page.js")

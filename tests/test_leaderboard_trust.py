@@ -17,12 +17,12 @@ import pytest
 from test_newcomer_leaderboard import compare_summary
 
 from tissuebench.core import interrupt
-from tissuebench.workflows import output
+from tissuebench.workflows.io import output
+from tissuebench.workflows.io.manifest import seal
+from tissuebench.workflows.io.output import write_owned
 from tissuebench.workflows.leaderboard import build, record
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, Row, error_keys
-from tissuebench.workflows.manifest import seal
-from tissuebench.workflows.output import write_owned
 
 pytestmark = pytest.mark.serial  # rank 0's files and signals
 

@@ -19,11 +19,11 @@ from test_compare import mesh_data, write_meshio_xdmf
 
 from tissuebench.metrics import InputError
 from tissuebench.metrics.series import series_of
-from tissuebench.workflows import limits
-from tissuebench.workflows.grading import candidate_file, compare
+from tissuebench.workflows.compare.grading import candidate_file, compare
+from tissuebench.workflows.io import limits
+from tissuebench.workflows.io.manifest import seal
 from tissuebench.workflows.io.series import read_series, series_size
 from tissuebench.workflows.leaderboard import rows as ranking
-from tissuebench.workflows.manifest import seal
 
 pytestmark = pytest.mark.serial  # files written in serial, command lines run as subprocesses
 

@@ -16,10 +16,10 @@ import pytest
 from helpers import tissuebench
 
 from tissuebench.solvers.truth import store
+from tissuebench.workflows.io.manifest import seal
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard.rows import BOARDS, board_case, error_keys, export_options
-from tissuebench.workflows.manifest import seal
 
 ROOT = Path(__file__).resolve().parents[1]
 COMM = MPI.COMM_WORLD
@@ -31,7 +31,7 @@ def compare_summary(board: ranking.Board, label: str = "mine", series: Path | No
     writes for the board's case; its candidate `series` (a file, recorded with its hashes as
     compare records them; none without it)."""
     from tissuebench.meshes import get_entry
-    from tissuebench.workflows.grading import series_files
+    from tissuebench.workflows.compare.grading import series_files
 
     case = board_case(board)
     size = board.mesh_size or get_entry(board.benchmark).mesh_size

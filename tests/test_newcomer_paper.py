@@ -13,8 +13,8 @@ import pytest
 from test_newcomer_truth_cache import agreed, synthetic
 
 from tissuebench.solvers.truth import store
-from tissuebench.workflows import paper_truth
 from tissuebench.workflows.commands import paper
+from tissuebench.workflows.study import truth as paper_truth
 
 COMM = MPI.COMM_WORLD
 

@@ -24,7 +24,7 @@ from helpers import tissuebench
 
 from tissuebench.solvers.truth import store
 from tissuebench.solvers.truth.samples import TruthSamples
-from tissuebench.workflows.grading import load_truth
+from tissuebench.workflows.compare.grading import load_truth
 
 COMM = MPI.COMM_WORLD
 

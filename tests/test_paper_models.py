@@ -19,11 +19,11 @@ from summaries import case_summary, update
 from tissuebench.metrics.table import METRICS
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import run_label
-from tissuebench.workflows.paper_cases import cases, model_cases
-from tissuebench.workflows.reports import divergence
-from tissuebench.workflows.reports import large_deformation as part2
-from tissuebench.workflows.reports import model_figures as figures_models
-from tissuebench.workflows.study import RunSpec, algorithm_case, model_case
+from tissuebench.workflows.run import model_figures as figures_models
+from tissuebench.workflows.run.case import RunSpec, algorithm_case, model_case
+from tissuebench.workflows.study import divergence
+from tissuebench.workflows.study import large_deformation as part2
+from tissuebench.workflows.study.cases import cases, model_cases
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
 
@@ -110,7 +110,7 @@ def test_part_2_has_the_four_named_cases_of_spec_section_8():
 
 
 def test_a_registered_case_joins_its_part_with_the_papers_solver_until_it_is_taken_out():
-    from tissuebench.workflows import paper_cases
+    from tissuebench.workflows.study import cases as paper_cases
 
     before = [c.name for c in cases()], [c.name for c in model_cases()]
     mine = algorithm_case("rod-MP3-mine", "rod", "MP3", ["explicit"], end_time=1.0)
@@ -136,8 +136,8 @@ def test_a_registered_case_joins_its_part_with_the_papers_solver_until_it_is_tak
 
 def test_paper_cases_names_the_cases_it_runs_and_refuses_others_in_one_line():
     from tissuebench.core.errors import UserError
-    from tissuebench.workflows import paper_truth
     from tissuebench.workflows.commands.paper import select
+    from tissuebench.workflows.study import truth as paper_truth
 
     first, truth, second = cases(), paper_truth.cases(), model_cases()
     assert select(None, first, truth, second) == (first, truth, second)
@@ -483,7 +483,7 @@ def test_part_2_sections_show_their_figures_and_static_tips(tmp_path):
 
 def test_figures_of_a_model_case_replace_the_paper_figures(tmp_path, monkeypatch):
     """case_figures sends a case with models to figures_models and leaves a linear one alone."""
-    from tissuebench.workflows.reports import figures
+    from tissuebench.workflows.run import figures
 
     called = []
     monkeypatch.setattr(
@@ -504,7 +504,7 @@ def test_an_outline_of_several_rings_carries_its_label_once():
     from matplotlib.figure import Figure
     from shapely.geometry import MultiPolygon, Polygon
 
-    from tissuebench.workflows.reports.model_figures import draw_outline
+    from tissuebench.workflows.run.model_figures import draw_outline
 
     square = [(0, 0), (1, 0), (1, 1), (0, 1)]
     hole = [(0.4, 0.4), (0.6, 0.4), (0.6, 0.6), (0.4, 0.6)]

@@ -7,8 +7,8 @@ from mpi4py import MPI  # noqa: F401 (loads libmpi before dolfinx)
 
 import pytest
 
-from tissuebench.workflows import paper_truth as pt
-from tissuebench.workflows.reports import truth as report
+from tissuebench.workflows.study import truth as pt
+from tissuebench.workflows.study import truth_section as report
 
 pytestmark = pytest.mark.serial  # pure functions and text, on one process
 

@@ -91,8 +91,8 @@ def registered(monkeypatch):
 
 
 def test_new_benchmark_and_metric_run_through_run_and_report(registered, tmp_path, capsys):
-    from tissuebench.workflows.reports import common as report
-    from tissuebench.workflows.summary import CaseSummary
+    from tissuebench.workflows.io.summary import CaseSummary
+    from tissuebench.workflows.study import common as report
 
     out = tmp_path / "run"
     status = cli.main(["run", "cantilever", "--end-time", "1", "--out", str(out)])

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from tissuebench.metrics import METRICS
-from tissuebench.workflows.paper_cases import cases
-from tissuebench.workflows.study import run_case
+from tissuebench.workflows.run.case import run_case
+from tissuebench.workflows.study.cases import cases
 
 pytestmark = pytest.mark.parallel  # the committed (serial) numbers on 2 ranks too
 

@@ -276,7 +276,7 @@ def test_cases_that_cannot_fit_are_refused_at_once(tmp_path, args, message):
 
 
 def test_estimate_grows_with_the_case():
-    from tissuebench.workflows.limits import estimate
+    from tissuebench.workflows.io.limits import estimate
 
     small, fine, long = (
         estimate(2, 21**2, 300, 5),
@@ -313,7 +313,8 @@ def test_full_disk_is_refused_up_front(tiny_disk):
 def test_disk_filling_up_while_writing_ends_in_one_line(tiny_disk, monkeypatch, capsys):
     """With the estimate made blind to the figures, the disk fills while writing: exit 1,
     one line, the partial folder removed."""
-    from tissuebench.workflows import cli, limits
+    from tissuebench.workflows import cli
+    from tissuebench.workflows.io import limits
 
     monkeypatch.setattr(limits, "FIGURES", 0.0)
     (tiny_disk / "filler").write_bytes(b"\0" * 1_600_000)
@@ -625,7 +626,7 @@ def test_committed_results_are_ours_and_unchanged():
     """Every folder of results/ that tissuebench wrote whole carries its manifest, and every
     committed loose output is listed in its folder's manifest with its present hash: `make
     paper`, `leaderboard` and the other commands may replace them, and nothing else."""
-    from tissuebench.workflows.manifest import changes, file_hash, read_manifest
+    from tissuebench.workflows.io.manifest import changes, file_hash, read_manifest
 
     root = Path(__file__).parents[1]
     results = root / "results"

@@ -15,8 +15,8 @@ from summaries import case_summary
 
 from tissuebench.metrics.surface import Solid, surface_error
 from tissuebench.workflows.io.tables import write_tip_csv
-from tissuebench.workflows.reports import claims as report
-from tissuebench.workflows.reports import figures
+from tissuebench.workflows.run import figures
+from tissuebench.workflows.study import claims as report
 
 pytestmark = pytest.mark.serial  # files and figures on rank 0's terms
 
@@ -371,7 +371,7 @@ def test_claim_6_verdict_on_a_damped_oscillation_and_its_flip(tmp_path):
     t = (2k + 1) pi / (2 w), alternately from above and below, each excursion smaller; the
     quasi-static E_n is 0 there. Crossing first at 4.2 s the claim holds; at 5 s it is no
     longer 'about 4.2 s' (5 % margin) and only that check fails."""
-    from tissuebench.workflows.reports.common import PAPER_CROSSING
+    from tissuebench.workflows.study.common import PAPER_CROSSING
 
     for crossing, holds in ((PAPER_CROSSING, True), (5.0, False)):
         out = tmp_path / str(crossing)
@@ -400,7 +400,7 @@ def test_verdicts_on_the_committed_results_are_those_of_the_committed_readme():
     summaries' time-means."""
     from pathlib import Path
 
-    from tissuebench.workflows.summary import read_case_summary
+    from tissuebench.workflows.io.summary import read_case_summary
 
     results = Path(__file__).parents[1] / "results"
     readme = (results / "README.md").read_text()
@@ -432,7 +432,7 @@ def test_verdicts_on_the_committed_results_are_those_of_the_committed_readme():
 
 def test_times_text_says_a_zero_loss_instead_of_dividing_by_it():
     """A loss of 0 (a run that is its case's own reference) is worded, not divided by."""
-    from tissuebench.workflows.reports.large_deformation import times_text
+    from tissuebench.workflows.study.large_deformation import times_text
 
     assert times_text(12.0, 1.0) == "12 times"
     assert times_text(1.0, 12.0) == "1/12 of"

@@ -1,6 +1,6 @@
 """`tissuebench run` says each run's error against the truth (issue 44: the MP2 Q1 rod, 50 %
 too stiff against the truth, scored 0 against implicit on its own grid): the truth case a run
-poses (workflows/run_truth.py), and the printed E_i, which is compare's against the truth."""
+poses (workflows/truth/run.py), and the printed E_i, which is compare's against the truth."""
 
 import dataclasses
 import json
@@ -11,7 +11,7 @@ from helpers import tissuebench
 
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.store import is_cached
-from tissuebench.workflows.run_truth import truth_of
+from tissuebench.workflows.truth.run import truth_of
 
 pytestmark = pytest.mark.serial  # command lines run as subprocesses
 

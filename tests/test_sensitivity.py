@@ -9,7 +9,7 @@ import pytest
 from helpers import tissuebench
 
 from tissuebench.solvers import ALGORITHMS
-from tissuebench.workflows.mesh_sensitivity import MARKER, QUICK
+from tissuebench.workflows.leaderboard.mesh_sensitivity import MARKER, QUICK
 
 pytestmark = [pytest.mark.serial, pytest.mark.slow]  # subprocesses, serial and under mpiexec
 
@@ -84,7 +84,7 @@ def test_a_rerun_reads_the_graded_meshes_back(serial):
 
 
 def test_a_quick_run_never_replaces_a_full_report(tmp_path):
-    from tissuebench.workflows.output import write_owned
+    from tissuebench.workflows.io.output import write_owned
 
     md = tmp_path / "mesh-sensitivity.md"  # a full study's report, written by us
     write_owned(md, lambda tmp: tmp.write_text(f"{MARKER}\n\nthe full study\n"))

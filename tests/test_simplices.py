@@ -16,7 +16,7 @@ from tissuebench.meshes import get_benchmark
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.solvers.stability import explicit_schemes, run_check, stability_limits
 from tissuebench.solvers.system import System
-from tissuebench.workflows.convergence import difference_orders, space_study
+from tissuebench.workflows.study.convergence import difference_orders, space_study
 
 SHAPES = [
     ("block", 10, "triangle", "structured"),

@@ -29,7 +29,7 @@ from tissuebench.solvers.stability import (
 )
 from tissuebench.solvers.system import System
 from tissuebench.workflows.commands import convergence, stability
-from tissuebench.workflows.convergence import (
+from tissuebench.workflows.study.convergence import (
     METRICS,
     difference_orders,
     interpolate,

@@ -1,4 +1,4 @@
-"""workflows/summary.py: summary.json, every kind. Read and written back, every committed
+"""workflows/io/summary.py: summary.json, every kind. Read and written back, every committed
 results/ summary of a study case is reproduced byte for byte (the file as study wrote it,
 json.dumps(indent=2) and a newline); a malformed file is refused in one line; each kind is read
 by its reader only, a missing schema version is version 1 and a newer one is refused."""
@@ -13,10 +13,8 @@ import pytest
 
 from tissuebench.core.errors import UserError
 from tissuebench.metrics.table import METRICS
-from tissuebench.workflows import paper_truth
 from tissuebench.workflows.commands.paper import LARGE
-from tissuebench.workflows.paper_cases import cases, model_cases
-from tissuebench.workflows.summary import (
+from tissuebench.workflows.io.summary import (
     SCHEMA_VERSION,
     CaseSummary,
     RunSummary,
@@ -29,6 +27,8 @@ from tissuebench.workflows.summary import (
     version_of,
     write_summary,
 )
+from tissuebench.workflows.study import truth as paper_truth
+from tissuebench.workflows.study.cases import cases, model_cases
 
 RESULTS = Path(__file__).parents[1] / "results"
 # every study case that `tissuebench paper` commits: part 1, part 2 and the truth's runs

@@ -17,9 +17,9 @@ from toy_benchmark import BOARD, LARGE, NAME, PAPER, registered
 
 from tissuebench.meshes import BENCHMARKS
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.workflows import paper_cases
-from tissuebench.workflows.boards import BOARDS
 from tissuebench.workflows.cli import main
+from tissuebench.workflows.leaderboard.boards import BOARDS
+from tissuebench.workflows.study import cases as paper_cases
 
 RESULTS = Path(__file__).resolve().parent.parent / "results"
 

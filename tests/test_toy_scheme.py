@@ -18,9 +18,9 @@ import pytest
 from toy_scheme import NAME, registered
 
 from tissuebench.solvers.schemes import SCHEMES, SPARE_COLOURS, colour_of
-from tissuebench.workflows import frontier as study
 from tissuebench.workflows.cli import main, parser
-from tissuebench.workflows.reports import frontier as report
+from tissuebench.workflows.frontier import report
+from tissuebench.workflows.frontier import runs as study
 
 RUN = ["--mesh-size", "1", "--end-time", "0.2", "--no-figures"]
 

@@ -19,21 +19,21 @@ from mpi4py import MPI
 import pytest
 
 from tissuebench.solvers import ALGORITHMS
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
+from tissuebench.workflows.io.manifest import seal
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import figures as document
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.figures import markdown
-from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto, pareto
-from tissuebench.workflows.manifest import seal
-from tissuebench.workflows.mesh_sensitivity import (
+from tissuebench.workflows.leaderboard.mesh_sensitivity import (
     MARKER,
     STUDIES,
     Study,
     leaderboard_boards,
     run_study,
 )
+from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_pareto, pareto
 
 COMM = MPI.COMM_WORLD
 TINY = Study("rod-MP3", "rod", "MP3", 4, end_time=0.2)  # grids 1, 2, 4; 6 steps of 1/30 s
@@ -419,9 +419,9 @@ def test_figure_takes_labels_as_plain_text(tmp_path):
 def test_a_figure_is_stamped_with_the_code_that_drew_it(tmp_path):
     """Each case's PNG carries the hash of the code that drew it; one drawn by other code (or
     by none that says) is not taken as drawn, so the leaderboard draws it again."""
+    from tissuebench.workflows.io.output import write_owned
     from tissuebench.workflows.leaderboard.build import as_drawn_now
     from tissuebench.workflows.leaderboard.figures import STAMP, drawing_code, stamp_of
-    from tissuebench.workflows.output import write_owned
 
     rows = [row("a", 1.0, 1e-3), row("b", 2.0, 1e-4)]
     mark_pareto(rows)

@@ -35,15 +35,15 @@ from tissuebench.meshes import get_entry
 from tissuebench.metrics.compare import summarize
 from tissuebench.metrics.truth import grade_truth
 from tissuebench.solvers.materials import get_material
-from tissuebench.workflows.grading import GradingError, compare
+from tissuebench.workflows.compare.grading import GradingError, compare
+from tissuebench.workflows.compare.posing import export, reference_path
+from tissuebench.workflows.io.manifest import seal
+from tissuebench.workflows.io.output import write_owned
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.leaderboard import build, grading, page, record
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard import users as user_folders
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys
-from tissuebench.workflows.manifest import seal
-from tissuebench.workflows.output import write_owned
-from tissuebench.workflows.posing import export, reference_path
 
 pytestmark = pytest.mark.serial  # rank 0's files, the command run on them
 
@@ -413,7 +413,7 @@ def test_a_label_is_limited_at_compare_time(case, tmp_path):
     assert "is 100,000 characters long (at most 64)" in done.stderr
     assert len(done.stderr) < 500 and not (tmp_path / "cli").exists()
     # the leaderboard's rule is compare's
-    from tissuebench.workflows import grading as compare_grading
+    from tissuebench.workflows.compare import grading as compare_grading
 
     assert ranking.MAX_LABEL == compare_grading.MAX_LABEL
 

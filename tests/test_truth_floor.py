@@ -60,7 +60,7 @@ def test_only_the_floor_cases_keys_hold_it():
 
 
 def test_truth_md_says_which_steps_were_taken_at_the_floor():
-    from tissuebench.workflows.reports.truth_md import floor_words
+    from tissuebench.workflows.truth.report import floor_words
 
     assert floor_words(1e-9, []).endswith("it took none.")
     said = floor_words(1e-9, [["8", 8.2, 1.05e-10], ["8 half", 8.2, 3e-10]])

@@ -20,7 +20,7 @@ from tissuebench.metrics.series import InputError, Series
 from tissuebench.metrics.truth import grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.cli import main
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
 
 TIMES = np.array([0.0, 0.25, 0.5, 0.75])  # s, t_i = i h
 OWN = 4.7e-6  # the synthetic truths' own error, m^d

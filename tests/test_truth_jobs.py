@@ -250,7 +250,7 @@ def test_truth_md_states_how_long_the_cache_took_to_compute():
     """From each case's file time and own wall time: the span from the first start to the
     last write; no line where a case is missing or the cases were computed at other times."""
     from tissuebench.solvers.truth.cases import CASES
-    from tissuebench.workflows.reports.truth_md import computed_words
+    from tissuebench.workflows.truth.report import computed_words
 
     # two at a time: cases of 600 s each, ending at 600, 600, 1200, 1200, ...
     summaries = {

@@ -19,7 +19,7 @@ from tissuebench.metrics.cells import boundary_facets, measures
 from tissuebench.solvers.truth import Problem, Truth, store
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.solver import TruthRun
-from tissuebench.workflows.output import write_owned
+from tissuebench.workflows.io.output import write_owned
 
 COMM = MPI.COMM_WORLD
 BOX = {2: [1.0, 0.5], 3: [1.0, 0.5, 0.25]}  # m
@@ -243,7 +243,7 @@ def test_the_report_says_what_the_smallest_jacobian_means():
     apart while J falls on every finer level, the crushed material and the bound kappa of
     the neo-Hookean volumetric stress (MP3: lambda + 2 mu / 3 = 3,889 Pa); for the barrier
     law, whose volumetric stress has no such bound, not that bound."""
-    from tissuebench.workflows.reports.truth_md import jacobian_cell, jacobian_lines
+    from tissuebench.workflows.truth.report import jacobian_cell, jacobian_lines
 
     h = {
         "min_jacobian": [[1.0, 0.6], [1.0, 0.3], [1.0, 0.05]],

@@ -1,7 +1,7 @@
-"""A user's row on its own mesh gets its full error budget (SPEC 10, issue 36): the leaderboard
-runs our implicit on the mesh read from the user's series (workflows/user_mesh.py, posed by
-meshes/regions.py) and grades it against the truth (discretisation) and the user's run against
-it (algorithm). Where it cannot, the budget says why in one line.
+"""A user's row on its own mesh gets its full error budget (SPEC 10, issue 36): the leaderboard runs
+our implicit on the mesh read from the user's series (workflows/leaderboard/user_mesh.py, posed by
+meshes/regions.py) and grades it against the truth (discretisation) and the user's run against it
+(algorithm). Where it cannot, the budget says why in one line.
 
 The user here is our own implicit on the rod's tetrahedron grid (P1), graded by compare into
 the case's user/ folder: then the algorithm part is 0 to round-off and the discretisation part
@@ -23,14 +23,14 @@ import pytest
 from tissuebench.meshes import get_entry
 from tissuebench.meshes.gmshio import MeshError
 from tissuebench.meshes.regions import on_mesh, posing
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
+from tissuebench.workflows.compare.posing import geometry
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import runs
 from tissuebench.workflows.leaderboard.rows import Board
-from tissuebench.workflows.posing import geometry
-from tissuebench.workflows.study import model_case, run_case
-from tissuebench.workflows.user_mesh import implicit_on
+from tissuebench.workflows.leaderboard.user_mesh import implicit_on
+from tissuebench.workflows.run.case import model_case, run_case
 
 H, STEPS = 1 / 30, 30  # s: the case's time step and steps (T = 1 s, the quick truth's)
 LABEL = "implicit-on-tetrahedra"
@@ -146,7 +146,7 @@ def test_a_rendering_from_the_record_keeps_the_budget_without_running_again(boar
         raise AssertionError("our implicit ran again on the user's mesh")
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("tissuebench.workflows.user_mesh.implicit_on", refused)
+        patch.setattr("tissuebench.workflows.leaderboard.user_mesh.implicit_on", refused)
         render(out)
     assert user_row(out)["budget"] == before["budget"]
 
@@ -218,7 +218,7 @@ def test_where_our_implicit_cannot_run_the_budget_says_why_in_one_line(tmp_path)
     beyond the total, and one line that names the region."""
     from tissuebench.workflows.io.xdmf import write_series
     from tissuebench.workflows.leaderboard.rows import Row, error_keys
-    from tissuebench.workflows.user_mesh import budget_on_mesh
+    from tissuebench.workflows.leaderboard.user_mesh import budget_on_mesh
 
     x = np.linspace(0.0, 1.0, 4)
     points = np.array([(a, b, 0.0) for b in x for a in x])

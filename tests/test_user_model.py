@@ -16,13 +16,13 @@ from mpi4py import MPI
 import pytest
 from test_newcomer_leaderboard import compare_summary
 
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
+from tissuebench.workflows.io.manifest import seal
+from tissuebench.workflows.io.output import OutputError
 from tissuebench.workflows.leaderboard import page
 from tissuebench.workflows.leaderboard.record import Invalid, check_row, row_of, row_record
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, Row, error_keys, user_rows
-from tissuebench.workflows.manifest import seal
-from tissuebench.workflows.output import OutputError
-from tissuebench.workflows.study import model_case, run_case
+from tissuebench.workflows.run.case import model_case, run_case
 
 H, STEPS = 1 / 30, 30  # s: the quick truth's step and steps (T = 1 s)
 ROD = Board("rod-MP3", "rod", "MP3", "linear", simulators=(), end_time=1.0, truth="rod")
@@ -36,7 +36,7 @@ def neo_hookean_on_tetrahedra(tmp_path_factory):
     Jacobians take Q1 cells; user_mesh.implicit_on runs the model on that mesh instead.)"""
     from tissuebench.solvers.truth import store
     from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.user_mesh import implicit_on
+    from tissuebench.workflows.leaderboard.user_mesh import implicit_on
 
     tmp = tmp_path_factory.mktemp("user-model")
     with pytest.MonkeyPatch.context() as patch:
@@ -58,7 +58,7 @@ def user(series, model: str | None) -> Row:
 
 @pytest.mark.serial
 def test_the_budget_runs_the_stated_model(neo_hookean_on_tetrahedra):
-    from tissuebench.workflows.user_mesh import budget_on_mesh
+    from tissuebench.workflows.leaderboard.user_mesh import budget_on_mesh
 
     linear, nh, truth = neo_hookean_on_tetrahedra
     stated = budget_on_mesh(ROD, user(linear, "neo-hookean"), truth, user=nh)

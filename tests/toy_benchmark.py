@@ -33,8 +33,9 @@ from tissuebench.meshes.regions import Posing, Region, Term, on_mesh
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.solvers.truth.cases import register_case, remove_case
-from tissuebench.workflows import boards, paper_cases
-from tissuebench.workflows.study import algorithm_case, model_case
+from tissuebench.workflows.leaderboard import boards
+from tissuebench.workflows.run.case import algorithm_case, model_case
+from tissuebench.workflows.study import cases as paper_cases
 
 NAME = "plate"
 SIZE = (0.4, 0.1)  # m

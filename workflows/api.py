@@ -73,9 +73,9 @@ def export_case(
     `force` replaces files of an earlier export. Returns the case as arrays (read_case of
     OUT) on every rank. Collective."""
     from tissuebench.meshes import BENCHMARKS, get_entry
-    from tissuebench.workflows.checks import posed
-    from tissuebench.workflows.output import collective
-    from tissuebench.workflows.posing import export
+    from tissuebench.workflows.compare.posing import export
+    from tissuebench.workflows.io.output import collective
+    from tissuebench.workflows.run.checks import posed
 
     out = Path(out)
     if out.suffix.lower() != ".json":
@@ -192,9 +192,9 @@ def grade(
     which the compare folder names and the leaderboard grades again: keep it there. Same
     arrays again: the file is kept and compare skips the complete folder; other arrays over an
     existing file: refused unless `force`, which replaces both. Returns Graded. Collective."""
-    from tissuebench.workflows.grading import GradingError, check_label, check_wall_time
-    from tissuebench.workflows.grading import compare as compare_files
-    from tissuebench.workflows.output import collective
+    from tissuebench.workflows.compare.grading import GradingError, check_label, check_wall_time
+    from tissuebench.workflows.compare.grading import compare as compare_files
+    from tissuebench.workflows.io.output import collective
 
     out = Path(out)
     if not out.name:
@@ -231,9 +231,9 @@ def place_series(given: Series, path: Path, force: bool) -> None:
     (io/xdmf.write_series), listed in its folder's manifest; kept when the files hold it
     already. Rank 0. GradingError for other files there without force; OutputError for files
     that tissuebench did not write."""
-    from tissuebench.workflows.grading import GradingError
+    from tissuebench.workflows.compare.grading import GradingError
+    from tissuebench.workflows.io.output import PREFIX, write_set
     from tissuebench.workflows.io.xdmf import write_series
-    from tissuebench.workflows.output import PREFIX, write_set
 
     pad = 3 - given.dim
     points = np.pad(given.points, ((0, 0), (0, pad)))

@@ -155,7 +155,7 @@ def command_line(argv: list[str] | None = None) -> int:
     # own signal handlers
     from tissuebench.core import interrupt
     from tissuebench.core.errors import UserError
-    from tissuebench.workflows.output import WriteFailure
+    from tissuebench.workflows.io.output import WriteFailure
 
     signalled = (KeyboardInterrupt, interrupt.Terminated, interrupt.Interrupted)
     comm = MPI.COMM_WORLD

@@ -113,7 +113,7 @@ def write(out: Path, records: list[dict], mode: str, wall: float) -> None:
     """out/performance-contact.md and .json."""
     import json
 
-    from tissuebench.workflows.output import write_owned
+    from tissuebench.workflows.io.output import write_owned
 
     data = {"mode": mode, "wall_s": wall, "records": records}
     write_owned(out / "performance-contact.json", lambda tmp: tmp.write_text(json.dumps(data)))

@@ -44,7 +44,7 @@ from dolfinx import fem, geometry  # noqa: E402
 from tissuebench.meshes.rod import SIZE, rod_mesh  # noqa: E402
 from tissuebench.metrics.cells import Locator  # noqa: E402
 from tissuebench.metrics.crossmesh import PointValues  # noqa: E402
-from tissuebench.workflows.grading import grade  # noqa: E402
+from tissuebench.workflows.compare.grading import grade  # noqa: E402
 from tissuebench.workflows.io.xdmf import gather_mesh, write_series  # noqa: E402
 
 T = TypeVar("T")

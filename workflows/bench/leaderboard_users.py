@@ -60,8 +60,8 @@ def prepare(users: int, template: Path, log=print) -> None:
     """template/results: the committed results with `users` copies of one user's compare
     folder of rod-MP3, none graded yet; template/rod.json, mine/ and rod.reference.xdmf, how
     the user made it."""
-    from tissuebench.workflows.manifest import seal
-    from tissuebench.workflows.summary import read_compare_summary, write_summary
+    from tissuebench.workflows.io.manifest import seal
+    from tissuebench.workflows.io.summary import read_compare_summary, write_summary
 
     tb, _ = tools()
     listed = subprocess.run(
@@ -228,8 +228,8 @@ def report(result: dict, when: str, machine: str) -> str:
 def run(users: int, ranks: list[int], out: Path | None, work: Path | None, log=print) -> int:
     """The benchmark: measured in work (a new temporary folder by default, removed after), its
     table printed and, with out, written to OUT/performance-leaderboard.md and .json."""
+    from tissuebench.workflows.io.output import check_writable, write_owned
     from tissuebench.workflows.leaderboard.figures import machine
-    from tissuebench.workflows.output import check_writable, write_owned
 
     if out is not None:
         check_writable(out, owned=NAMES)

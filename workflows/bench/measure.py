@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tissuebench.workflows.output import PREFIX, make_temporary, remove_temporary, write_owned
+from tissuebench.workflows.io.output import PREFIX, make_temporary, remove_temporary, write_owned
 
 if TYPE_CHECKING:
     pass

@@ -288,7 +288,7 @@ def report(result: dict, machine: str) -> str:
 def render(out: Path) -> None:
     """Write OUT/performance-paths.md again from OUT/performance-paths.json (the report's code
     changed, not the measurements): `python -m tissuebench.workflows.bench.paths --render OUT`."""
-    from tissuebench.workflows.output import write_owned
+    from tissuebench.workflows.io.output import write_owned
 
     result = json.loads((out / NAMES[0]).read_text())
     text = report(result, result["machine"])
@@ -298,8 +298,8 @@ def render(out: Path) -> None:
 def run(out: Path | None, log: Callable[[str], None] = print) -> int:
     """The benchmark, in a temporary folder removed after; its report printed and, with out,
     written to OUT/performance-paths.md and .json."""
+    from tissuebench.workflows.io.output import check_writable, write_owned
     from tissuebench.workflows.leaderboard.figures import machine
-    from tissuebench.workflows.output import check_writable, write_owned
 
     if out is not None:
         check_writable(out, owned=NAMES)

@@ -47,7 +47,7 @@ from tissuebench.workflows.bench.targets import (
     model_step_targets,
     targets,
 )
-from tissuebench.workflows.output import write_owned
+from tissuebench.workflows.io.output import write_owned
 
 # --- figure and report ----------------------------------------------------------------------------
 

@@ -1,5 +1,5 @@
 """Command-line options that several commands share (their checks, shared with the Python API,
-are workflows/checks.py). Commands import these; no command imports another command, and
+are workflows/run/checks.py). Commands import these; no command imports another command, and
 nothing but the commands imports this."""
 
 from __future__ import annotations

@@ -47,7 +47,7 @@ from tissuebench.workflows.bench.measure import measure, measure_explicit
 from tissuebench.workflows.bench.report import plot, write_explicit_report, write_report
 from tissuebench.workflows.bench.tables import model_step_rows, text_table
 from tissuebench.workflows.bench.targets import summary_tables
-from tissuebench.workflows.output import check_writable, write_owned
+from tissuebench.workflows.io.output import check_writable, write_owned
 
 FILES = ("performance.json", "performance.png", "performance.md")
 

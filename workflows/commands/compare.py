@@ -10,9 +10,9 @@ from mpi4py import MPI
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
 from tissuebench.solvers.models import MODELS
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.workflows.grading import MAX_LABEL, compare
+from tissuebench.workflows.compare.grading import MAX_LABEL, compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
-from tissuebench.workflows.summary import read_compare_summary
+from tissuebench.workflows.io.summary import read_compare_summary
 
 REFERENCE_DIVERGED = 3  # exit status: the reference diverged (results written, one line said)
 

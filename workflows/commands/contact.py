@@ -22,8 +22,8 @@ from tissuebench.core.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.store import is_cached, truth_samples
 from tissuebench.workflows.contact import report, study
+from tissuebench.workflows.io.output import check_writable, collective, write_set
 from tissuebench.workflows.io.tables import write_table
-from tissuebench.workflows.output import check_writable, collective, write_set
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

@@ -33,7 +33,8 @@ from tissuebench.meshes import BENCHMARKS, get_benchmark
 from tissuebench.metrics import METRICS as ALL_METRICS
 from tissuebench.solvers.stability import explicit_schemes, stability_limits
 from tissuebench.solvers.system import System
-from tissuebench.workflows.convergence import (
+from tissuebench.workflows.io.output import check_writable, collective, write_owned
+from tissuebench.workflows.study.convergence import (
     LEVELS,
     METRICS,
     REFINEMENT,
@@ -43,7 +44,6 @@ from tissuebench.workflows.convergence import (
     space_study,
     time_study,
 )
-from tissuebench.workflows.output import check_writable, collective, write_owned
 
 # every benchmark at its defaults (time), and on its study meshes with its refinement options
 # (space)

@@ -7,15 +7,21 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
-from tissuebench.workflows.boards import is_contact
-from tissuebench.workflows.checks import check_common, posed
 from tissuebench.workflows.commands.arguments import add_common, add_posed_options
+from tissuebench.workflows.compare.posing import (
+    FORMATS,
+    PROCEDURES,
+    export,
+    reference_path,
+    step_note,
+)
 from tissuebench.workflows.io.calculix_deck import ELEMENTS
 from tissuebench.workflows.io.exported import SCHEMA, SCHEMA_VERSION, ExportError
+from tissuebench.workflows.io.limits import check as check_limits
+from tissuebench.workflows.io.limits import estimate
+from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.rows import BOARDS, Board, export_options, posed_board
-from tissuebench.workflows.limits import check as check_limits
-from tissuebench.workflows.limits import estimate
-from tissuebench.workflows.posing import FORMATS, PROCEDURES, export, reference_path, step_note
+from tissuebench.workflows.run.checks import check_common, posed
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

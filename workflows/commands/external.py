@@ -7,8 +7,8 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS
-from tissuebench.workflows.checks import check_common, posed
 from tissuebench.workflows.commands.arguments import add_common, add_posed_options
+from tissuebench.workflows.run.checks import check_common, posed
 from tissuebench.workflows.simulators import SIMULATORS
 from tissuebench.workflows.simulators.runner import run_external
 

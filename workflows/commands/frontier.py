@@ -21,7 +21,8 @@ from mpi4py import MPI
 from tissuebench.core.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.workflows.commands.arguments import schemes_described
-from tissuebench.workflows.frontier import (
+from tissuebench.workflows.frontier.report import MARKER, markdown, plot
+from tissuebench.workflows.frontier.runs import (
     FRONTIER_CASES,
     RETIME,
     SWEEPS,
@@ -31,9 +32,8 @@ from tissuebench.workflows.frontier import (
     run_study,
     side_by_side,
 )
+from tissuebench.workflows.io.output import write_owned
 from tissuebench.workflows.io.tables import write_rows
-from tissuebench.workflows.output import write_owned
-from tissuebench.workflows.reports.frontier import MARKER, markdown, plot
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

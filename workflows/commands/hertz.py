@@ -17,7 +17,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.workflows.contact import hertz
-from tissuebench.workflows.output import check_writable, collective, write_set
+from tissuebench.workflows.io.output import check_writable, collective, write_set
 
 FILES = ("hertz.json", "hertz.png")
 

@@ -2,7 +2,8 @@
 OUT/leaderboard.md, OUT/leaderboard.csv and a figure per case, rendered from the record
 OUT/leaderboard.json with the users' compare folders read, checked against their case and
 their own manifest, and graded against its truth (no rerun: seconds; a user's row new to the
-record gets our implicit run on its own mesh for its error budget, workflows/user_mesh.py).
+record gets our implicit run on its own mesh for its error budget,
+workflows/leaderboard/user_mesh.py).
 The record is OUT's, or, where OUT holds none, the clone's results/ (the
 editable install's repository) or `--results DIR`: only read, the outputs go to OUT.
 `--rerun [CASE ...]`: every algorithm and model of ours and every outside simulator that

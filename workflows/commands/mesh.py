@@ -11,9 +11,9 @@ from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
 from tissuebench.meshes.benchmark import shape_options
 from tissuebench.meshes.gmshio import check_positive_int
 from tissuebench.workflows.commands.arguments import add_shape_options, mesh_size_help
-from tissuebench.workflows.limits import check as check_limits
-from tissuebench.workflows.limits import estimate
-from tissuebench.workflows.output import PREFIX, check_file_target, collective, write_owned
+from tissuebench.workflows.io.limits import check as check_limits
+from tissuebench.workflows.io.limits import estimate
+from tissuebench.workflows.io.output import PREFIX, check_file_target, collective, write_owned
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

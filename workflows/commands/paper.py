@@ -7,7 +7,7 @@ rod-MP3 taken on to 40 s and 30 s, on which the report checks claims 3 (every sc
 on the quasi-static solution) and 6 (the rod oscillates about its static shape). A case whose
 directory is complete is skipped unless --force.
 
-The paper against the truth (SPEC section 10, workflows/paper_truth.py): truth-rod-MP3 and
+The paper against the truth (SPEC section 10, workflows/study/truth.py): truth-rod-MP3 and
 truth-block-w0.2 (N = 20, needle width w = 0.2 m), each run graded against the truth of its
 case; a truth not cached on this machine is computed there once and cached (a first run: said
 with its estimate before it starts; with --jobs > 1, in worker processes, a linear case's runs
@@ -22,7 +22,7 @@ OUT/large-deformation/: the block
 (MP3) at s = 1 and s = 3. The report also gives the linear critical step of the explicit
 schemes on each of their meshes (solvers/stability.py), which says why explicit runs diverge.
 
-The cases are workflows/paper_cases.py's (with those a benchmark defined elsewhere registered
+The cases are workflows/study/cases.py's (with those a benchmark defined elsewhere registered
 there); `--cases NAME ...` runs and reports only those named.
 """
 
@@ -34,20 +34,20 @@ from mpi4py import MPI
 
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
-from tissuebench.workflows import paper_truth
-from tissuebench.workflows.checks import check_common
 from tissuebench.workflows.commands.arguments import add_common
-from tissuebench.workflows.output import (
+from tissuebench.workflows.io.output import (
     check_owned,
     check_writable,
     collective,
     write_owned,
 )
-from tissuebench.workflows.paper_cases import cases, model_cases
-from tissuebench.workflows.reports import paper as report
-from tissuebench.workflows.study import Case, run_case
-from tissuebench.workflows.summary import CaseSummary
-from tissuebench.workflows.truth_jobs import TruthJobs
+from tissuebench.workflows.io.summary import CaseSummary
+from tissuebench.workflows.run.case import Case, run_case
+from tissuebench.workflows.run.checks import check_common
+from tissuebench.workflows.study import report
+from tissuebench.workflows.study import truth as paper_truth
+from tissuebench.workflows.study.cases import cases, model_cases
+from tissuebench.workflows.truth.jobs import TruthJobs
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
 

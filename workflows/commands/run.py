@@ -11,7 +11,14 @@ from tissuebench.meshes import BENCHMARKS, get_entry
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR
-from tissuebench.workflows.checks import (
+from tissuebench.workflows.commands.arguments import (
+    add_benchmark_options,
+    add_common,
+    add_scheme_options,
+    scheme_options,
+)
+from tissuebench.workflows.run.case import model_case, run_case
+from tissuebench.workflows.run.checks import (
     benchmark_options,
     check_common,
     check_models_plane,
@@ -19,15 +26,8 @@ from tissuebench.workflows.checks import (
     parse_models,
     positive,
 )
-from tissuebench.workflows.commands.arguments import (
-    add_benchmark_options,
-    add_common,
-    add_scheme_options,
-    scheme_options,
-)
-from tissuebench.workflows.phases import phase_lines
-from tissuebench.workflows.run_truth import truth_lines
-from tissuebench.workflows.study import model_case, run_case
+from tissuebench.workflows.run.phases import phase_lines
+from tissuebench.workflows.truth.run import truth_lines
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -25,12 +25,12 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.checks import check_common
 from tissuebench.workflows.commands.arguments import add_common
-from tissuebench.workflows.mesh_sensitivity import run_study
-from tissuebench.workflows.mesh_sensitivity_cases import MARKER, NAME, QUICK, STUDIES
-from tissuebench.workflows.mesh_sensitivity_report import markdown, plot, write_csv
-from tissuebench.workflows.output import OutputError, check_writable, collective, write_owned
+from tissuebench.workflows.io.output import OutputError, check_writable, collective, write_owned
+from tissuebench.workflows.leaderboard.mesh_sensitivity import run_study
+from tissuebench.workflows.leaderboard.mesh_sensitivity_cases import MARKER, NAME, QUICK, STUDIES
+from tissuebench.workflows.leaderboard.mesh_sensitivity_report import markdown, plot, write_csv
+from tissuebench.workflows.run.checks import check_common
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -34,7 +34,7 @@ from tissuebench.solvers.stability import (
     system_for,
 )
 from tissuebench.workflows.commands.arguments import mesh_size_help
-from tissuebench.workflows.output import check_writable, collective, write_owned
+from tissuebench.workflows.io.output import check_writable, collective, write_owned
 
 EXPLICIT = explicit_schemes()
 

@@ -13,7 +13,7 @@ against rest) and DIR/truth.csv (case,level,dofs,time,u_x,u_y,u_z: the rod cases
 2, ..., 10 s on every level, the finest labelled `truth`). Cases not named are reported from
 the cache when they are there, else as not yet computed with their expected cost. With more
 than one case to compute, one rank and --jobs N > 1 (default: the cores, at most 2), the cases
-run N at a time in worker processes (workflows/truth_jobs.py). --quick: rod n = 1, 2, 4 and
+run N at a time in worker processes (workflows/truth/jobs.py). --quick: rod n = 1, 2, 4 and
 block N = 10, 20, 40 to T = 1 s (30 steps), a check of the workflow, cached under its own key;
 it never replaces a full truth.md (--force does).
 """
@@ -43,10 +43,10 @@ from tissuebench.solvers.truth.store import (
     truth_samples,
 )
 from tissuebench.workflows.commands.arguments import truth_case
-from tissuebench.workflows.output import OutputError, check_writable, collective, write_set
-from tissuebench.workflows.reports.crease import crease_figures
-from tissuebench.workflows.reports.sweep import record as sweep_record
-from tissuebench.workflows.reports.truth_md import (
+from tissuebench.workflows.io.output import OutputError, check_writable, collective, write_set
+from tissuebench.workflows.truth.crease import crease_figures
+from tissuebench.workflows.truth.jobs import compute_in_parallel
+from tissuebench.workflows.truth.report import (
     CREASE,
     MARKER,
     NAME,
@@ -58,7 +58,7 @@ from tissuebench.workflows.reports.truth_md import (
     sweep_failures,
     write_csv,
 )
-from tissuebench.workflows.truth_jobs import compute_in_parallel
+from tissuebench.workflows.truth.sweep import record as sweep_record
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -195,7 +195,7 @@ def edge_pressure(folder: Path, label: str, t: float, scale: float) -> tuple[np.
     folder at time t (s): the pressure the run's penalty applies, not only at the nodes."""
     from tissuebench.solvers.materials import get_material
     from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.summary import read_case_summary
+    from tissuebench.workflows.io.summary import read_case_summary
 
     summary = read_case_summary(folder)
     assert summary is not None  # a case folder of ours

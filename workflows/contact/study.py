@@ -31,7 +31,7 @@ from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import read_rows
-from tissuebench.workflows.study import Case, run_case
+from tissuebench.workflows.run.case import Case, run_case
 
 ALGORITHMS = ("implicit", "implicit-lumped", "explicit", "explicit-lumped", "quasi-static")
 SIZE = 20  # the paper's grid
@@ -55,7 +55,7 @@ QUICK_SIZE, QUICK_KAPPAS, QUICK_SIZES, QUICK_END_TIME = 8, (100.0,), (16,), 1.0
 
 
 def study_cases(truth_case: str, quick: bool = False) -> list[Case]:
-    """The runs of one contact case, as study Cases (workflows/study.py); `quick`: the QUICK_
+    """The runs of one contact case, as study Cases (workflows/run/case.py); `quick`: the QUICK_
     sizes, penalties and end time."""
     _, material, model, scale, _ = CASES[truth_case]
     implicit = label_of("implicit", model)
@@ -135,7 +135,7 @@ def grade(
     the truth (m^2), force error, interpenetration (m) and cost (s per simulated s). Rows on
     rank 0, [] elsewhere. Collective."""
     from tissuebench.metrics.truth import grade_truth
-    from tissuebench.workflows.summary import read_case_summary
+    from tissuebench.workflows.io.summary import read_case_summary
 
     summary = read_case_summary(folder) if comm.rank == 0 else None
     summary = comm.bcast(summary, root=0)

@@ -1,6 +1,6 @@
 """The exported benchmark (`Exported`) as a file: JSON for any code (write_json, read_json)
 and the mesh alone as .vtu or .msh (write_mesh). The CalculiX deck is io/calculix_deck.py's;
-posing a benchmark for export, workflows/posing.py.
+posing a benchmark for export, workflows/compare/posing.py.
 
 JSON schema "tissuebench.benchmark", version 2
 ----------------------------------------------

@@ -12,7 +12,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.metrics.series import InputError, Series, series_of
-from tissuebench.workflows import limits
+from tissuebench.workflows.io import limits
 from tissuebench.workflows.io.fields import DEFAULT_FIELDS, field_names
 
 __all__ = ["DEFAULT_FIELDS", "check_input_path", "read_on_rank0", "read_series"]
@@ -69,7 +69,7 @@ def series_size(path: str | Path, field: str | None = None) -> tuple[float, int,
 
 def check_memory(files: Sequence[tuple]) -> None:
     """Refuse (InputError, one line naming the numbers) series (path, field) that cannot be
-    held together in the machine's available memory (MemAvailable, workflows/limits.py), as
+    held together in the machine's available memory (MemAvailable, workflows/io/limits.py), as
     estimated by series_size before anything is read. Series whose size is not known count
     nothing (the estimate is a lower bound: what is refused cannot fit)."""
     available = limits.available_memory()

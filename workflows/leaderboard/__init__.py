@@ -10,8 +10,8 @@
 - `grading`: every row graded against the case's truth, with its error budget (SPEC 10), and
   each user's row graded from its series (against the case's reference too): no number of
   a user's folder is believed;
-- `rows` (workflows/ranking.py re-exports it): the Row, reading outside rows, the checks of
-  a compare summary, the Pareto front;
+- `rows` (`ranking` re-exports it): the Row, reading outside rows, the checks of a compare
+  summary, the Pareto front;
 - `page`: results/leaderboard/index.html, one self-contained page (inline SVG and a little
   JavaScript, no download);
 - `document`: leaderboard.md, the one-screen summary per case; `figures`: the PNGs;
@@ -20,5 +20,5 @@
   `force_figure`: its needle force against time (CASE-force.png);
 - `build`: the whole command, its outputs staged and moved into place as one set.
 
-The cases themselves are BOARDS (workflows/boards.py).
+The cases themselves are BOARDS (workflows/leaderboard/boards.py).
 """

@@ -12,10 +12,16 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.boards import is_contact
-from tissuebench.workflows.checks import check_common
+from tissuebench.workflows.io.manifest import file_hash, read_manifest
+from tissuebench.workflows.io.output import (
+    OutputError,
+    check_writable,
+    collective,
+    write_set,
+)
 from tissuebench.workflows.io.tables import CSVError, read_rows
 from tissuebench.workflows.leaderboard import document, page, users
+from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.figures import (
     drawing_code,
     machine,
@@ -34,6 +40,8 @@ from tissuebench.workflows.leaderboard.frontier_rows import (
     strip_frontier,
 )
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
+from tissuebench.workflows.leaderboard.mesh_sensitivity import NAME as SENSITIVITY
+from tissuebench.workflows.leaderboard.mesh_sensitivity_board import leaderboard_boards
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
     MARKER,
@@ -52,15 +60,7 @@ from tissuebench.workflows.leaderboard.rows import (
 )
 from tissuebench.workflows.leaderboard.runs import run_board
 from tissuebench.workflows.leaderboard.users import read_users, user_key
-from tissuebench.workflows.manifest import file_hash, read_manifest
-from tissuebench.workflows.mesh_sensitivity import NAME as SENSITIVITY
-from tissuebench.workflows.mesh_sensitivity_board import leaderboard_boards
-from tissuebench.workflows.output import (
-    OutputError,
-    check_writable,
-    collective,
-    write_set,
-)
+from tissuebench.workflows.run.checks import check_common
 from tissuebench.workflows.simulators import get_simulator
 
 STAGED_HOOK = None  # called once every output is staged (tests: a signal at that moment)

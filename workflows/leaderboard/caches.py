@@ -102,9 +102,9 @@ def case_reference(board: Board, out: Path | None = None) -> Series:
     from tissuebench.meshes import get_entry
     from tissuebench.solvers.materials import get_material
     from tissuebench.solvers.models import run_label
+    from tissuebench.workflows.compare.posing import export, reference_path
+    from tissuebench.workflows.io.manifest import is_ours
     from tissuebench.workflows.io.series import read_series
-    from tissuebench.workflows.manifest import is_ours
-    from tissuebench.workflows.posing import export, reference_path
 
     case = board_case(board)
     if out is not None:

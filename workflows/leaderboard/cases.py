@@ -1,7 +1,7 @@
-"""A leaderboard case (a Board of workflows/boards.py) as a run of it is: its dimension, nodes,
-h, steps and end time (board_case); its benchmark options compared (same_options) and said
-in words; the `tissuebench export` arguments that pose it, and the case that an export's
-inputs pose (posed_board)."""
+"""A leaderboard case (a Board of workflows/leaderboard/boards.py) as a run of it is: its dimension,
+nodes, h, steps and end time (board_case); its benchmark options compared (same_options) and said in
+words; the `tissuebench export` arguments that pose it, and the case that an export's inputs pose
+(posed_board)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import math
 from typing import TYPE_CHECKING
 
 from tissuebench.meshes import get_entry
-from tissuebench.workflows.boards import BOARDS, Board
+from tissuebench.workflows.io.limits import step_count
+from tissuebench.workflows.leaderboard.boards import BOARDS, Board
 from tissuebench.workflows.leaderboard.row import one_line, real
-from tissuebench.workflows.limits import step_count
 
 if TYPE_CHECKING:
     from tissuebench.solvers.materials import Material

@@ -12,7 +12,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
 from tissuebench.meshes import get_entry
-from tissuebench.workflows.boards import Board
+from tissuebench.workflows.io.manifest import MANIFEST, changes, file_hash
+from tissuebench.workflows.io.summary import read_summary
+from tissuebench.workflows.leaderboard.boards import Board
 from tissuebench.workflows.leaderboard.cases import (
     TOLERANCE,
     board_case,
@@ -28,12 +30,10 @@ from tissuebench.workflows.leaderboard.row import (
     one_line,
     real,
 )
-from tissuebench.workflows.manifest import MANIFEST, changes, file_hash
 from tissuebench.workflows.simulators import SIMULATORS
-from tissuebench.workflows.summary import read_summary
 
 if TYPE_CHECKING:
-    from tissuebench.workflows.summary import CompareSummary
+    from tissuebench.workflows.io.summary import CompareSummary
 
 MAX_LABEL = 64  # characters of a user's label, as compare takes it
 STATUSES = ("ok", "diverged", "reference diverged", "missing")  # compare's
@@ -388,7 +388,7 @@ def series_problem(summary: dict, found: dict) -> str | None:
     file of it is a symbolic link, or its files are not the ones compare graded (the hashes
     summary.json records, inputs.candidate.files: a series changed since would be graded as
     another run than compare's)."""
-    from tissuebench.workflows.grading import series_files
+    from tissuebench.workflows.compare.grading import series_files
 
     again = "grade the run again with tissuebench compare (with --force)"
     inputs = summary.get("inputs")
@@ -467,7 +467,7 @@ def candidate_of(summary: dict, folder: Path | None = None) -> dict:
     if not isinstance(file, str) or not file:
         return {}
     if folder is not None:
-        from tissuebench.workflows.grading import candidate_file
+        from tissuebench.workflows.compare.grading import candidate_file
 
         file = candidate_file(cast("CompareSummary", summary), folder) or file
     assert isinstance(cand, dict)  # file came from it

@@ -11,7 +11,7 @@ full rows stay in leaderboard.csv and leaderboard.json. Every text read is escap
 
 from __future__ import annotations
 
-from tissuebench.workflows.boards import is_contact
+from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import load_note, sessions_line, unit_of
 from tissuebench.workflows.leaderboard.page import REAL_TIME, error_of, finished, source_of

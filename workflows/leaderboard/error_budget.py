@@ -38,10 +38,11 @@ def error_budget(
     implicit on its mesh: the same-mesh column on our grid; graded here on our simplices),
     model (none: the linear case's model is the truth's). A user's row on a mesh of its own,
     given the case's `board` and its `truth` (TruthSamples), gets our implicit run here on that
-    mesh (workflows/user_mesh.py: all four parts, or one line on why not). Only the rows of
+    mesh (workflows/leaderboard/user_mesh.py: all four parts, or one line on why not). Only the
+    rows of
     `only` when it is given (the others keep theirs); `caches` shared across rows (Caches),
     the same numbers. Rank 0."""
-    from tissuebench.workflows.grading import grade
+    from tissuebench.workflows.compare.grading import grade
 
     reference = next((r for r in rows if r.reference and r.truth), None)
     if reference is None and (board is None or truth is None):
@@ -71,7 +72,7 @@ def error_budget(
                 "the diagonals may differ)"
             )
         elif row.kind is Kind.USER and board is not None and truth is not None and row.series:
-            from tissuebench.workflows.user_mesh import budget_on_mesh
+            from tissuebench.workflows.leaderboard.user_mesh import budget_on_mesh
 
             if caches is None:
                 parts = budget_on_mesh(board, row, truth)

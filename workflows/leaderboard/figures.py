@@ -30,8 +30,8 @@ from tissuebench.workflows.leaderboard.rows import (
     ranked_error,
     truth_error,
 )
-from tissuebench.workflows.reports import style
-from tissuebench.workflows.reports.style import place_labels
+from tissuebench.workflows.run import style
+from tissuebench.workflows.run.style import place_labels
 
 LABELLED = 24  # a case with more runs shown labels its Pareto front only
 STAMP = "tissuebench-figure"  # the PNG text key that holds the hash of the code that drew it
@@ -123,7 +123,7 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
 
 
 def drawing_code() -> str:
-    """The SHA-256 of the code that draws a case's figure (this module and reports/style.py),
+    """The SHA-256 of the code that draws a case's figure (this module and run/style.py),
     stamped into each PNG, so that a figure drawn by other code is drawn again."""
     digest = hashlib.sha256()
     for module in (__file__, style.__file__):

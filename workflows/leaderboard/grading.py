@@ -22,8 +22,8 @@ import numpy as np
 
 from tissuebench.core import interrupt
 from tissuebench.solvers.truth.fallbacks import FALLBACKS
-from tissuebench.workflows.boards import BOARDS, is_contact
 from tissuebench.workflows.leaderboard import users as user_folders
+from tissuebench.workflows.leaderboard.boards import BOARDS, is_contact
 from tissuebench.workflows.leaderboard.caches import (  # noqa: F401 (read here before)
     Caches,
     Recent,
@@ -58,7 +58,7 @@ def study_series(out: Path, board: Board, rows: list[Row]) -> None:
     """The series file of each row of a mesh-sensitivity board, where `tissuebench
     sensitivity` writes it (OUT/mesh-sensitivity/STUDY/SHAPE-SIZE-ALGORITHM.xdmf), and its
     board's truth case."""
-    from tissuebench.workflows.mesh_sensitivity import NAME
+    from tissuebench.workflows.leaderboard.mesh_sensitivity import NAME
 
     board.truth = STUDY_TRUTHS.get(board.name)
     study = board.name.removeprefix(f"{NAME}-")
@@ -77,7 +77,7 @@ def grade_row_reference(board: Board, row: Row, caches: Caches) -> None:
     row keeps status UNGRADED (it never ranks) and its reason says why in one line."""
     from tissuebench.metrics.compare import grade_series
     from tissuebench.metrics.table import METRICS
-    from tissuebench.workflows.grading import mesh_of
+    from tissuebench.workflows.compare.grading import mesh_of
 
     def why(what: str, exc: Exception) -> str:
         return f"{what}: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"

@@ -34,7 +34,7 @@ from importlib import resources
 import jinja2
 from markupsafe import Markup
 
-from tissuebench.workflows.boards import is_contact
+from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.figures import sessions_line
 from tissuebench.workflows.leaderboard.frontier_rows import (  # noqa: F401 (read here before)

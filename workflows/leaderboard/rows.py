@@ -1,5 +1,5 @@
 """The speed-accuracy leaderboard (`tissuebench leaderboard`): for each case, our algorithms
-and models (a study case, workflows/study.py), every outside simulator's variants that pose it
+and models (a study case, workflows/run/case.py), every outside simulator's variants that pose it
 (workflows/simulators/runner.py) and any run a user graded with `compare` into the case's `user/`
 folder, as rows: read, checked and ranked (accuracy, time-mean and maximum E_i, against cost,
 wall time per simulated second, with the Pareto front marked). The page is page.py's,
@@ -16,8 +16,8 @@ process (see each entry's `timing`). A case's
 runs in one session on one machine (Board.session; `--rerun CASE` re-times one case alone); a
 user's run carries the wall time they gave compare.
 
-The cases are BOARDS (workflows/boards.py; `tissuebench export` names the case its options pose:
-posed_board).
+The cases are BOARDS (workflows/leaderboard/boards.py; `tissuebench export` names the case its
+options pose: posed_board).
 OUT/leaderboard/CASE/ours, OUT/leaderboard/CASE/SIMULATOR: the case's folders (ours);
 OUT/leaderboard/CASE/user/NAME: compare folders a user put there (read only); any other
 folder under OUT/leaderboard that may be meant to be read is named with what to do
@@ -48,13 +48,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, cast
 
-from tissuebench.workflows.boards import (  # noqa: F401 (the cases, read here and by others)
+from tissuebench.workflows.io.summary import CaseSummary
+from tissuebench.workflows.io.tables import write_table
+from tissuebench.workflows.leaderboard.boards import (  # noqa: F401 (the cases, read here and by others)
     BOARDS,
     N12_NOTE,
     N12_VARIANTS,
     Board,
 )
-from tissuebench.workflows.io.tables import write_table
 from tissuebench.workflows.leaderboard.cases import (  # noqa: F401 (read here before)
     board_case,
     export_options,
@@ -84,11 +85,10 @@ from tissuebench.workflows.leaderboard.row import (  # noqa: F401 (read here bef
     plain,
     real,
 )
-from tissuebench.workflows.summary import CaseSummary
 
 
 def our_rows(case: str, summary: CaseSummary) -> list[Row]:
-    """Rows of our runs from a study case's summary (workflows/summary.py): the cost (s) is
+    """Rows of our runs from a study case's summary (workflows/io/summary.py): the cost (s) is
     the System's assembly, the integrator's setup and its time loop."""
     rows = []
     for label, run in summary.runs.items():

@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING
 from tissuebench.solvers import ALGORITHMS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import run_label
-from tissuebench.workflows.boards import is_contact
+from tissuebench.workflows.io.summary import CaseSummary, read_summary
+from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.contact import external_contact, our_forces
 from tissuebench.workflows.leaderboard.record import FOLDER
 from tissuebench.workflows.leaderboard.rows import (
@@ -20,10 +21,9 @@ from tissuebench.workflows.leaderboard.rows import (
     mark_pareto,
     our_rows,
 )
+from tissuebench.workflows.run.case import model_case, run_case
 from tissuebench.workflows.simulators import get_simulator
 from tissuebench.workflows.simulators.runner import SimulatorError, run_external
-from tissuebench.workflows.study import model_case, run_case
-from tissuebench.workflows.summary import CaseSummary, read_summary
 
 if TYPE_CHECKING:
     pass
@@ -126,8 +126,8 @@ def simplex_rows(
 
     from tissuebench.meshes import get_entry
     from tissuebench.metrics.compare import summarize
-    from tissuebench.workflows.grading import grade
-    from tissuebench.workflows.mesh_sensitivity import shapes
+    from tissuebench.workflows.compare.grading import grade
+    from tissuebench.workflows.leaderboard.mesh_sensitivity import shapes
 
     reference = folder / "ours" / f"{summary.reference}.xdmf"
     gdim = get_entry(board.benchmark).gdim

@@ -9,11 +9,11 @@ import json
 import sys
 from pathlib import Path
 
+from tissuebench.workflows.io.manifest import file_hash, read_manifest
+from tissuebench.workflows.io.output import write_owned
 from tissuebench.workflows.leaderboard.record import FOLDER, Invalid, row_fields, row_of
 from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, misplaced, user_rows
-from tissuebench.workflows.manifest import file_hash, read_manifest
-from tissuebench.workflows.output import write_owned
 
 GRADED = "graded-users.json"  # in OUT/leaderboard: the users' rows graded so far (resumed from)
 

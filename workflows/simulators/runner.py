@@ -1,7 +1,7 @@
 """Outside simulators run end to end and graded (`tissuebench external`, the leaderboard):
 the benchmark is exported (workflows/io/exported.py), our reference runs beside it, each
 variant of each simulator (workflows/simulators/) runs in a folder of its own, and its output
-is graded by `compare`'s code (workflows/grading.py) against the reference.
+is graded by `compare`'s code (workflows/compare/grading.py) against the reference.
 
 A simulator folder (one per `external` run; one per simulator and case in the leaderboard):
 - `benchmark.json`: the export that every variant poses (schema tissuebench.benchmark);
@@ -23,13 +23,11 @@ from mpi4py import MPI
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
-from tissuebench.workflows.grading import compare
+from tissuebench.workflows.compare.grading import compare
+from tissuebench.workflows.compare.posing import REFERENCE_FIELD, build, run_reference
 from tissuebench.workflows.io.exported import Exported
-from tissuebench.workflows.output import RunFolder, collective
-from tissuebench.workflows.posing import REFERENCE_FIELD, build, run_reference
-from tissuebench.workflows.simulators import ExternalRun, get_simulator
-from tissuebench.workflows.study import versions
-from tissuebench.workflows.summary import (
+from tissuebench.workflows.io.output import RunFolder, collective
+from tissuebench.workflows.io.summary import (
     SCHEMA_VERSION,
     SUMMARY,
     CompareSummary,
@@ -39,6 +37,8 @@ from tissuebench.workflows.summary import (
     read_external_summary,
     write_summary,
 )
+from tissuebench.workflows.run.case import versions
+from tissuebench.workflows.simulators import ExternalRun, get_simulator
 
 
 class SimulatorError(UserError):
@@ -95,7 +95,7 @@ def run_variant(
     sim = get_simulator(simulator)
     contact = None
     if comm.rank == 0 and data is not None and getattr(data, "contact", None) is not None:
-        from tissuebench.workflows.contact.grading import exported_reference
+        from tissuebench.workflows.compare.contact import exported_reference
 
         contact = exported_reference(data)  # its force: our reference's, as the export holds
 
@@ -198,7 +198,7 @@ def run_external(
 ) -> ExternalSummary:
     """Export the benchmark, run our reference and every chosen variant of the simulator, grade
     them, and write the simulator folder `out` (see the module docstring; the output-folder
-    rules of workflows/output.py). Collective; returns the folder's summary. Complete
+    rules of workflows/io/output.py). Collective; returns the folder's summary. Complete
     results of the same inputs are kept unless force. `petsc` is the --petsc text, already in
     PETSc's options database (it changes our reference, so it is one of the inputs)."""
     from dataclasses import asdict
