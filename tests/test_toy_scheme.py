@@ -1,13 +1,14 @@
-"""A fifth discretisation scheme defined in the test folder alone (tests/toy_scheme.py:
-`stiffened`, factor x the standard element's K_0, registered in solvers.schemes.SCHEMES) goes
-through `run` and the frontier's study and figure as the five of solvers/schemes/ do (issue 41):
-what the commands know of it is what its Scheme states (its parameter in --help, the linear
-model only, a spare colour in figures). Physics: at factor 1 it is the standard element, so its
-rod tip follows the standard element's to round-off; at factor 2 the quasi-static tip
-(K u = f at every step) is half the standard element's."""
+"""A fifth discretisation scheme defined in the test folder alone (tests/toy_scheme.py: `stiffened`,
+factor x the standard element's K_0, registered in solvers.schemes.SCHEMES) goes through `run`, the
+frontier's study and figure, the leaderboard and its page as the five of solvers/schemes/ do (issue
+41): what the commands know of it is what its Scheme states (its parameter in --help, the linear
+model only, a spare colour in figures). Physics: at factor 1 it is the standard element, so its rod
+tip follows the standard element's to round-off; at factor 2 the quasi-static tip (K u = f at every
+step) is half the standard element's."""
 
 import argparse
 import csv
+from pathlib import Path
 
 from mpi4py import MPI
 
@@ -22,6 +23,7 @@ from tissuebench.workflows.cli import main, parser
 from tissuebench.workflows.frontier import report
 from tissuebench.workflows.frontier import runs as study
 
+ROOT = Path(__file__).resolve().parents[1]
 RUN = ["--mesh-size", "1", "--end-time", "0.2", "--no-figures"]
 
 
@@ -137,3 +139,44 @@ def test_the_frontier_runs_and_draws_the_toy(toy, tmp_path):
     assert (np.abs(pixels - drawn).max(axis=-1) < 0.02).sum() > 10  # the toy's run is drawn
     text = report.markdown(rows, ("rod-MP2",), "header")
     assert f"closest run is {NAME}:factor=2 implicit on the size-2 mesh" in text
+
+
+def test_the_leaderboard_and_its_page_take_the_toys_frontier_run(toy):
+    """A frontier run of the toy (a row of frontier.csv, as `tissuebench frontier` writes it)
+    joins the leaderboard's case of its truth as a frontier row, on the Pareto front against
+    the truth where it is the cheapest, and is shown on the page and in leaderboard.md."""
+    from tissuebench.workflows.leaderboard import document, page
+    from tissuebench.workflows.leaderboard.figures import unit_of
+    from tissuebench.workflows.leaderboard.frontier_rows import frontier_row, join_frontier
+    from tissuebench.workflows.leaderboard.row import Kind
+    from tissuebench.workflows.leaderboard.rows import BOARDS, E_I, Row, error_keys
+
+    board = next(b for b in BOARDS if b.name == "rod-MP3")  # its truth: "rod"
+    truth = {f"{E_I}_mean": 5e-4, f"{E_I}_max": 8e-4}
+    ours = Row(
+        "rod-MP3",
+        "implicit",
+        "tissuebench",
+        "a run",
+        "reference",
+        336,
+        "ok",
+        None,
+        dict.fromkeys(error_keys(), 0.0),
+        0.1,
+        10.0,
+        "now",
+        reference=True,
+        truth=truth,
+    )
+    with open(ROOT / "results" / "frontier" / "frontier.csv", newline="") as f:
+        written = next(r for r in csv.DictReader(f) if r["case"] == "rod")
+    run = frontier_row({**written, "scheme": f"{NAME}:factor=2"})
+    rows = join_frontier([board], {board.name: [ours]}, {"rod": [run]})[board.name]
+    (toys,) = [r for r in rows if r.kind is Kind.FRONTIER]
+    assert toys.label.startswith(f"{NAME}:factor=2 implicit")
+    assert toys.truth[f"{E_I}_max"] == float(written["interior_error_max"])
+    text = page.render([board], {board.name: rows}, {board.name: []}, "now", unit_of)
+    assert text.count(f"{NAME}:factor=2") >= 1
+    shown = document.markdown([board], {board.name: rows}, {board.name: []}, "now")
+    assert f"{NAME}:factor=2" in shown
