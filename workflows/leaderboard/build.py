@@ -198,9 +198,10 @@ def main(args: argparse.Namespace) -> int:
         collective(comm, lambda: check_target(out, available, args.force, own, rerun))
     session = time.strftime("%Y-%m-%d %H:%M %Z")
     kept_boards, kept_rows, kept_notes = record or ([], {}, {})
-    kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again from frontier.csv
+    # what each figure was drawn of: the record's cases as read, the frontier's rows among them
     drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
-    drawn = {name: json.dumps(c) for name, c in drawn.items()}  # what each figure was drawn of
+    drawn = {name: json.dumps(c) for name, c in drawn.items()}
+    kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again from frontier.csv
     kept = {b.name: b for b in kept_boards}
     rows, notes, boards = {}, {}, []
     fresh = []
