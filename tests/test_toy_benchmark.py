@@ -132,3 +132,15 @@ def test_paper_report_and_leaderboard(plate, tmp_path, cache):
     dynamic = [a for a in ALGORITHMS if a != "quasi-static"]
     assert all(truth[a] < 0.2 for a in dynamic), truth
     assert truth["quasi-static"] > 100 * max(truth[a] for a in dynamic), truth
+
+
+def test_the_plates_truth_computes_in_its_own_process(plate):
+    """A truth case registered from elsewhere is not one a worker process knows: the linear
+    truths' split (solvers/truth/split.py) leaves it to the process that registered it, in
+    whatever order the modules were imported (a fresh process alone failed here, before)."""
+    from tissuebench.solvers.truth import CASES, PACKAGE_CASES
+    from tissuebench.solvers.truth.split import splittable
+
+    assert NAME in CASES and NAME not in PACKAGE_CASES
+    assert not splittable(NAME)
+    assert splittable("rod")  # a package's linear case is split

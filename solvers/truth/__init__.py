@@ -18,8 +18,14 @@ from tissuebench.solvers.truth.cases import (
 from tissuebench.solvers.truth.estimate import ErrorEstimate, estimate_error, interior_difference
 from tissuebench.solvers.truth.solver import Boundary, Problem, Truth, TruthRun
 
+# The package's own cases (cases.py's and fallbacks.py's), taken once this package is loaded:
+# before any case can be registered from elsewhere (register_case needs this package), so a
+# case registered later (a test's toy plate) is known to its own process only.
+PACKAGE_CASES = frozenset(CASES)
+
 __all__ = [
     "CASES",
+    "PACKAGE_CASES",
     "Boundary",
     "ErrorEstimate",
     "Problem",

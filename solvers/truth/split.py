@@ -34,6 +34,7 @@ from mpi4py import MPI
 import numpy as np
 
 from tissuebench.core import interrupt
+from tissuebench.solvers.truth import PACKAGE_CASES
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.estimate import interior_difference
 from tissuebench.solvers.truth.samples import TruthSamples
@@ -45,9 +46,6 @@ POLL_SECONDS = 0.2
 STOP_SECONDS = 10.0  # s: how long a worker may take to end on SIGTERM before it is killed
 
 
-# the cases a worker process knows: those of the package, not one registered while it runs
-# (a benchmark registered from elsewhere, as the tests' toy plate, computes in its own process)
-KNOWN = frozenset(CASES)
 
 
 def splittable(case: str) -> bool:
@@ -56,7 +54,9 @@ def splittable(case: str) -> bool:
     from tissuebench.meshes import get_entry
     from tissuebench.solvers.truth.floor import FLOOR_CASES
 
-    if case not in KNOWN or case in FLOOR_CASES:
+    # a worker process knows the package's cases only: one registered from elsewhere (the
+    # tests' toy plate) computes in its own process
+    if case not in PACKAGE_CASES or case in FLOOR_CASES:
         return False
     benchmark, _, model, _, _ = CASES[case]
     return model == "linear" and get_entry(benchmark).tool is None
