@@ -46,8 +46,6 @@ POLL_SECONDS = 0.2
 STOP_SECONDS = 10.0  # s: how long a worker may take to end on SIGTERM before it is killed
 
 
-
-
 def splittable(case: str) -> bool:
     """Whether compute_split() takes the case: the linear law, no contact, not a floor case,
     one the package defines."""
