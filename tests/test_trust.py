@@ -439,3 +439,19 @@ def test_a_figure_is_stamped_with_the_code_that_drew_it(tmp_path):
         write_owned(path, lambda tmp, meta=meta: fig.savefig(tmp, format="png", metadata=meta))
         plt.close(fig)
         assert stamp_of(path) == stamp and not as_drawn_now(path)
+
+
+def test_a_figures_stamp_is_the_code_that_process_loaded(monkeypatch):
+    """The stamp is the hash of the drawing code as the process loaded it, not of the files as
+    they are when a figure is saved: a long render while the code is edited must not stamp a
+    figure drawn by the old code with the new code's hash (12 committed figures were found drawn
+    by older code under the stamp of the code then committed)."""
+    from pathlib import Path
+
+    from tissuebench.workflows.leaderboard.figures import drawing_code
+    from tissuebench.workflows.leaderboard.force_figure import force_drawing_code
+
+    loaded = drawing_code(), force_drawing_code()
+    monkeypatch.setattr(Path, "read_bytes", lambda self: b"# edited since")
+    monkeypatch.setattr(Path, "read_text", lambda self, *a, **k: "# edited since")
+    assert (drawing_code(), force_drawing_code()) == loaded

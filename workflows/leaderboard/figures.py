@@ -122,13 +122,24 @@ def plot_case(path: Path, board: Board, rows: list[Row]) -> None:
     fig.savefig(path, format="png", dpi=110, metadata={STAMP: drawing_code()})
 
 
-def drawing_code() -> str:
-    """The SHA-256 of the code that draws a case's figure (this module and run/style.py),
-    stamped into each PNG, so that a figure drawn by other code is drawn again."""
+def _sources_hash(*files: str) -> str:
     digest = hashlib.sha256()
-    for module in (__file__, style.__file__):
-        digest.update(Path(module).read_bytes())
+    for file in files:
+        digest.update(Path(file).read_bytes())
     return digest.hexdigest()
+
+
+# read once, as this module loads: the code this process draws with, not the files as they are
+# when a figure is saved (a render of many minutes while the files were edited stamped figures
+# drawn by the old code with the new code's hash, and they were never drawn again)
+_LOADED = _sources_hash(__file__, style.__file__)
+
+
+def drawing_code() -> str:
+    """The SHA-256 of the code that draws a case's figure (this module and run/style.py, as this
+    process loaded them), stamped into each PNG, so that a figure drawn by other code is drawn
+    again."""
+    return _LOADED
 
 
 def stamp_of(path: Path) -> str | None:

@@ -12,15 +12,18 @@ import numpy as np
 from tissuebench.workflows.leaderboard.contact import truth_force
 from tissuebench.workflows.leaderboard.rows import Board, Row, plain
 
+_LOADED = Path(__file__).read_text()  # this module as this process loaded it (as figures.py)
+
 
 def force_drawing_code() -> str:
     """The SHA-256 of the code that draws a force figure (the case figures' code and this
-    module), stamped into it: a figure drawn by other code is drawn again."""
+    module, as this process loaded them), stamped into it: a figure drawn by other code is
+    drawn again."""
     import hashlib
 
     from tissuebench.workflows.leaderboard.figures import drawing_code
 
-    return hashlib.sha256((drawing_code() + Path(__file__).read_text()).encode()).hexdigest()
+    return hashlib.sha256((drawing_code() + _LOADED).encode()).hexdigest()
 
 
 def force_png(out: Path, board: Board) -> Path:
