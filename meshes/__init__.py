@@ -38,6 +38,13 @@ def get_entry(name: str) -> Entry:
     return BENCHMARKS[name]
 
 
+def in_contact(name: object) -> bool:
+    """Whether `name` is a benchmark whose entry has a rigid tool in contact with the body
+    (SPEC 12): the one place that says which benchmarks pose the needle as contact."""
+    entry = BENCHMARKS.get(name) if isinstance(name, str) else None
+    return entry is not None and entry.tool is not None
+
+
 def get_benchmark(name: str, **kwargs: object) -> Benchmark:
     """Build the benchmark `name` (see BENCHMARKS) with its keyword options."""
     return get_entry(name).build(**kwargs)

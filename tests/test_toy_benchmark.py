@@ -138,9 +138,11 @@ def test_the_plates_truth_computes_in_its_own_process(plate):
     """A truth case registered from elsewhere is not one a worker process knows: the linear
     truths' split (solvers/truth/split.py) leaves it to the process that registered it, in
     whatever order the modules were imported (a fresh process alone failed here, before)."""
+    from tissuebench.meshes import in_contact
     from tissuebench.solvers.truth import CASES, PACKAGE_CASES
     from tissuebench.solvers.truth.split import splittable
 
     assert NAME in CASES and NAME not in PACKAGE_CASES
+    assert not in_contact(NAME) and in_contact("contact")  # the plate's entry has no tool
     assert not splittable(NAME)
     assert splittable("rod")  # a package's linear case is split

@@ -49,7 +49,7 @@ STOP_SECONDS = 10.0  # s: how long a worker may take to end on SIGTERM before it
 def splittable(case: str) -> bool:
     """Whether compute_split() takes the case: the linear law, no contact, not a floor case,
     one the package defines."""
-    from tissuebench.meshes import get_entry
+    from tissuebench.meshes import in_contact
     from tissuebench.solvers.truth.floor import FLOOR_CASES
 
     # a worker process knows the package's cases only: one registered from elsewhere (the
@@ -57,7 +57,7 @@ def splittable(case: str) -> bool:
     if case not in PACKAGE_CASES or case in FLOOR_CASES:
         return False
     benchmark, _, model, _, _ = CASES[case]
-    return model == "linear" and get_entry(benchmark).tool is None
+    return model == "linear" and not in_contact(benchmark)
 
 
 def units_of(levels: tuple[int, ...]) -> list[Unit]:

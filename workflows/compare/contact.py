@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuebench.core.errors import UserError
+from tissuebench.meshes import in_contact
 from tissuebench.meshes.block import LENGTH
 from tissuebench.meshes.contact import RADIUS, centre
 from tissuebench.metrics.contact import force_error, interpenetration_curve
@@ -118,14 +119,6 @@ class ContactGrades:
             "reference_force_own_error": self.own_error,
             "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},
         }
-
-
-def is_contact_benchmark(benchmark: object) -> bool:
-    """Whether `benchmark` names a benchmark whose entry has a rigid tool in contact (SPEC 12)."""
-    from tissuebench.meshes import BENCHMARKS
-
-    entry = BENCHMARKS.get(benchmark) if isinstance(benchmark, str) else None
-    return entry is not None and entry.tool is not None
 
 
 def truth_reference(truth) -> ContactReference:
@@ -289,7 +282,7 @@ def is_contact_reference(
     runner gives its export's, on rank 0), or a truth, run folder or export of the benchmark
     "contact"; rank 0's answer on every rank. Collective."""
     return comm.bcast(
-        (contact is not None or is_contact_benchmark(reference_benchmark(reference, case)))
+        (contact is not None or in_contact(reference_benchmark(reference, case)))
         if comm.rank == 0
         else None,
         root=0,

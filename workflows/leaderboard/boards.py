@@ -315,6 +315,6 @@ def unregister(name: str) -> None:
 def is_contact(board: Board) -> bool:
     """Whether a board poses the needle as contact (SPEC 12: its benchmark's entry has a rigid
     tool): its rows carry the force error and the interpenetration."""
-    from tissuebench.meshes import get_entry
+    from tissuebench.meshes import in_contact
 
-    return get_entry(board.benchmark).tool is not None
+    return in_contact(board.benchmark)

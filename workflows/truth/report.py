@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
-from tissuebench.meshes import get_entry
+from tissuebench.meshes import get_entry, in_contact
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import (
     CASES,
@@ -170,7 +170,6 @@ def crease_lines(crease: dict) -> list[str]:
 
 def quick_levels() -> str:
     """The quick levels of each benchmark with truth cases, in words: "rod n = 1, 2, 4, ..."."""
-    from tissuebench.meshes import get_entry
 
     words = []
     for benchmark in dict.fromkeys(c[0] for c in CASES.values()):
@@ -184,7 +183,7 @@ def grid(case: str) -> str:
     """The levels' grids in words."""
     if case not in GRADED:
         return "uniform grids"
-    if get_entry(CASES[case][0]).tool is not None:  # SPEC 12: the needle as contact
+    if in_contact(CASES[case][0]):  # SPEC 12: the needle as contact
         (low, high), share = CONTACT_BAND, CONTACT_BAND_SHARE
         return (
             f"grids graded toward the right edge (power {CONTACT_X_GRADING:g}) and with "
@@ -255,7 +254,7 @@ def case_line(case: str) -> str:
         source = FALLBACKS[case][0]
         spec = (
             "SPEC 12"
-            if CASES[source][0] == "contact"
+            if in_contact(CASES[source][0])
             else f"SPEC 10, {'graded toward the clamp' if case in GRADED else 'uniform levels'}"
         )
         line += f"; the fallback of {source}, whose levels do not converge ({spec})"
@@ -271,7 +270,7 @@ def fallback_words(case: str, computed: bool = True) -> list[str]:
         return []
     said = "" if computed else "When last computed its levels did not converge (fallbacks.py): "
     return [
-        f"{said}SPEC {12 if CASES[case][0] == 'contact' else 10} takes it at a smaller load "
+        f"{said}SPEC {12 if in_contact(CASES[case][0]) else 10} takes it at a smaller load "
         f"instead, {', '.join(taken)}, below.",
         "",
     ]
