@@ -381,9 +381,20 @@ def run_child(command: list[str], timeout: float, **options) -> subprocess.Compl
 
 
 def _stop(child: subprocess.Popen) -> None:
-    child.terminate()
-    try:
-        child.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        child.kill()
-        child.wait()
+    stop_children([child], seconds=5.0)
+
+
+def stop_children(children: list[subprocess.Popen], seconds: float = 10.0) -> None:
+    """End child processes: SIGTERM to each, then SIGKILL to those still running `seconds` s
+    later; a signal meanwhile waits until they have ended (`deferred`), so none is left
+    behind."""
+    with deferred():
+        for child in children:
+            child.terminate()
+        end = time.monotonic() + seconds
+        for child in children:
+            try:
+                child.wait(timeout=max(end - time.monotonic(), 0.0))
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()

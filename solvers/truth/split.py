@@ -8,7 +8,7 @@ and then takes the same differences, estimate and samples from their kept steps 
 does, in the same order, on the same spaces. The numbers are compute()'s, bit for bit (a fresh
 Truth's run is the run of one that ran before: Truth.run starts from initial_state(), and the
 step matrix is factorised again for a new step); tests/test_truth_split.py checks it on the
-quick rod. Only the wall times differ,
+quick rod. Only the wall times differ.
 
 Linear cases without contact only (splittable()): a neo-Hookean or contact case's levels record
 Newton's floor, failures and the penalty check as they go, which stay in compute().
@@ -41,9 +41,9 @@ from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import TruthRun
 
 Unit = tuple[int, int]  # (level n, step fraction m): level n at h / (m k)
+# one BLAS/OpenMP thread per worker process (the processes themselves share the cores)
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 POLL_SECONDS = 0.2
-STOP_SECONDS = 10.0  # s: how long a worker may take to end on SIGTERM before it is killed
 
 
 def splittable(case: str) -> bool:
@@ -170,22 +170,8 @@ def run_units(
                     f"{time.perf_counter() - started:.1f} s ({len(done)} of {len(units)} runs)"
                 )
     finally:
-        _stop([process for process, _, _ in running.values()])
+        interrupt.stop_children([process for process, _, _ in running.values()])
     return done
-
-
-def _stop(processes: list[subprocess.Popen]) -> None:
-    """End the workers still running: SIGTERM, then SIGKILL after STOP_SECONDS."""
-    with interrupt.deferred():
-        for process in processes:
-            process.terminate()
-        end = time.monotonic() + STOP_SECONDS
-        for process in processes:
-            try:
-                process.wait(timeout=max(end - time.monotonic(), 0.0))
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
 
 
 def _load(path: Path, V) -> tuple[TruthRun, dict]:
@@ -270,8 +256,6 @@ def compute_split(
     return samples
 
 
-if __name__ == "__main__":  # a unit's worker: CASE N M QUICK OUT
-    from tissuebench.solvers.truth import fallbacks  # noqa: F401 (registers its cases)
-
+if __name__ == "__main__":  # a unit's worker: CASE N M QUICK OUT (the package's cases)
     name, n_, m_, quick_, out_ = sys.argv[1:6]
     run_unit(name, quick_ == "1", (int(n_), int(m_)), Path(out_))

@@ -24,12 +24,10 @@ from dataclasses import dataclass, field
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.solvers.truth.split import splittable
+from tissuebench.solvers.truth.split import THREAD_VARS, splittable
 from tissuebench.solvers.truth.store import expected_seconds, expected_wall
 
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 POLL_SECONDS = 0.5
-STOP_SECONDS = 10.0  # s: how long a worker may take to end on SIGTERM before it is killed
 
 
 @dataclass
@@ -192,19 +190,11 @@ def compute_in_parallel(
 
 def stop(running: list[Job]) -> None:
     """Stop the workers still running (a signal stopped the parent): SIGTERM, then SIGKILL
-    after STOP_SECONDS; each ends as a command ends on SIGTERM (its partial output and its lock
-    removed, one line, which is not said here: the parent says its own)."""
-    with interrupt.deferred():  # a second signal meanwhile leaves no worker behind
-        for job in running:
-            job.stopped = True
-            job.process.terminate()
-        end = time.monotonic() + STOP_SECONDS
-        for job in running:
-            try:
-                job.process.wait(timeout=max(end - time.monotonic(), 0.0))
-            except subprocess.TimeoutExpired:
-                job.process.kill()
-                job.process.wait()
+    (interrupt.stop_children); each ends as a command ends on SIGTERM (its partial output and
+    its lock removed, one line, which is not said here: the parent says its own)."""
+    for job in running:
+        job.stopped = True
+    interrupt.stop_children([job.process for job in running])
     for job in running:
         if job.reader is not None:
             job.reader.join(timeout=1.0)
