@@ -46,15 +46,16 @@ THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 POLL_SECONDS = 0.2
 
 
-def splittable(case: str) -> bool:
-    """Whether compute_split() takes the case: the linear law, no contact, not a floor case,
-    one the package defines."""
+def splittable(case: str, quick: bool = False) -> bool:
+    """Whether a case's runs go side by side (compute_split): the linear law, no contact, not a
+    floor case, one the package defines, and not its quick truth (`quick`: seconds in one
+    process, where workers would only add their start-up)."""
     from tissuebench.meshes import in_contact
     from tissuebench.solvers.truth.floor import FLOOR_CASES
 
     # a worker process knows the package's cases only: one registered from elsewhere (the
     # tests' toy plate) computes in its own process
-    if case not in PACKAGE_CASES or case in FLOOR_CASES:
+    if quick or case not in PACKAGE_CASES or case in FLOOR_CASES:
         return False
     benchmark, _, model, _, _ = CASES[case]
     return model == "linear" and not in_contact(benchmark)

@@ -678,7 +678,7 @@ def expected_wall(case: str, quick: bool = False, jobs: int = 1) -> float:
     where it is splittable (split.py: the longest runs first, then SPLIT_FIXED_SECONDS in one
     process), else on one core."""
     seconds = expected_seconds(case, quick)
-    if jobs > 1 and not quick and splittable(case):
+    if jobs > 1 and splittable(case, quick):
         fixed = min(scaled(SPLIT_FIXED_SECONDS), seconds)
         share = split_share(levels_of(case, quick), CASES[case][0], jobs)
         return (seconds - fixed) * share + fixed
@@ -1100,7 +1100,7 @@ def _compute_and_store(
     """truth_samples' computation, under the case's lock."""
     if problem:
         (log or _stderr)(f"truth {case}{' (quick)' if quick else ''}: {problem}; computed again")
-    split = jobs > 1 and comm.size == 1 and not quick and splittable(case)
+    split = jobs > 1 and comm.size == 1 and splittable(case, quick)
     where = f"here, its runs {jobs} at a time" if split else "on one core here"
     say(
         f"truth {case}{' (quick)' if quick else ''}: not in the cache, computing it once "

@@ -51,7 +51,7 @@ def worker_command(case: str, quick: bool, slots: int = 1) -> list[str]:
 def slots_for(case: str, quick: bool, free: int) -> int:
     """The processes a case takes of the `free` ones: all of them for a case whose runs go side
     by side (solvers/truth/split.py), else one."""
-    return free if not quick and splittable(case) else 1
+    return free if splittable(case, quick) else 1
 
 
 def _forward(job: Job, say: Callable[[str], None]) -> None:
