@@ -14,6 +14,7 @@ from test_newcomer_truth_cache import agreed, synthetic
 
 from tissuebench.solvers.truth import store
 from tissuebench.workflows.commands import paper
+from tissuebench.workflows.study import paper as study_paper
 from tissuebench.workflows.study import truth as paper_truth
 
 COMM = MPI.COMM_WORLD
@@ -105,7 +106,7 @@ def test_the_paper_says_it_before_its_first_case(cache, tmp_path, monkeypatch, c
     def first_case(*args, **kwargs):
         raise Started
 
-    monkeypatch.setattr(paper, "run_case", first_case)
+    monkeypatch.setattr(study_paper, "run_case", first_case)
     args = argparse.Namespace(
         out=tmp_path / "results", solver="direct", petsc="", force=False, jobs=1
     )
@@ -135,8 +136,8 @@ def test_the_paper_starts_its_truths_side_by_side_before_its_first_case(
         def stop(self):
             started.append("stopped")
 
-    monkeypatch.setattr(paper, "run_case", first_case)
-    monkeypatch.setattr(paper, "TruthJobs", SideBySide)
+    monkeypatch.setattr(study_paper, "run_case", first_case)
+    monkeypatch.setattr(study_paper, "TruthJobs", SideBySide)
     args = argparse.Namespace(
         out=tmp_path / "results", solver="direct", petsc="", force=False, jobs=2
     )

@@ -136,8 +136,8 @@ def test_a_registered_case_joins_its_part_with_the_papers_solver_until_it_is_tak
 
 def test_paper_cases_names_the_cases_it_runs_and_refuses_others_in_one_line():
     from tissuebench.core.errors import UserError
-    from tissuebench.workflows.commands.paper import select
     from tissuebench.workflows.study import truth as paper_truth
+    from tissuebench.workflows.study.paper import select
 
     first, truth, second = cases(), paper_truth.cases(), model_cases()
     assert select(None, first, truth, second) == (first, truth, second)

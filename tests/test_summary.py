@@ -13,7 +13,6 @@ import pytest
 
 from tissuebench.core.errors import UserError
 from tissuebench.metrics.table import METRICS
-from tissuebench.workflows.commands.paper import LARGE
 from tissuebench.workflows.io.summary import (
     SCHEMA_VERSION,
     CaseSummary,
@@ -29,6 +28,7 @@ from tissuebench.workflows.io.summary import (
 )
 from tissuebench.workflows.study import truth as paper_truth
 from tissuebench.workflows.study.cases import cases, model_cases
+from tissuebench.workflows.study.paper import LARGE
 
 RESULTS = Path(__file__).parents[1] / "results"
 # every study case that `tissuebench paper` commits: part 1, part 2 and the truth's runs

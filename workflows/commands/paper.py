@@ -30,66 +30,10 @@ import argparse
 import os
 from pathlib import Path
 
-from mpi4py import MPI
-
-from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.workflows.commands.arguments import add_common
-from tissuebench.workflows.io.output import (
-    check_owned,
-    check_writable,
-    collective,
-    write_owned,
-)
-from tissuebench.workflows.io.summary import CaseSummary
-from tissuebench.workflows.run.case import Case, run_case
 from tissuebench.workflows.run.checks import check_common
-from tissuebench.workflows.study import report
-from tissuebench.workflows.study import truth as paper_truth
-from tissuebench.workflows.study.cases import cases, model_cases
-from tissuebench.workflows.truth.jobs import TruthJobs
-
-LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
-
-
-def explicit_limits(case: Case, comm: MPI.Comm) -> dict:
-    """{algorithm: critical step in s} of the explicit schemes with the linear model on the
-    case's mesh, material and constraints (SPEC section 3's Newmark analysis, as in
-    stability.md): the step above which central differences diverge. Collective."""
-    from tissuebench.meshes import get_benchmark, get_entry
-    from tissuebench.solvers.stability import explicit_schemes, stability_limits
-    from tissuebench.solvers.system import System
-
-    entry = get_entry(case.benchmark)
-    size = entry.mesh_size if case.mesh_size is None else case.mesh_size
-    bench = get_benchmark(case.benchmark, mesh_size=size, comm=comm, **case.options)
-    material = case.runs[0].material
-    limits = stability_limits(System(bench, material), list(explicit_schemes()))
-    return {name: limit.critical_dt for name, limit in limits.items()}
-
-
-def select(
-    names: list[str] | None, first: list[Case], truth: list[Case], second: list[Case]
-) -> tuple[list[Case], list[Case], list[Case]]:
-    """Part 1's, the truth's and part 2's cases that --cases names (None: all of them); the
-    truth's cases run together (paper_truth grades them as one) when either is named. A name
-    of no case, or none of part 1 (the report's claims rest on them), is refused in one line."""
-    if names is None:
-        return first, truth, second
-    known = [c.name for c in first + truth + second]
-    unknown = [n for n in names if n not in known]
-    if unknown:
-        raise UserError(f"--cases {unknown[0]}: no such case; name some of {', '.join(known)}")
-    if not any(c.name in names for c in first):
-        raise UserError(
-            f"--cases: name at least one case of part 1 ({', '.join(c.name for c in first)}): "
-            "the report's claims rest on them"
-        )
-    return (
-        [c for c in first if c.name in names],
-        truth if any(c.name in names for c in truth) else [],
-        [c for c in second if c.name in names],
-    )
+from tissuebench.workflows.study.paper import run_paper
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -127,59 +71,12 @@ def main(args: argparse.Namespace) -> int:
     check_common(args)
     if args.jobs < 1:
         raise UserError(f"--jobs must be at least 1, not {args.jobs}")
-    comm = MPI.COMM_WORLD
-    out = args.out
-    check_writable(out, comm)
-    collective(comm, lambda: check_owned(out / "README.md"))
-    summaries: dict[str, CaseSummary] = {}
-    large: dict[str, CaseSummary] = {}
-    limits: dict[str, dict[str, float]] = {}
-    first, truth_cases, second = select(
-        getattr(args, "cases", None),
-        cases(args.solver, args.petsc),
-        paper_truth.cases(args.solver, args.petsc),
-        model_cases(args.solver, args.petsc),
+    run_paper(
+        args.out,
+        args.solver,
+        args.petsc,
+        force=args.force,
+        jobs=args.jobs,
+        names=getattr(args, "cases", None),
     )
-    parts = [out / c.name for c in first + truth_cases] + [out / LARGE / c.name for c in second]
-    interrupt.will_write([*parts, out / "README.md"])  # named on a signal if not written
-    uncached = paper_truth.missing(comm) if truth_cases else []
-    jobs = args.jobs if comm.size == 1 else 1  # under mpiexec the ranks share each truth
-    if uncached and comm.rank == 0:
-        print(paper_truth.first_run_line(uncached, jobs), flush=True)
-    # the truths not cached: computed side by side in workers while this process runs the
-    # cases that need none (a failed one is computed again, and fails again in one line, where
-    # paper_truth.compute reads it); on one process, by paper_truth.compute after them
-    work = TruthJobs(
-        uncached if jobs > 1 else [], False, jobs, lambda line: print(line, flush=True)
-    )
-    try:
-        if work.pending:
-            work.start()
-        for case in first:
-            summaries[case.name] = run_case(case, out / case.name, comm, force=args.force)
-            interrupt.written(out / case.name)
-            work.poll()
-        for case in second:
-            large[case.name] = run_case(case, out / LARGE / case.name, comm, force=args.force)
-            limits[case.name] = explicit_limits(case, comm)
-            interrupt.written(out / LARGE / case.name)
-            work.poll()
-        work.wait()
-    finally:
-        work.stop()
-    # the paper against the truth (SPEC 10): its runs, graded against the truths
-    truth = None
-    if truth_cases:
-        truth = paper_truth.compute(out, comm, args.solver, args.petsc, force=args.force)
-    for case in truth_cases:
-        interrupt.written(out / case.name)
-
-    def write():
-        text = report.paper_report(out, summaries, large, limits, truth)
-        write_owned(out / "README.md", lambda tmp: tmp.write_text(text))
-
-    collective(comm, write, out)
-    interrupt.written(out / "README.md")
-    if comm.rank == 0:
-        print(f"report: {out / 'README.md'}")
     return 0
