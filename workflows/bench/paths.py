@@ -298,8 +298,8 @@ def render(out: Path) -> None:
 def run(out: Path | None, log: Callable[[str], None] = print) -> int:
     """The benchmark, in a temporary folder removed after; its report printed and, with out,
     written to OUT/performance-paths.md and .json."""
+    from tissuebench.workflows.bench.report import machine_description
     from tissuebench.workflows.io.output import check_writable, write_owned
-    from tissuebench.workflows.leaderboard.figures import machine
 
     if out is not None:
         check_writable(out, owned=NAMES)
@@ -308,7 +308,7 @@ def run(out: Path | None, log: Callable[[str], None] = print) -> int:
         result = measure(work, log)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    result["machine"] = machine()
+    result["machine"] = machine_description()
     text = report(result, result["machine"])
     log("\n" + text)
     if out is not None:
