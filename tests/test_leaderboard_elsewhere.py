@@ -15,7 +15,6 @@ from helpers import tissuebench
 from test_recipe import committed_results
 
 from tissuebench.workflows.leaderboard import build, record
-from tissuebench.workflows.leaderboard.figures import stamp_of
 from tissuebench.workflows.leaderboard.force_figure import force_drawing_code
 from tissuebench.workflows.leaderboard.record import RECORD, LeaderboardError, record_folder
 
@@ -26,9 +25,7 @@ COMMITTED = ROOT / "results" / RECORD
 def as_drawn_now(png: Path) -> bool:
     """Whether a committed figure is as today's code draws it (its stamp: the case figures'
     drawing code, or the force figures')."""
-    if png.stem.endswith("-force"):
-        return stamp_of(png) == force_drawing_code()
-    return build.as_drawn_now(png)
+    return build.as_drawn_now(png, force_drawing_code() if png.stem.endswith("-force") else None)
 
 
 def digest(folder: Path) -> dict[str, str]:

@@ -137,9 +137,22 @@ def unchanged(path: Path) -> bool:
     return path.is_file() and listed.get(path.name) == file_hash(path)
 
 
-def as_drawn_now(png: Path) -> bool:
-    """Whether a case's figure is in place as we wrote it and drawn by today's code."""
-    return unchanged(png) and stamp_of(png) == drawing_code()
+def as_drawn_now(png: Path, code: str | None = None) -> bool:
+    """Whether a figure is in place as we wrote it and drawn by today's code: `code`, the hash
+    of the code that draws it (default: a case figure's, drawing_code())."""
+    return unchanged(png) and stamp_of(png) == (drawing_code() if code is None else code)
+
+
+def keep_or_draw(files: dict, png: Path, theirs: Path, same: bool, code: str, draw) -> None:
+    """Stage `png` in `files`: kept where it is drawn of the same rows (`same`) by today's code
+    (`code`, as_drawn_now), else copied from the record's own figure `theirs` where that one
+    is, else drawn (`draw(tmp)`): seconds saved per case."""
+    if same and as_drawn_now(png, code):
+        return
+    if same and as_drawn_now(theirs, code):
+        files[png] = lambda tmp: shutil.copyfile(theirs, tmp)
+    else:
+        files[png] = draw
 
 
 def check_rerun(names: list[str] | None) -> list[str] | None:
@@ -273,24 +286,25 @@ def main(args: argparse.Namespace) -> int:
         for board, case in zip(boards, record["cases"], strict=True):
             same = drawn.get(board.name) == json.dumps(case)  # drawn of the same rows
             png = out / FOLDER / f"{board.name}.png"
-            theirs = source / FOLDER / png.name  # the record's own figure (OUT's, or copied)
-            if not (same and as_drawn_now(png)):  # else still as drawn: seconds saved per case
-                if same and as_drawn_now(theirs):
-                    files[png] = lambda tmp, theirs=theirs: shutil.copyfile(theirs, tmp)
-                else:
-                    files[png] = lambda tmp, board=board: plot_case(tmp, board, rows[board.name])
-            force = force_png(out, board)
-            theirs = force_png(source, board)
-            # SPEC 12: the needle force against time, drawn again as the case's figure is (its
-            # force files are in the case's folder, which git does not keep: a fresh clone's
-            # render keeps the committed figure of the same rows, and a render into another
-            # folder copies it)
-            drawn_now = unchanged(force) and stamp_of(force) == force_drawing_code()
-            if is_contact(board) and not (same and drawn_now):
-                if same and unchanged(theirs) and stamp_of(theirs) == force_drawing_code():
-                    files[force] = lambda tmp, theirs=theirs: shutil.copyfile(theirs, tmp)
-                else:
-                    files[force] = lambda tmp, board=board: plot_force(tmp, board, rows[board.name])
+            keep_or_draw(  # beside the record's own figure (OUT's, or another folder's)
+                files,
+                png,
+                source / FOLDER / png.name,
+                same,
+                drawing_code(),
+                lambda tmp, board=board: plot_case(tmp, board, rows[board.name]),
+            )
+            if is_contact(board):  # SPEC 12: the needle force against time, as the case's
+                # figure (its force files are in the case's folder, which git does not keep: a
+                # fresh clone's render keeps the committed figure of the same rows)
+                keep_or_draw(
+                    files,
+                    force_png(out, board),
+                    force_png(source, board),
+                    same,
+                    force_drawing_code(),
+                    lambda tmp, board=board: plot_force(tmp, board, rows[board.name]),
+                )
         every = [r for board in boards for r in rows[board.name]]
         files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
         files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
