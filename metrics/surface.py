@@ -155,23 +155,23 @@ def surface_error(
     x_ref: np.ndarray,
     x_cand: np.ndarray,
     cand_shape: Polygon | Solid | None = None,
+    ref_region: shapely.Geometry | manifold3d.Manifold | None = None,
 ) -> float:
     """E_s of a Polygon or Solid for deformed boundary nodes x_ref, x_cand; NaN if either is
     not finite or the reference domain is empty or of zero area (2D) or volume (3D). The
     candidate's domain is bounded by `cand_shape` through x_cand when given (its own
-    boundary), else by `shape`."""
+    boundary), else by `shape`. `ref_region`: shape.region(x_ref), where the caller built it
+    (one reference step against several candidates: metrics/table.py)."""
     if not (np.isfinite(x_ref).all() and np.isfinite(x_cand).all()):
         return np.nan
     with np.errstate(divide="ignore", invalid="ignore"):
+        ref = shape.region(x_ref) if ref_region is None else ref_region
         if cand_shape is None and np.array_equal(x_ref, x_cand):
             # one shape against itself (the reference's own row): |A ⊕ A| = 0, what the
             # boolean gives (its round-off clipped in 3D), without its cost (5 ms on the rod)
-            region = shape.region(x_ref)
-            size = region.area if isinstance(shape, Polygon) else region.volume()
+            size = ref.area if isinstance(shape, Polygon) else ref.volume()
             return 0.0 if size > 0 else np.nan
-        if cand_shape is None:
-            return float(shape.error(x_ref, x_cand))
-        ref, cand = shape.region(x_ref), cand_shape.region(x_cand)
+        cand = (shape if cand_shape is None else cand_shape).region(x_cand)
         if isinstance(shape, Polygon):
             return float(area_error(ref, cand))
         return float(volume_error(ref, cand))

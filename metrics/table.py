@@ -91,6 +91,8 @@ class Metrics:
         self.volume = self.interior.volume
         self.boundary = Boundary(V)
         self.domain = domain(self.boundary.X, self.boundary.facets) if self.comm.rank == 0 else None
+        # rank 0: the last reference step's deformed boundary (its bytes) and its region
+        self._ref_region: tuple[bytes, object] | None = None
 
     def _check(self, u):
         u = np.asarray(u, dtype=np.float64)
@@ -105,7 +107,15 @@ class Metrics:
         if self.comm.rank == 0:
             assert self.domain is not None  # built on rank 0
             X = self.boundary.X
-            value = surface_error(self.domain, X + x_ref, X + x_cand)
+            x_ref, x_cand = X + x_ref, X + x_cand
+            ref = None
+            if np.isfinite(x_ref).all() and np.isfinite(x_cand).all():
+                # the reference's deformed domain, built once for the candidates of its step
+                key = x_ref.tobytes()
+                if self._ref_region is None or self._ref_region[0] != key:
+                    self._ref_region = (key, self.domain.region(x_ref))
+                ref = self._ref_region[1]
+            value = surface_error(self.domain, x_ref, x_cand, ref_region=ref)
         return self.comm.bcast(value, root=0)
 
     def evaluate(
@@ -128,10 +138,23 @@ class Metrics:
         """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN
         for the steps a shorter candidate (a diverged run) does not have. `on_step()` is called
         after each step measured (a progress bar's)."""
-        curves = {name: np.full(len(ref), np.nan) for name in METRICS}
-        for i in range(min(len(ref), len(cand))):
-            for name, value in self.evaluate(ref[i], cand[i]).items():
-                curves[name][i] = value
-            if on_step is not None:
-                on_step()
+        return self.histories(ref, {"": cand}, on_step)[""]
+
+    def histories(
+        self,
+        ref: list[np.ndarray],
+        cands: dict[str, list[np.ndarray]],
+        on_step: Callable[[], object] | None = None,
+    ) -> dict[str, dict[str, np.ndarray]]:
+        """history() of each candidate, keyed as `cands`, measured step by step across them:
+        the reference's deformed domain of a step is built once for all (E_s's booleans)."""
+        curves = {label: {name: np.full(len(ref), np.nan) for name in METRICS} for label in cands}
+        for i in range(len(ref)):
+            for label, cand in cands.items():
+                if i >= len(cand):
+                    continue
+                for name, value in self.evaluate(ref[i], cand[i]).items():
+                    curves[label][name][i] = value
+                if on_step is not None:
+                    on_step()
         return curves

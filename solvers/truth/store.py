@@ -182,15 +182,28 @@ class _Numerics(ast.NodeTransformer):
         return self.generic_visit(node)
 
 
+# a source's code (_tree) by (its path, modification time in ns, size in bytes): parsed once
+# per process while the file stays as it is (a case's inputs are asked for several times)
+_TREES: dict[tuple[str, int, int], str] = {}
+
+
+def _tree(path: Path) -> str:
+    """The dump of a source's syntax tree without its docstrings and type hints (_Numerics)."""
+    stat = path.stat()
+    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    if key not in _TREES:
+        _TREES[key] = ast.dump(_Numerics().visit(ast.parse(path.read_text())))
+    return _TREES[key]
+
+
 def _code(sources: tuple[str, ...] | None = None) -> str:
     """The SHA-256 of the truth's sources (`sources`, default SOURCES), in order: of their
     code, not of their text, so that moving an import, a docstring, a type hint or the layout
     keeps the cache."""
     digest = hashlib.sha256()
     for name in SOURCES if sources is None else sources:
-        tree = _Numerics().visit(ast.parse((PACKAGE / name).read_text()))
         digest.update(name.encode())
-        digest.update(ast.dump(tree).encode())
+        digest.update(_tree(PACKAGE / name).encode())
     return digest.hexdigest()
 
 

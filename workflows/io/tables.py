@@ -14,6 +14,7 @@ Every file is written under a staging name beside it and renamed into place when
 from __future__ import annotations
 
 import csv
+import io
 import os
 import re
 from collections.abc import Iterable, Iterator, Sequence
@@ -220,10 +221,11 @@ def read_rows(path: Path, errors: str = "strict") -> list[dict[str, str]]:
     a file that cannot be read. Cells come back as they were given to the writers here (the
     apostrophe of a guarded cell taken off); a row cut short has None for its missing cells."""
     with open(path, newline="", errors=errors) as f:
-        return [
-            {_unguarded_cell(k): _unguarded_cell(v) for k, v in r.items()}
-            for r in csv.DictReader(f)
-        ]
+        text = f.read()
+    rows = csv.DictReader(io.StringIO(text, newline=""))
+    if "'" not in text:  # no cell was guarded (the common case: numbers and names)
+        return list(rows)
+    return [{_unguarded_cell(k): _unguarded_cell(v) for k, v in r.items()} for r in rows]
 
 
 def ends_whole(path: Path) -> bool:

@@ -368,10 +368,14 @@ def compute_case(
         mininterval=0.5,
     )
     try:
+        histories = metrics.histories(
+            ref_run.u,
+            {label: run.u for label, (run, *_) in results.items()},
+            on_step=lambda: bar.update(1),
+        )
         for label, (run, *_) in results.items():
             curves[label] = {name: np.full(n_steps + 1, np.nan) for name in METRICS}
-            history = metrics.history(ref_run.u, run.u, on_step=lambda: bar.update(1))
-            for name, values in history.items():  # the steps both have
+            for name, values in histories[label].items():  # the steps both have
                 curves[label][name][: len(values)] = values
             status[label] = np.full(n_steps + 1, "ok", dtype=object)
             if ref_run.status == "diverged":  # NaN from the diverged step on, the reference's too
