@@ -12,7 +12,6 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dolfinx.mesh
-import gmsh
 import numpy as np
 
 from tissuebench.meshes.benchmark import (
@@ -46,6 +45,8 @@ def gmsh_block(
     Frontal-Delaunay triangles at spacing 1/N m. The right edge is split at the needle node
     (1, 0.5) and, on an unstructured mesh with needle_width w > 0, at y = 0.5 -/+ w/2 too, so
     that every mesh carries the needle's nodes (SPEC 9)."""
+    import gmsh  # here, not at the top: 40 ms of every command's start
+
     structured = mesh == "structured"
     size = LENGTH / N  # m, the target spacing of an unstructured mesh
     marks = (
@@ -94,6 +95,8 @@ def block_mesh(
     needle_width: float = 0.0,
 ) -> TaggedMesh:
     """The N x N block as a TaggedMesh distributed over `comm` (N even, cell size 1/N m)."""
+    import gmsh  # here, not at the top: 40 ms of every command's start
+
     check_positive_int("mesh size N", N)
     check_shape(2, cell, mesh)
     if N % 2:

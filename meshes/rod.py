@@ -9,8 +9,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import gmsh
-
 from tissuebench.meshes.benchmark import (
     LOAD_SCALE_HELP,
     Benchmark,
@@ -32,6 +30,8 @@ def gmsh_rod(n: int, cell: str = "hexahedron", mesh: str = "structured") -> None
     """Build the 2n x n x n rod in the current gmsh model: the structured grid of hexahedra or
     of tetrahedra (each grid cell split into six: the side face's squares into triangles,
     extruded in layers), or gmsh's unstructured Delaunay tetrahedra at spacing 0.25/n m."""
+    import gmsh  # here, not at the top: 40 ms of every command's start
+
     L, H, D = SIZE
     structured = mesh == "structured"
     size = H / n  # m, the target spacing of an unstructured mesh
@@ -72,6 +72,8 @@ def rod_mesh(
     mesh: str = "structured",
 ) -> TaggedMesh:
     """The 2n x n x n rod as a TaggedMesh distributed over `comm` (cell size 0.25/n m)."""
+    import gmsh  # here, not at the top: 40 ms of every command's start
+
     check_positive_int("mesh size n", n)
     check_shape(3, cell, mesh)
     if comm.rank == 0:

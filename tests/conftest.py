@@ -8,10 +8,10 @@ serial numbers (or the committed ones), that rank 0's work reaches every rank, o
 and ghost entities are counted once. The parallel code paths of the solvers and metrics are
 compared serial against 2 ranks in the serial pass (tests/mpi_*.py, started by tests marked
 `serial`), so a physics test that is merely collective is not run again under mpiexec.
-`make test` runs the serial pass in one process per core (pytest-xdist, `-n auto --dist
-loadfile`, a test file to a process): each has its own tmp_path, and the caches they share
-(compiled forms and kernels, the default truth cache) are put in place atomically or under a
-lock, as for the ranks of mpiexec.
+`make test` runs the serial pass in one process per core and one more (pytest-xdist, `-n
+CORES+1 --dist loadfile`, a test file to a process): each has its own tmp_path, and the caches
+they share (compiled forms and kernels, the default truth cache) are put in place atomically or
+under a lock, as for the ranks of mpiexec.
 
 The time estimates are the measured ones in every test and in the commands they start
 (TISSUEBENCH_SLOWDOWN=1: not scaled by this machine's load, core/speed.py), so that their text

@@ -234,6 +234,28 @@ def test_history_pads_a_shorter_candidate(square, square_metrics):
     assert all(np.isnan(c[2:]).all() and len(c) == 4 for c in curves.values())
 
 
+@pytest.mark.parametrize("case, lengths", [("square", (1.0, 1.0)), ("rod", ROD)])
+def test_histories_step_by_step_give_each_candidates_exact_surface_error(case, lengths, request):
+    """histories() measures every candidate at a step against one reference domain (built once
+    for them all): each E_s is still that of its own pair of boxes, 2 (1 - Π_k (1 - |Δ_k| / L_k))
+    (test_rigid_translations), whichever candidate came before it; a shorter one is padded."""
+    V, metrics = request.getfixturevalue(case), request.getfixturevalue(f"{case}_metrics")
+    dim, L = len(lengths), np.array(lengths)
+    shift = np.array([0.01, 0.02, 0.005][:dim])
+    ref = [translation(V, k * shift) for k in range(4)]
+    moves = {"a": np.array([0.02, 0.0, 0.0][:dim]), "b": np.array([0.0, -0.01, 0.003][:dim])}
+    cands = {
+        "a": [translation(V, k * shift + moves["a"]) for k in range(4)],
+        "b": [translation(V, k * shift + moves["b"]) for k in range(3)],
+    }
+    curves = metrics.histories(ref, cands)
+    for label, delta in moves.items():
+        expected = 2 * (1 - np.prod(1 - np.abs(delta) / L))
+        steps = len(cands[label])
+        assert curves[label]["surface_error"][:steps] == pytest.approx(expected, rel=1e-10)
+        assert np.isnan(curves[label]["surface_error"][steps:]).all()
+
+
 def test_bad_input_shape(square_metrics):
     with pytest.raises(ValueError, match="owned dof values"):
         square_metrics.evaluate(np.zeros(3), np.zeros(3))

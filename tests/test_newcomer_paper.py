@@ -146,3 +146,61 @@ def test_the_paper_starts_its_truths_side_by_side_before_its_first_case(
     assert started == [(list(paper_truth.TRUTHS), False, 2), "started", "stopped"]
     out = capsys.readouterr().out.strip().splitlines()
     assert out == [paper_truth.first_run_line(list(paper_truth.TRUTHS), jobs=2)]
+
+
+@pytest.mark.serial
+def test_each_truth_is_graded_as_soon_as_its_worker_ends(cache, tmp_path, monkeypatch):
+    """With the truths computed side by side, the paper grades each one while the workers of
+    the others still run (not all after the last has ended), each once, and its section lists
+    them in their order (rod, block-MP1, block-MP2) whatever order they ended in."""
+    events = []
+    state = {"polls": None}  # the workers' polls since the truth's runs were made
+
+    class Workers:  # after them: block-MP2 ends at the 2nd poll, block-MP1 the 4th, rod the 6th
+        def __init__(self, cases, quick, jobs, say):
+            self.pending, self.succeeded = list(cases), []
+
+        def start(self):
+            pass
+
+        def poll(self):
+            if state["polls"] is None:
+                return True
+            state["polls"] += 1
+            ends = {2: "block-MP2-w0.2", 4: "block-MP1-w0.2", 6: "rod"}
+            if state["polls"] in ends:
+                self.succeeded.append(ends[state["polls"]])
+            events.append(("poll", state["polls"] < 6))
+            return state["polls"] < 6
+
+        def stop(self):
+            pass
+
+    def run_folders(*args, **kwargs):
+        state["polls"] = 0
+        return {}
+
+    def grade(name, folders, comm):
+        events.append(("grade", name))
+        return {}, 1e-6
+
+    assembled = []
+    monkeypatch.setattr(study_paper, "TruthJobs", Workers)
+    monkeypatch.setattr(study_paper, "POLL_SECONDS", 0.0)
+    monkeypatch.setattr(study_paper, "run_case", lambda *args, **kwargs: None)
+    monkeypatch.setattr(study_paper, "explicit_limits", lambda *args: {})
+    monkeypatch.setattr(study_paper.report, "paper_report", lambda *args: "report\n")
+    monkeypatch.setattr(paper_truth, "run_folders", run_folders)
+    monkeypatch.setattr(paper_truth, "grade", grade)
+    monkeypatch.setattr(
+        paper_truth, "assemble", lambda graded, own, missing: assembled.append(list(graded))
+    )
+    study_paper.run_paper(tmp_path / "results", jobs=2)
+    grades = [name for kind, name in events if kind == "grade"]
+    assert sorted(grades) == sorted(paper_truth.TRUTHS)  # each once
+    last_poll = max(i for i, e in enumerate(events) if e[0] == "poll")
+    graded_at = {name: events.index(("grade", name)) for name in grades}
+    # block-MP2 and block-MP1 graded while the rod's worker still ran; the rod after it ended
+    assert graded_at["block-MP2-w0.2"] < graded_at["block-MP1-w0.2"] < last_poll
+    assert graded_at["rod"] > last_poll
+    assert assembled == [list(paper_truth.TRUTHS)]

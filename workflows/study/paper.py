@@ -8,6 +8,7 @@ there); `names` runs and reports only those named (select).
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 from mpi4py import MPI
@@ -23,6 +24,7 @@ from tissuebench.workflows.study.cases import cases, model_cases
 from tissuebench.workflows.truth.jobs import TruthJobs
 
 LARGE = report.LARGE_DEFORMATION  # the folder of part 2 in OUT
+POLL_SECONDS = 0.5  # s, between looks at the truths' workers
 
 
 def explicit_limits(case: Case, comm: MPI.Comm) -> dict:
@@ -94,11 +96,15 @@ def run_paper(
     if uncached and comm.rank == 0:
         print(paper_truth.first_run_line(uncached, jobs), flush=True)
     # the truths not cached: computed side by side in workers while this process runs the
-    # cases that need none (a failed one is computed again, and fails again in one line, where
-    # paper_truth.compute reads it); on one process, by paper_truth.compute after them
+    # cases (a failed one is computed again, and fails again in one line, where
+    # paper_truth.grade reads it); on one process, by paper_truth.grade after the cases
     work = TruthJobs(
         uncached if jobs > 1 else [], False, jobs, lambda line: print(line, flush=True)
     )
+    # the paper against the truth (SPEC 10): its runs, then each graded against its truth as
+    # soon as that is cached (beside the workers of the others), the rest after them
+    graded: dict = {}
+    own: dict = {}
     try:
         if work.pending:
             work.start()
@@ -111,13 +117,23 @@ def run_paper(
             limits[case.name] = explicit_limits(case, comm)
             interrupt.written(out / LARGE / case.name)
             work.poll()
-        work.wait()
+        folders = {}
+        if truth_cases:
+            folders = paper_truth.run_folders(out, comm, solver, petsc, force=force)
+        while work.poll():
+            for name in [n for n in work.succeeded if n not in graded]:
+                graded[name], own[name] = paper_truth.grade(name, folders, comm)
+            time.sleep(POLL_SECONDS)
+            interrupt.checkpoint(MPI.COMM_SELF)
     finally:
         work.stop()
-    # the paper against the truth (SPEC 10): its runs, graded against the truths
     truth = None
     if truth_cases:
-        truth = paper_truth.compute(out, comm, solver, petsc, force=force)
+        for name in paper_truth.WANTED:  # in its order; a failed worker's truth computed here
+            if name not in graded:
+                graded[name], own[name] = paper_truth.grade(name, folders, comm)
+        order = paper_truth.WANTED
+        truth = paper_truth.assemble({n: graded[n] for n in order}, {n: own[n] for n in order}, [])
     for case in truth_cases:
         interrupt.written(out / case.name)
 

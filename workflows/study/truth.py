@@ -278,6 +278,55 @@ def first_run_line(names: list[str], jobs: int = 1) -> str:
     )
 
 
+def run_folders(
+    out: Path,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    solver: str = "direct",
+    petsc: str = "",
+    force: bool = False,
+    log: Callable[[str], None] = print,
+) -> dict[str, tuple[Path, list[str]]]:
+    """Run (or keep) the case folders OUT/truth-*: {case folder: (folder, its run labels)}.
+    They need no truth (grade() reads it). Collective."""
+    folders = {}
+    for case in cases(solver, petsc):
+        folder = Path(out) / case.name
+        labels = [run.label for run in case.runs]
+        missing = any(not (folder / f"{label}.xdmf").is_file() for label in labels)
+        missing = comm.bcast(missing, root=0)  # the series are not committed: run them again
+        run_case(case, folder, comm, log=log, force=force or missing)
+        folders[case.name] = (folder, labels)
+    return folders
+
+
+def grade(
+    name: str,
+    folders: dict[str, tuple[Path, list[str]]],
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log: Callable[[str], None] = print,
+) -> tuple[dict, float | None]:
+    """({label: {metric_reading: value}}, the truth's own E_i max in m^d) of the runs that the
+    truth case `name` (of TRUTHS) grades, in `folders` (run_folders'): the truth read from its
+    cache or, where it is not cached, computed there once (its expected time and progress said
+    to `log`). Collective."""
+    from tissuebench.metrics.truth import own_error
+    from tissuebench.solvers.truth.store import truth_samples
+
+    case, labels = WANTED[name]
+    folder = folders[case][0]
+    truth = truth_samples(name, comm=comm, log=log if comm.rank == 0 else None)
+    own = comm.bcast(own_error(truth) if comm.rank == 0 and truth is not None else None, root=0)
+    return grade_runs(folder, folders[case][1] if labels is None else labels, truth, comm), own
+
+
+# truth case: (the case folder of its runs, the labels graded against it; None: every run)
+WANTED: dict[str, tuple[str, list[str] | None]] = {
+    "rod": (ROD, ["implicit"]),
+    "block-MP1-w0.2": (BLOCK, [f"{a}-MP1" for a in ALGORITHMS]),
+    "block-MP2-w0.2": (BLOCK, None),
+}
+
+
 def compute(
     out: Path,
     comm: MPI.Comm = MPI.COMM_WORLD,
@@ -289,31 +338,10 @@ def compute(
     """Run (or keep) the case folders OUT/truth-*, grade their runs against each truth (read
     from its cache, or computed and cached where it is not: its expected time and progress are
     said to `log`) and judge claims 1, 2 and 5. Collective."""
-    from tissuebench.metrics.truth import own_error
-    from tissuebench.solvers.truth.store import truth_samples
-
-    out = Path(out)
-    folders = {}
-    for case in cases(solver, petsc):
-        folder = out / case.name
-        labels = [run.label for run in case.runs]
-        missing = any(not (folder / f"{label}.xdmf").is_file() for label in labels)
-        missing = comm.bcast(missing, root=0)  # the series are not committed: run them again
-        run_case(case, folder, comm, log=log, force=force or missing)
-        folders[case.name] = (folder, labels)
-    wanted = {  # truth case: (folder, labels graded against it)
-        "rod": (ROD, ["implicit"]),
-        "block-MP1-w0.2": (BLOCK, [f"{a}-MP1" for a in ALGORITHMS]),
-        "block-MP2-w0.2": (BLOCK, folders[BLOCK][1]),
-    }
+    folders = run_folders(out, comm, solver, petsc, force, log)
     graded, own = {}, {}
-    for name, (case, labels) in wanted.items():
-        truth = truth_samples(name, comm=comm, log=log if comm.rank == 0 else None)
-        own[name] = comm.bcast(
-            own_error(truth) if comm.rank == 0 and truth is not None else None, root=0
-        )
-        graded[name] = grade_runs(folders[case][0], labels, truth, comm)
-        truth = None
+    for name in WANTED:
+        graded[name], own[name] = grade(name, folders, comm, log)
     return assemble(graded, own, [])
 
 

@@ -110,6 +110,7 @@ class TruthJobs:
         self.total = len(self.pending)
         self.running: list[Job] = []
         self.failed: list[str] = []
+        self.succeeded: list[str] = []  # in the order their workers ended
         self.done = 0
         self.started = time.time()
 
@@ -152,8 +153,7 @@ class TruthJobs:
             if job.reader is not None:
                 job.reader.join()
             self.done += 1
-            if code != 0:
-                self.failed.append(job.case)
+            (self.failed if code != 0 else self.succeeded).append(job.case)
             left = left_seconds(self.pending, self.running, self.quick, self.jobs)
             self.say(
                 f"truth: {job.case} {'done' if code == 0 else f'FAILED (exit {code})'} in "
