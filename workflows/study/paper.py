@@ -129,10 +129,10 @@ def run_paper(
         work.stop()
     truth = None
     if truth_cases:
-        for name in paper_truth.WANTED:  # in its order; a failed worker's truth computed here
+        for name in paper_truth.TRUTHS:  # in its order; a failed worker's truth computed here
             if name not in graded:
                 graded[name], own[name] = paper_truth.grade(name, folders, comm)
-        order = paper_truth.WANTED
+        order = paper_truth.TRUTHS
         truth = paper_truth.assemble({n: graded[n] for n in order}, {n: own[n] for n in order}, [])
     for case in truth_cases:
         interrupt.written(out / case.name)

@@ -244,7 +244,15 @@ def grade_runs(folder: Path, labels: list[str], truth: TruthSamples | None, comm
     return result
 
 
-TRUTHS = ("rod", "block-MP1-w0.2", "block-MP2-w0.2")  # the truth cases the section needs
+# truth case: (the case folder of its runs, the labels graded against it; None: every run)
+WANTED: dict[str, tuple[str, list[str] | None]] = {
+    "rod": (ROD, ["implicit"]),
+    "block-MP1-w0.2": (BLOCK, [f"{a}-MP1" for a in ALGORITHMS]),
+    "block-MP2-w0.2": (BLOCK, None),
+}
+
+
+TRUTHS = tuple(WANTED)  # the truth cases the section needs, in its order
 
 
 def missing(comm: MPI.Comm = MPI.COMM_WORLD) -> list[str]:
@@ -317,14 +325,6 @@ def grade(
     truth = truth_samples(name, comm=comm, log=log if comm.rank == 0 else None)
     own = comm.bcast(own_error(truth) if comm.rank == 0 and truth is not None else None, root=0)
     return grade_runs(folder, folders[case][1] if labels is None else labels, truth, comm), own
-
-
-# truth case: (the case folder of its runs, the labels graded against it; None: every run)
-WANTED: dict[str, tuple[str, list[str] | None]] = {
-    "rod": (ROD, ["implicit"]),
-    "block-MP1-w0.2": (BLOCK, [f"{a}-MP1" for a in ALGORITHMS]),
-    "block-MP2-w0.2": (BLOCK, None),
-}
 
 
 def compute(
