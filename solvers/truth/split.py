@@ -8,7 +8,7 @@ and then takes the same differences, estimate and samples from their kept steps 
 does, in the same order, on the same spaces. The numbers are compute()'s, bit for bit (a fresh
 Truth's run is the run of one that ran before: Truth.run starts from initial_state(), and the
 step matrix is factorised again for a new step); tests/test_truth_split.py checks it on the
-quick rod. Only the wall times differ.
+quick rod-MP2. Only the wall times differ.
 
 Linear cases without contact only (splittable()): a neo-Hookean or contact case's levels record
 Newton's floor, failures and the penalty check as they go, which stay in compute().
