@@ -79,9 +79,9 @@ class Polygon:
             ]
         return shapely.union_all(pieces)
 
-    def error(self, x_ref: np.ndarray, x_cand: np.ndarray) -> float:
-        """|A ⊕ B| / |A| for the regions through x_ref (A) and x_cand (B)."""
-        return area_error(self.region(x_ref), self.region(x_cand))
+    def error(self, ref: shapely.Geometry, cand: shapely.Geometry) -> np.float64:
+        """|A ⊕ B| / |A| for two of its regions, A (ref) and B (cand): area_error."""
+        return area_error(ref, cand)
 
 
 def area_error(ref: shapely.Geometry, cand: shapely.Geometry) -> np.float64:
@@ -125,13 +125,13 @@ class Solid:
             )
         return solid
 
-    def error(self, x_ref: np.ndarray, x_cand: np.ndarray) -> float:
-        """|A ⊕ B| / |A| for the solids through x_ref (A) and x_cand (B), from
-        |A| + |B| - 2 |A ∩ B|. That difference has round-off of a few eps relative to |A| and
-        can come out negative (-4.4e-16 for identical shapes): a value below ROUND_OFF
-        (16 eps, 3.6e-15), negative ones included, is clipped to 0, since a volume cannot be
-        negative; identical shapes thus give exactly 0."""
-        return volume_error(self.region(x_ref), self.region(x_cand))
+    def error(self, ref: manifold3d.Manifold, cand: manifold3d.Manifold) -> np.float64:
+        """|A ⊕ B| / |A| for two of its solids, A (ref) and B (cand), from
+        |A| + |B| - 2 |A ∩ B| (volume_error). That difference has round-off of a few eps
+        relative to |A| and can come out negative (-4.4e-16 for identical shapes): a value
+        below ROUND_OFF (16 eps, 3.6e-15), negative ones included, is clipped to 0, since a
+        volume cannot be negative; identical shapes thus give exactly 0."""
+        return volume_error(ref, cand)
 
 
 def volume_error(ref: manifold3d.Manifold, cand: manifold3d.Manifold) -> np.float64:
@@ -172,6 +172,4 @@ def surface_error(
             size = ref.area if isinstance(shape, Polygon) else ref.volume()
             return 0.0 if size > 0 else np.nan
         cand = (shape if cand_shape is None else cand_shape).region(x_cand)
-        if isinstance(shape, Polygon):
-            return float(area_error(ref, cand))
-        return float(volume_error(ref, cand))
+        return float(shape.error(ref, cand))

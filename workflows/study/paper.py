@@ -103,8 +103,7 @@ def run_paper(
     )
     # the paper against the truth (SPEC 10): its runs, then each graded against its truth as
     # soon as that is cached (beside the workers of the others), the rest after them
-    graded: dict = {}
-    own: dict = {}
+    graded: dict[str, tuple] = {}  # truth: paper_truth.grade()'s pair
     try:
         if work.pending:
             work.start()
@@ -122,18 +121,13 @@ def run_paper(
             folders = paper_truth.run_folders(out, comm, solver, petsc, force=force)
         while work.poll():
             for name in [n for n in work.succeeded if n not in graded]:
-                graded[name], own[name] = paper_truth.grade(name, folders, comm)
+                graded[name] = paper_truth.grade(name, folders, comm)
             time.sleep(POLL_SECONDS)
             interrupt.checkpoint(MPI.COMM_SELF)
     finally:
         work.stop()
-    truth = None
-    if truth_cases:
-        for name in paper_truth.TRUTHS:  # in its order; a failed worker's truth computed here
-            if name not in graded:
-                graded[name], own[name] = paper_truth.grade(name, folders, comm)
-        order = paper_truth.TRUTHS
-        truth = paper_truth.assemble({n: graded[n] for n in order}, {n: own[n] for n in order}, [])
+    # the others graded now (a failed worker's truth computed here), all in the section's order
+    truth = paper_truth.finish(folders, graded, comm) if truth_cases else None
     for case in truth_cases:
         interrupt.written(out / case.name)
 

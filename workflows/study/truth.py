@@ -338,11 +338,26 @@ def compute(
     """Run (or keep) the case folders OUT/truth-*, grade their runs against each truth (read
     from its cache, or computed and cached where it is not: its expected time and progress are
     said to `log`) and judge claims 1, 2 and 5. Collective."""
-    folders = run_folders(out, comm, solver, petsc, force, log)
-    graded, own = {}, {}
-    for name in WANTED:
-        graded[name], own[name] = grade(name, folders, comm, log)
-    return assemble(graded, own, [])
+    return finish(run_folders(out, comm, solver, petsc, force, log), {}, comm, log)
+
+
+def finish(
+    folders: dict[str, tuple[Path, list[str]]],
+    done: dict[str, tuple[dict, float | None]],
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    log: Callable[[str], None] = print,
+) -> PaperTruth:
+    """The section's data: each truth of TRUTHS graded in its order, as `done` already holds
+    it ({truth: grade()'s pair}: those graded as their workers ended) or by grade() here, and
+    claims 1, 2 and 5 judged. Collective."""
+    pairs = {
+        name: done[name] if name in done else grade(name, folders, comm, log) for name in TRUTHS
+    }
+    return assemble(
+        {name: graded for name, (graded, _) in pairs.items()},
+        {name: own for name, (_, own) in pairs.items()},
+        [],
+    )
 
 
 def assemble(graded: dict, own: dict, missing: list[str]) -> PaperTruth:
