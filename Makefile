@@ -3,14 +3,16 @@
 #   make test    set up .venv, then ruff, then the import contract (make imports), then side by
 #                side mypy (make typecheck), the test suite's serial pass (make serial-tests) and
 #                its tests marked parallel (those about the ranks: tests/conftest.py) under
-#                mpiexec -n 2 (make parallel-tests)
+#                mpiexec -n 2 (make parallel-tests); the tests of the outside simulators and of
+#                the page in a browser have targets of their own (make external-tests, make
+#                browser-tests), as they need tools from outside the venv
 # PYTHON must be 3.12 (the DOLFINx wheel needs it); .python-version makes pyenv's python3 one.
 PYTHON ?= python3
 VENV   ?= .venv
 EXTRAS ?= dolfinx,test
 BIN     = $(VENV)/bin
 
-.PHONY: setup paper test serial-tests parallel-tests links typecheck imports bench clean external-tools leaderboard browser browser-tests
+.PHONY: setup paper test serial-tests parallel-tests links typecheck imports bench clean external-tools external-tests leaderboard browser browser-tests
 
 # The package's own modules compiled to bytecode (__pycache__/, which git ignores), as pip does for
 # the packages it installs but not for an editable install's own: where PYTHONDONTWRITEBYTECODE is
@@ -36,6 +38,10 @@ test: setup
 	$(MAKE) --no-print-directory imports
 	$(MAKE) --no-print-directory -j3 typecheck serial-tests parallel-tests
 
+# make test's tests: all but those marked outside (they run an outside simulator) or browser
+# (chromium), which need tools from outside the venv and have targets of their own below
+OWN = not outside and not browser
+
 # The suite's serial pass, one process per core and one more: its tests wait on the processes
 # they start (the command line, mpiexec) part of the time, which the extra process fills
 # (measured on 2 cores: 186 % of CPU with 3 processes). make test runs mypy and the mpiexec
@@ -43,11 +49,11 @@ test: setup
 # lock, as for the ranks: tests/conftest.py).
 WORKERS ?= $(shell $(PYTHON) -c 'import os; print(len(os.sched_getaffinity(0)) + 1)')
 serial-tests: setup
-	$(BIN)/pytest -n $(WORKERS) --dist loadfile --no-loadscope-reorder
+	$(BIN)/pytest -n $(WORKERS) --dist loadfile --no-loadscope-reorder -m "$(OWN)"
 
 # The tests marked parallel (about the ranks: tests/conftest.py) under mpiexec -n 2.
 parallel-tests: setup
-	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m parallel
+	$(BIN)/mpiexec -n 2 $(BIN)/pytest -q -m "parallel and $(OWN)"
 
 # The package as it installs, tissuebench.*, as one tree of folders: the code folders install
 # through pyproject's package-dir, which neither mypy nor import-linter can map. .typecheck/ holds
@@ -90,6 +96,11 @@ external-tools: setup
 		(sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null) \
 			|| echo "apt-get could not install calculix-ccx: the CalculiX runs and tests are skipped"; \
 	else echo "ccx (CalculiX) is missing and cannot be installed here: install calculix-ccx (Debian/Ubuntu) or put ccx on PATH; the CalculiX runs and tests are skipped"; fi
+
+# The tests marked outside (tests/conftest.py): each outside simulator against ours, once make
+# external-tools has installed what it could (a simulator still missing is skipped, with why).
+external-tests: external-tools
+	$(BIN)/pytest -q -m outside
 
 # The leaderboard page in a real browser (tests/test_leaderboard_page.py): Debian's chromium and
 # chromium-driver through apt-get where they are missing and we may (root, or sudo without a

@@ -38,6 +38,14 @@ def pytest_configure(config):
     )
     config.addinivalue_line(
         "markers",
+        "outside: runs an outside simulator (CalculiX's ccx, or a pip extra of make "
+        "external-tools): make test leaves it to make external-tests",
+    )
+    config.addinivalue_line(
+        "markers", "browser: drives chromium: make test leaves it to make browser-tests"
+    )
+    config.addinivalue_line(
+        "markers",
         "slow: in a test file of a minute or more in all: its file runs first, so that no process "
         "of the serial pass is left with it at the end",
     )

@@ -2,11 +2,23 @@
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 HERE = Path(__file__).parent
+
+
+def needs_ccx(test):
+    """A test that runs CalculiX (ccx), an outside simulator: marked `outside` (make test leaves
+    it to make external-tests, which runs it once make external-tools has installed ccx) and
+    skipped where ccx is not on PATH."""
+    missing = shutil.which("ccx") is None
+    skip = pytest.mark.skipif(missing, reason="CalculiX (ccx) is not on PATH")
+    return pytest.mark.outside(skip(test))
 
 
 def mpiexec():

@@ -11,7 +11,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from helpers import tissuebench
+from helpers import needs_ccx, tissuebench
 from recipe_solver import region_mask as predicate
 
 from tissuebench.core.errors import UserError
@@ -26,7 +26,6 @@ from tissuebench.workflows.io.exported import read_json
 from tissuebench.workflows.io.series import read_series
 
 CCX = shutil.which("ccx")
-needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not on PATH")
 H = 1 / 30  # the paper's h, s
 
 

@@ -7,11 +7,10 @@ checked by hand on points whose front is known."""
 import argparse
 import csv
 import json
-import shutil
 
 import numpy as np
 import pytest
-from helpers import tissuebench
+from helpers import needs_ccx, tissuebench
 
 from tissuebench.workflows.compare.grading import compare
 from tissuebench.workflows.leaderboard import build as leaderboard
@@ -21,7 +20,6 @@ from tissuebench.workflows.leaderboard.rows import Board, pareto
 # truth
 pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("empty_truth_cache")]
 
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not on PATH")
 SMALL = ["--mesh-size", "2", "--material", "MP3", "--end-time", "0.5"]  # 15 steps of 1/30 s
 
 

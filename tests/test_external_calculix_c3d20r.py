@@ -12,6 +12,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from helpers import needs_ccx
 
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.cases import case_truth
@@ -26,7 +27,6 @@ from tissuebench.workflows.io.calculix_deck import (
 from tissuebench.workflows.simulators import calculix
 
 CCX = shutil.which("ccx")
-needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not on PATH")
 H = 1 / 30  # s
 TIP = (0.5, 0.25, 0.125)  # the rod's probe, m (a node at even n)
 

@@ -11,6 +11,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from helpers import needs_ccx
 
 from tissuebench.meshes.contact import signed_distance
 from tissuebench.solvers.materials import get_material
@@ -29,7 +30,6 @@ from tissuebench.workflows.io.xdmf import write_series
 from tissuebench.workflows.simulators import calculix, calculix_contact
 
 CCX = shutil.which("ccx")
-needs_ccx = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not on PATH")
 H = 1 / 30  # s
 STOP = 60  # steps: t = 2 s, where the needle stops (0.16 m deep)
 

@@ -16,6 +16,8 @@ import pytest
 import scipy.sparse.linalg as spla
 from p1 import p1_matrices
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 pytest.importorskip("pydrake")
 
 from tissuebench.solvers.materials import Material, get_material  # noqa: E402

@@ -9,6 +9,8 @@ import pytest
 
 from tissuebench.workflows.simulators import drake as dk
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 if dk.available() is not None:
     pytest.skip(dk.available(), allow_module_level=True)
 

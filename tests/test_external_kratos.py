@@ -15,6 +15,8 @@ from p1 import p1_matrices as p1_system
 
 from tissuebench.workflows.simulators import kratos as kr
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 if kr.available() is not None:
     pytest.skip(kr.available(), allow_module_level=True)
 

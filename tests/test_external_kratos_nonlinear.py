@@ -24,7 +24,7 @@ except metadata.PackageNotFoundError:
 from tissuebench.solvers.materials import get_material  # noqa: E402
 from tissuebench.workflows.compare.posing import build, run_reference  # noqa: E402
 
-pytestmark = pytest.mark.serial
+pytestmark = [pytest.mark.serial, pytest.mark.outside]  # an outside simulator: make external-tests
 
 H = 1 / 30  # s
 STEPS = 150

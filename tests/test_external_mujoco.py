@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 from p1 import p1_matrices as p1_system
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 mujoco = pytest.importorskip("mujoco")
 
 from tissuebench.solvers.materials import get_material  # noqa: E402

@@ -9,6 +9,8 @@ import pytest
 
 from tissuebench.workflows.simulators import mujoco as mj
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 if mj.available() is not None:
     pytest.skip(mj.available(), allow_module_level=True)
 

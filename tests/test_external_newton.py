@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 from p1 import p1_matrices
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 pytest.importorskip("newton")
 
 from tissuebench.solvers.materials import Material, get_material  # noqa: E402

@@ -9,6 +9,8 @@ import pytest
 
 from tissuebench.workflows.simulators import newton as nw
 
+pytestmark = pytest.mark.outside  # an outside simulator: make external-tests
+
 if nw.available() is not None:
     pytest.skip(nw.available(), allow_module_level=True)
 

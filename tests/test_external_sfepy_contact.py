@@ -24,7 +24,7 @@ from tissuebench.workflows.io.tables import read_force_csv  # noqa: E402
 from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
 from tissuebench.workflows.simulators import sfepy_contact as sc  # noqa: E402
 
-pytestmark = pytest.mark.serial
+pytestmark = [pytest.mark.serial, pytest.mark.outside]  # an outside simulator: make external-tests
 
 H = 1 / 30  # s
 STEPS = 60  # t = 2 s: the needle stops at its deepest

@@ -23,7 +23,7 @@ from tissuebench.workflows.compare.posing import build, run_reference  # noqa: E
 from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
 from tissuebench.workflows.simulators import sfepy_nonlinear as nl  # noqa: E402
 
-pytestmark = pytest.mark.serial
+pytestmark = [pytest.mark.serial, pytest.mark.outside]  # an outside simulator: make external-tests
 
 H = 1 / 30  # s
 STEPS = 150

@@ -9,10 +9,9 @@ runs; argument errors are one line. Each test reproduces one case of the issue.
 import json
 import math
 import re
-import shutil
 
 import pytest
-from helpers import tissuebench
+from helpers import needs_ccx, tissuebench
 from test_cli import curves, statuses
 
 from tissuebench.meshes.benchmark import check_load_scale
@@ -282,7 +281,7 @@ def test_petsc_options_that_a_run_reads_are_taken(tmp_path):
 
 
 @pytest.mark.serial
-@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not installed")
+@needs_ccx
 def test_external_fingerprint_holds_petsc(tmp_path):
     """A loose reference tolerance, then none: the folder holds results of other inputs; it
     is refused (not skipped as the same), and --force reruns with the fresh reference."""

@@ -7,8 +7,8 @@ screenshot of every case (into $TISSUEBENCH_SCREENSHOTS when set, else a tempora
 Where chromium, chromedriver or selenium is missing the browser tests skip and say which;
 `make browser-tests` installs them where it may, then runs these tests with
 TISSUEBENCH_BROWSER_REQUIRED=1, under which a missing one fails them with the same reason
-instead: CI runs that target, so there the browser tests must run. (`make test`, which CI runs
-first on a machine that may not have chromium yet, keeps the skip.)
+instead: CI runs that target, so there the browser tests must run. They are marked `browser`:
+`make test` leaves them to that target (run alone, `pytest` keeps the skip).
 """
 
 import json
@@ -174,6 +174,7 @@ def screenshot_folder(tmp_path: Path) -> Path:
     return folder
 
 
+@pytest.mark.browser  # make browser-tests
 def test_committed_page_in_the_browser(browser, tmp_path):
     from selenium.webdriver.common.by import By
 
@@ -192,6 +193,7 @@ def test_committed_page_in_the_browser(browser, tmp_path):
     assert severe(browser) == []
 
 
+@pytest.mark.browser  # make browser-tests
 def test_users_point_hover_and_source_filter(browser, tmp_path):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By

@@ -9,7 +9,6 @@ appears. The first tests check core/interrupt.py's parts in this process.
 """
 
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -18,7 +17,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from helpers import job, tissuebench
+from helpers import job, needs_ccx, tissuebench
 
 pytestmark = [pytest.mark.serial, pytest.mark.slow]  # signals to this process, and subprocesses
 
@@ -327,9 +326,6 @@ def test_signal_while_forms_compile_leaves_the_cache_usable(tmp_path):
     again = start([*SHORT_RUN, "--out", tmp_path / "b"], 1, env={"XDG_CACHE_HOME": cache})
     _, stderr = again.communicate(timeout=300)
     assert again.returncode == 0, stderr[-2000:]
-
-
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not on PATH")
 
 
 def children(pid, name):
