@@ -80,15 +80,10 @@ class Polygon:
         return shapely.union_all(pieces)
 
     def error(self, ref: shapely.Geometry, cand: shapely.Geometry) -> np.float64:
-        """|A ⊕ B| / |A| for two of its regions, A (ref) and B (cand): area_error."""
-        return area_error(ref, cand)
-
-
-def area_error(ref: shapely.Geometry, cand: shapely.Geometry) -> np.float64:
-    """|A ⊕ B| / |A| for two shapely regions A (ref) and B (cand); NaN if |A| = 0."""
-    if not ref.area > 0:
-        return np.float64(np.nan)
-    return np.float64(shapely.symmetric_difference(ref, cand).area) / ref.area
+        """|A ⊕ B| / |A| for two of its regions, A (ref) and B (cand); NaN if |A| = 0."""
+        if not ref.area > 0:
+            return np.float64(np.nan)
+        return np.float64(shapely.symmetric_difference(ref, cand).area) / ref.area
 
 
 class Solid:
@@ -127,21 +122,15 @@ class Solid:
 
     def error(self, ref: manifold3d.Manifold, cand: manifold3d.Manifold) -> np.float64:
         """|A ⊕ B| / |A| for two of its solids, A (ref) and B (cand), from
-        |A| + |B| - 2 |A ∩ B| (volume_error). That difference has round-off of a few eps
+        |A| + |B| - 2 |A ∩ B|; NaN if |A| = 0. That difference has round-off of a few eps
         relative to |A| and can come out negative (-4.4e-16 for identical shapes): a value
         below ROUND_OFF (16 eps, 3.6e-15), negative ones included, is clipped to 0, since a
         volume cannot be negative; identical shapes thus give exactly 0."""
-        return volume_error(ref, cand)
-
-
-def volume_error(ref: manifold3d.Manifold, cand: manifold3d.Manifold) -> np.float64:
-    """|A ⊕ B| / |A| for two manifold3d solids A (ref) and B (cand), from |A| + |B| - 2 |A ∩ B|,
-    clipped to 0 below ROUND_OFF (see Solid.error); NaN if |A| = 0."""
-    if not ref.volume() > 0:
-        return np.float64(np.nan)
-    common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
-    value = np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
-    return np.float64(0.0) if value < ROUND_OFF else value
+        if not ref.volume() > 0:
+            return np.float64(np.nan)
+        common = (ref ^ cand).volume()  # manifold3d: ^ is the intersection
+        value = np.float64(ref.volume() + cand.volume() - 2 * common) / ref.volume()
+        return np.float64(0.0) if value < ROUND_OFF else value
 
 
 def domain(X: np.ndarray, facets: np.ndarray) -> Polygon | Solid:
