@@ -1,5 +1,5 @@
-"""The boundary of a distributed first-order (Q1 or P1) mesh, gathered once to rank 0 for the
-surface error.
+"""The boundary of a distributed first-order (Q1 or P1) mesh, known on every rank, its
+displacements gathered to one rank for the surface error.
 
 In 2D the boundary is a set of edges (a, b) oriented with the domain on their left; in 3D a
 set of quadrilateral faces (a, b, c, d) (hexahedra) or triangles (a, b, c) (tetrahedra), a
@@ -57,11 +57,11 @@ def _oriented_facets(V):
 
 
 class Boundary:
-    """The exterior facets of V's mesh and their nodes, gathered to rank 0.
+    """The exterior facets of V's mesh and their nodes, known on every rank.
 
-    `gather(u)` (collective) returns on rank 0 the boundary node displacements (in `nodes`
-    order) from the owned dof values u of V, and None elsewhere. On rank 0 `facets` holds
-    the oriented facets as positions in `nodes` and `X` the undeformed node coordinates.
+    `gather(u, root)` (collective) returns on rank `root` the boundary node displacements (in
+    `nodes` order) from the owned dof values u of V, and None elsewhere. `facets` holds the
+    oriented facets as positions in `nodes` and `X` the undeformed node coordinates (m).
     """
 
     def __init__(self, V):
@@ -73,23 +73,18 @@ class Boundary:
         global_facets = index_map.local_to_global(local.ravel().astype(np.int32)).reshape(
             local.shape
         )
-        gathered = comm.gather(global_facets, root=0)
-        nodes = np.unique(np.concatenate(gathered)) if comm.rank == 0 else None
-        nodes = comm.bcast(nodes, root=0)
+        every = np.concatenate(comm.allgather(global_facets))
+        self.nodes = nodes = np.unique(every)
         # Owned nodes have the contiguous global indices first..last-1, so the owned boundary
         # nodes of ranks 0, 1, ... concatenated are `nodes` in order.
         owned = nodes[(nodes >= first) & (nodes < last)]
         self._local = (owned - first).astype(np.int32)
         X = V.tabulate_dof_coordinates()[: last - first, : self.dim]
-        self.X = self._gather_rows(X)
-        if comm.rank == 0:
-            self.nodes = nodes
-            self.facets = np.searchsorted(nodes, np.concatenate(gathered))
+        self.X = np.concatenate(comm.allgather(X[self._local]))
+        self.facets = np.searchsorted(nodes, every)
 
-    def _gather_rows(self, values):
-        rows = self.comm.gather(values[self._local], root=0)
-        return np.concatenate(rows) if self.comm.rank == 0 else None
-
-    def gather(self, u: ArrayLike) -> np.ndarray | None:
-        """Displacements of the boundary nodes on rank 0 (shape (nodes, d)); None elsewhere."""
-        return self._gather_rows(np.asarray(u).reshape(-1, self.dim))
+    def gather(self, u: ArrayLike, root: int = 0) -> np.ndarray | None:
+        """Displacements of the boundary nodes (m) on rank `root`, shape (nodes, d); None
+        elsewhere."""
+        rows = self.comm.gather(np.asarray(u).reshape(-1, self.dim)[self._local], root=root)
+        return np.concatenate(rows) if self.comm.rank == root else None

@@ -63,6 +63,7 @@ METRICS: dict[str, Metric] = {
     ),
 }
 NAMES = tuple(METRICS)  # the SPEC's four, in order (METRICS itself holds any added later)
+SURFACE = "surface_error"  # E_s: measured apart from the others in histories (its booleans)
 
 
 def panels() -> list[list[str]]:
@@ -79,8 +80,8 @@ class Metrics:
     P1 on triangles or tetrahedra; a candidate on another mesh: metrics/crossmesh.py).
 
     Built once per V: the interior forms and nodal weights (`interior`), |Ω_0| (`volume`),
-    d (`dim`), and the boundary gathered to rank 0 (`boundary`, with `domain` its Polygon or
-    Solid on rank 0).
+    d (`dim`), and the boundary known on every rank (`boundary`, with `domain` its Polygon or
+    Solid).
     """
 
     def __init__(self, V: fem.FunctionSpace, points: int = 3):
@@ -90,9 +91,7 @@ class Metrics:
         self.interior: InteriorMetric = InteriorMetric(V, points)
         self.volume = self.interior.volume
         self.boundary = Boundary(V)
-        self.domain = domain(self.boundary.X, self.boundary.facets) if self.comm.rank == 0 else None
-        # rank 0: the last reference step's deformed boundary (its bytes) and its region
-        self._ref_region: tuple[bytes, object] | None = None
+        self.domain = domain(self.boundary.X, self.boundary.facets)
 
     def _check(self, u):
         u = np.asarray(u, dtype=np.float64)
@@ -100,22 +99,21 @@ class Metrics:
             raise ValueError(f"expected the {self.size} owned dof values of V, got shape {u.shape}")
         return u
 
+    def _surfaces(self, d_ref: np.ndarray, d_cands: list[np.ndarray]) -> list[float]:
+        """E_s of each candidate against the reference from their gathered boundary
+        displacements (m), on this rank alone: the reference's deformed domain built once."""
+        x_ref, ref, out = self.boundary.X + d_ref, None, []
+        for d in d_cands:
+            x_cand = self.boundary.X + d
+            if ref is None and np.isfinite(x_ref).all() and np.isfinite(x_cand).all():
+                ref = self.domain.region(x_ref)
+            out.append(surface_error(self.domain, x_ref, x_cand, ref_region=ref))
+        return out
+
     def surface(self, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
         """E_s, computed on rank 0 from the gathered deformed boundaries and broadcast."""
-        x_ref, x_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
-        value = None
-        if self.comm.rank == 0:
-            assert self.domain is not None  # built on rank 0
-            X = self.boundary.X
-            x_ref, x_cand = X + x_ref, X + x_cand
-            ref = None
-            if np.isfinite(x_ref).all() and np.isfinite(x_cand).all():
-                # the reference's deformed domain, built once for the candidates of its step
-                key = x_ref.tobytes()
-                if self._ref_region is None or self._ref_region[0] != key:
-                    self._ref_region = (key, self.domain.region(x_ref))
-                ref = self._ref_region[1]
-            value = surface_error(self.domain, x_ref, x_cand, ref_region=ref)
+        d_ref, d_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
+        value = self._surfaces(d_ref, [d_cand])[0] if self.comm.rank == 0 else None
         return self.comm.bcast(value, root=0)
 
     def evaluate(
@@ -137,7 +135,7 @@ class Metrics:
     ) -> dict[str, np.ndarray]:
         """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN
         for the steps a shorter candidate (a diverged run) does not have. `on_step()` is called
-        after each step measured (a progress bar's)."""
+        as steps are measured (a progress bar's; see histories)."""
         return self.histories(ref, {"": cand}, on_step)[""]
 
     def histories(
@@ -146,15 +144,36 @@ class Metrics:
         cands: dict[str, list[np.ndarray]],
         on_step: Callable[[], object] | None = None,
     ) -> dict[str, dict[str, np.ndarray]]:
-        """history() of each candidate, keyed as `cands`, measured step by step across them:
-        the reference's deformed domain of a step is built once for all (E_s's booleans)."""
+        """history() of each candidate, keyed as `cands`. E_s, the booleans that take nearly
+        all the time, is shared out between the ranks: step i's deformed boundaries are gathered
+        to rank i mod size, and each rank then measures its steps alone (the reference's
+        domain of a step built once for all its candidates), with no message until the values
+        are shared at the end. On rank 0, `on_step()` is called comm.size times for each
+        candidate's step it measures (the other ranks measure as many meanwhile)."""
         curves = {label: {name: np.full(len(ref), np.nan) for name in METRICS} for label in cands}
+        mine: dict[int, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
         for i in range(len(ref)):
+            owner = i % self.comm.size
+            u_ref = self._check(ref[i])
+            d_ref = self.boundary.gather(u_ref, root=owner)
+            d_cands = {}
             for label, cand in cands.items():
                 if i >= len(cand):
                     continue
-                for name, value in self.evaluate(ref[i], cand[i]).items():
+                u_cand = self._check(cand[i])
+                for name, value in self.evaluate(u_ref, u_cand, skip=(SURFACE,)).items():
                     curves[label][name][i] = value
-                if on_step is not None:
+                d_cands[label] = self.boundary.gather(u_cand, root=owner)
+            if self.comm.rank == owner:
+                mine[i] = (d_ref, d_cands)
+        measured = {}
+        for i, (d_ref, d_cands) in mine.items():
+            values = self._surfaces(d_ref, list(d_cands.values()))
+            measured.update({(i, label): v for label, v in zip(d_cands, values, strict=True)})
+            if on_step is not None:
+                for _ in range(len(d_cands) * self.comm.size):
                     on_step()
+        for part in self.comm.allgather(measured):
+            for (i, label), value in part.items():
+                curves[label][SURFACE][i] = value
         return curves

@@ -1,6 +1,7 @@
 """Run by tests/test_metrics.py and tests/test_compare.py, serially and under mpiexec: print
 (rank 0) one JSON line with the metrics of fixed deformations on block_mesh(8) and
-rod_mesh(2), or, given REFERENCE CANDIDATE OUT_DIR, the metrics.csv that compare() writes."""
+rod_mesh(2) and their histories over five steps (histories() shares E_s out between the
+ranks by step), or, given REFERENCE CANDIDATE OUT_DIR, the metrics.csv that compare() writes."""
 
 import json
 import sys
@@ -44,7 +45,14 @@ def main():
     else:
         for name, mesh in [("block", block_mesh(8, comm).mesh), ("rod", rod_mesh(2, comm).mesh)]:
             V = fem.functionspace(mesh, ("Lagrange", 1, (mesh.geometry.dim,)))
-            result[name] = Metrics(V).evaluate(owned(V, reference), owned(V, candidate))
+            metrics = Metrics(V)
+            result[name] = metrics.evaluate(owned(V, reference), owned(V, candidate))
+            ref = [k * owned(V, reference) for k in range(5)]
+            cands = {"a": [k * owned(V, candidate) for k in range(5)], "b": ref[:3]}
+            curves = metrics.histories(ref, cands)
+            result[f"{name} histories"] = {
+                label: {m: v.tolist() for m, v in c.items()} for label, c in curves.items()
+            }
     if comm.rank == 0:
         print(json.dumps(result))
 
