@@ -113,7 +113,10 @@ class Metrics:
     def surface(self, u_ref: np.ndarray, u_cand: np.ndarray) -> float:
         """E_s, computed on rank 0 from the gathered deformed boundaries and broadcast."""
         d_ref, d_cand = self.boundary.gather(u_ref), self.boundary.gather(u_cand)
-        value = self._surfaces(d_ref, [d_cand])[0] if self.comm.rank == 0 else None
+        value = None
+        if self.comm.rank == 0:
+            assert d_ref is not None and d_cand is not None  # gathered to rank 0
+            value = self._surfaces(d_ref, [d_cand])[0]
         return self.comm.bcast(value, root=0)
 
     def evaluate(
@@ -164,8 +167,9 @@ class Metrics:
                 for name, value in self.evaluate(u_ref, u_cand, skip=(SURFACE,)).items():
                     curves[label][name][i] = value
                 d_cands[label] = self.boundary.gather(u_cand, root=owner)
-            if self.comm.rank == owner:
-                mine[i] = (d_ref, d_cands)
+            if self.comm.rank == owner:  # gathered here: none is None
+                assert d_ref is not None
+                mine[i] = (d_ref, {label: d for label, d in d_cands.items() if d is not None})
         measured = {}
         for i, (d_ref, d_cands) in mine.items():
             values = self._surfaces(d_ref, list(d_cands.values()))

@@ -24,7 +24,7 @@ times is refused), divergence (NaN from the step a series diverges, status colum
 candidate that starts at t = h starts from the zero initial state.
 
 Rank 0 computes, every rank gets the same TruthGrading (the work is serial: numpy and
-shapely/manifold3d on one process).
+shapely/manifold3d on one process); the other ranks wait asleep (core/waiting.py).
 
 Its speed is timed by workflows/bench/truth_grading.py (issue 25, item 6).
 """
@@ -40,6 +40,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from tissuebench.core.waiting import wait_for_rank0
 from tissuebench.metrics.cells import (
     DIM,
     NAMES,
@@ -387,6 +388,7 @@ def grade_truth(
             error = InputError(str(exc))
         except Exception as exc:  # never leave the other ranks waiting
             error = exc
+    wait_for_rank0(comm)  # the other ranks asleep meanwhile, not polling in the broadcast
     result, error = comm.bcast((result, error), root=0)
     if error is not None:
         raise error

@@ -1,5 +1,5 @@
 """output.collective: rank 0 runs the action, every rank gets its result or raises its error,
-and under mpiexec the other ranks wait asleep meanwhile (output.wait_for_rank0). Before, they
+and under mpiexec the other ranks wait asleep meanwhile (core/waiting.py). Before, they
 waited in a blocking broadcast, in which MPICH polls at full speed: a core per waiting rank for
 as long as rank 0 drew figures or wrote reports, taken from the other jobs on the machine."""
 

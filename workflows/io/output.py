@@ -47,6 +47,7 @@ from mpi4py import MPI
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
+from tissuebench.core.waiting import wait_for_rank0
 from tissuebench.workflows.io.manifest import (
     MANIFEST,
     MARK,
@@ -63,8 +64,6 @@ from tissuebench.workflows.io.summary import read_summary
 PREFIX = ".tissuebench-"  # of our temporary, backup and lock names beside a target
 
 T = TypeVar("T")  # what a collective action returns
-# s: how often the other ranks look whether rank 0's collective action has ended
-WAIT_POLL_SECONDS = 0.002
 
 
 class OutputError(UserError):
@@ -295,22 +294,6 @@ def collective(comm: MPI.Comm, action: Callable[[], T], where: Path | None = Non
     if error is not None:
         raise error
     return result
-
-
-def wait_for_rank0(comm: MPI.Comm) -> None:
-    """Return on every rank once rank 0 has come here: the other ranks sleep between looks
-    (every WAIT_POLL_SECONDS) instead of waiting in a blocking collective, in which MPICH polls
-    at full speed, a core per waiting rank, for as long as rank 0's action takes (figures,
-    reports: seconds, on cores that other jobs could use). Signals are only recorded under
-    mpiexec (core/interrupt.py), so a rank sleeping here never leaves alone."""
-    if comm.size == 1:
-        return
-    request = comm.Ibarrier()
-    if comm.rank == 0:
-        request.Wait()
-        return
-    while not request.Test():
-        time.sleep(WAIT_POLL_SECONDS)
 
 
 def command_of(inputs: object) -> str | None:
