@@ -11,6 +11,7 @@ from tissuebench.workflows.bench.paths import (
     ESTIMATE_FACTOR,
     Timed,
     estimates,
+    parallel_name,
     phases,
     report,
     seconds_of,
@@ -110,3 +111,21 @@ def test_phases_take_the_truth_grading_that_follows_them(tmp_path):
     record.lines = [(8.0, "out: against the truth     1.25 s"), (8.1, "results in out")]
     r = phases(tmp_path, record)
     assert r["loop_s"] == 3.0 and r["outside_s"] == 0.5 + 3.0 + 1.25 and r["command_s"] == 9.0
+
+
+def test_report_sets_one_rank_beside_two_outside_the_run_target():
+    def run(whole, metrics):
+        return {"phases_s": {"metrics": metrics}, "loop_s": 1.0, "outside_s": 40.0,
+                "command_s": whole}  # fmt: skip
+
+    runs = {
+        "run rod --no-figures": {"phases_s": {}, "loop_s": 0.5, "outside_s": 1.5},
+        parallel_name(1): run(60.0, 40.0),
+        parallel_name(2): run(40.0, 20.0),
+    }
+    text = report(
+        {"when": "now", "slowdown": 1.0, "records": [], "estimates": [], "runs": runs}, "m"
+    )
+    assert "the whole command 60.0 s on one rank, 40.0 s on two (1.50 x)" in text
+    assert "its metrics 40.0 s on one rank, 20.0 s on two (2.00 x)" in text
+    assert "--no-figures: met." in text  # the paper's run alone: the larger rod's 40 s is not in it

@@ -39,3 +39,18 @@ def test_rank0s_error_is_raised_on_every_rank():
 
     with pytest.raises(ValueError, match="rank 0's action failed"):
         collective(MPI.COMM_WORLD, fails)
+
+
+def test_grading_against_the_truth_the_other_ranks_sleep(monkeypatch):
+    """grade_truth grades on rank 0 (metrics/truth.py), the other ranks asleep meanwhile."""
+    from tissuebench.metrics import truth
+
+    monkeypatch.setattr(truth, "_grade", lambda *args: rank0_action())
+    comm = MPI.COMM_WORLD
+    comm.Barrier()
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = truth.grade_truth(object(), object(), comm)  # type: ignore[arg-type]
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    assert result == 0 and wall >= 0.9 * ACTION_SECONDS  # rank 0's grading, on every rank
+    if comm.rank != 0:
+        assert cpu < 0.25 * wall, (cpu, wall)

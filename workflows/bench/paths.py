@@ -10,7 +10,8 @@ with the time each line came:
    (its truths cached, its forms compiled);
 3. `run rod` and `run block` (the paper's rod and block, their defaults), warm: with
    --no-figures and with figures, their phases (summary.json's phases_s) split into the time
-   loops ("run ...") and the rest;
+   loops ("run ...") and the rest; and `run rod --mesh-size PARALLEL_N --no-figures` on one
+   rank and under `mpiexec -n 2`, side by side;
 4. `compare truth:rod CANDIDATE` of a candidate of about 1e5 nodes (the rod's hexahedra at
    n = 36, 99,937 nodes, a synthesised series at the truth's 301 steps:
    workflows/bench/grading.py's);
@@ -50,6 +51,8 @@ ABOUT = re.compile(r"about (\d+(?:\.\d+)?) (s|min)\b")
 STARTED = re.compile(r"truth: started (\S+) \(about (\d+(?:\.\d+)?) s")
 DONE = re.compile(r"truth: (\S+) done in (\d+(?:\.\d+)?) s")
 CANDIDATE_N = 36  # the rod's mesh size of the 1e5-node candidate: (2n+1)(n+1)^2 = 99,937 nodes
+PARALLEL_N = 12  # the rod's mesh size run on one rank and on two (the README's mpiexec line)
+PAPER_RUNS = ("run rod --no-figures", "run block --no-figures")  # what the run target is of
 USERS = 200
 
 
@@ -152,6 +155,11 @@ def phases(folder: Path, record: Timed) -> dict:
     }
 
 
+def parallel_name(ranks: int) -> str:
+    """The name of the rod run at PARALLEL_N on `ranks` ranks."""
+    return f"run rod --mesh-size {PARALLEL_N} --no-figures, {ranks} rank{'s' if ranks > 1 else ''}"
+
+
 def candidate(folder: Path) -> Path:
     """The 1e5-node candidate: the rod at n = CANDIDATE_N, 301 steps of h (grading.py's late
     series)."""
@@ -193,6 +201,15 @@ def measure(work: Path, log: Callable[[str], None]) -> dict:
             records.append(timed(name, argv, second, log))
             if records[-1].code == 0:
                 runs[name] = phases(out, records[-1])
+    mpiexec = str(Path(sys.executable).parent / "mpiexec")
+    for ranks in (1, 2):
+        name = parallel_name(ranks)
+        out = work / f"run_rod_{PARALLEL_N}_{ranks}"
+        argv = [tb, "run", "rod", "--mesh-size", str(PARALLEL_N), "--no-figures", "--out", str(out)]
+        argv = argv if ranks == 1 else [mpiexec, "-n", str(ranks), *argv]
+        records.append(timed(name, argv, second, log))
+        if records[-1].code == 0:
+            runs[name] = phases(out, records[-1])
     path = candidate(work)
     records.append(
         timed(
@@ -259,7 +276,23 @@ def report(result: dict, machine: str) -> str:
             f"| {name} | {r.get('command_s', float('nan')):.1f} | {r['loop_s']:.2f} | "
             f"{r['outside_s']:.2f} | {each} |"
         )
-    outside = [r["outside_s"] for name, r in result["runs"].items() if "no-figures" in name]
+    one, two = (result["runs"].get(parallel_name(n)) for n in (1, 2))
+    if one is not None and two is not None:
+        ratios = {
+            what: f"{a:.1f} s on one rank, {b:.1f} s on two ({a / b:.2f} x)"
+            for what, a, b in (
+                ("the whole command", one["command_s"], two["command_s"]),
+                ("its metrics", one["phases_s"].get("metrics"), two["phases_s"].get("metrics")),
+            )
+            if a and b
+        }
+        lines += [
+            "",
+            f"The rod at n = {PARALLEL_N} under `mpiexec -n 2` against one rank, in this run: "
+            + "; ".join(f"{what} {said}" for what, said in ratios.items())
+            + ". E_s's booleans, most of the metrics, are shared out between the ranks.",
+        ]
+    outside = [r["outside_s"] for name, r in result["runs"].items() if name in PAPER_RUNS]
     if outside:
         lines += [
             "",
