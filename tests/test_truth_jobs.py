@@ -261,3 +261,19 @@ def test_truth_md_states_how_long_the_cache_took_to_compute():
     assert computed_words({c: summaries[c] for c in list(CASES)[1:]}) == []
     summaries[next(iter(CASES))]["cached_at"] = 1e9 - 86400  # a day before the others
     assert computed_words(summaries) == []
+
+
+def test_beside_other_busy_processes_every_estimate_is_longer():
+    """Workers beside the paper's own busy process share the cores with it: every estimate,
+    the workers' own (their TISSUEBENCH_SLOWDOWN) included, is (jobs + beside) / jobs longer."""
+    from tissuebench.core.speed import slowdown
+    from tissuebench.workflows.truth.jobs import TruthJobs, left_seconds
+
+    cases = ["rod", "block-MP1-w0.2", "block-MP2-w0.2"]
+    alone = left_seconds(cases, [], False, 2)
+    assert left_seconds(cases, [], False, 2, beside=1) == pytest.approx(1.5 * alone)
+    work = TruthJobs(cases, False, 2, lambda line: None, beside=1)
+    assert float(work.env["TISSUEBENCH_SLOWDOWN"]) == pytest.approx(1.5 * slowdown())
+    assert float(TruthJobs(cases, False, 2, lambda line: None).env["TISSUEBENCH_SLOWDOWN"]) == (
+        pytest.approx(slowdown())
+    )

@@ -99,7 +99,11 @@ def run_paper(
     # cases (a failed one is computed again, and fails again in one line, where
     # paper_truth.grade reads it); on one process, by paper_truth.grade after the cases
     work = TruthJobs(
-        uncached if jobs > 1 else [], False, jobs, lambda line: print(line, flush=True)
+        uncached if jobs > 1 else [],
+        False,
+        jobs,
+        lambda line: print(line, flush=True),
+        beside=paper_truth.BESIDE,
     )
     # the paper against the truth (SPEC 10): its runs, then each graded against its truth as
     # soon as that is cached (beside the workers of the others), the rest after them

@@ -5,7 +5,10 @@ rank, one BLAS/OpenMP thread), longest first, so that two cases share a 2-core m
 instead of one leaving a core idle. A linear case (solvers/truth/split.py) takes every
 process free when it starts and runs its own levels and steps side by side on them (its worker
 starts one process per run, --jobs at a time), so that its longest run, not the case, sets
-its wall time. A worker caches its case as `tissuebench truth CASE`
+its wall time. Beside other busy processes (`beside`: the paper's own, running its cases), the
+workers share the cores with them: every estimate, the workers' own included (their
+TISSUEBENCH_SLOWDOWN, core/speed.py), is then longer by (jobs + beside) / jobs. A worker caches
+its case as `tissuebench truth CASE`
 does (under the case's lock: any other command that needs the case waits for it and says
 so); this module only starts them, forwards their lines prefixed with the case, and says
 each one's end with an estimate of what is left. Times in seconds.
@@ -24,6 +27,7 @@ from dataclasses import dataclass, field
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
+from tissuebench.core.speed import slowdown
 from tissuebench.solvers.truth.split import THREAD_VARS, splittable
 from tissuebench.solvers.truth.store import expected_seconds, expected_wall
 
@@ -73,13 +77,22 @@ def ended_with_cpu(process: subprocess.Popen) -> tuple[int, float] | None:
     return process.returncode, usage.ru_utime + usage.ru_stime
 
 
-def left_seconds(pending: list[str], running: list[Job], quick: bool, jobs: int) -> float:
-    """About how long the cases pending and running still take on `jobs` processes, s: the
-    order compute_in_parallel takes them in, played out with each case's expected wall time
-    (store.expected_wall: a linear case's runs side by side on the processes it takes)."""
-    now = time.time()
+def sharing(jobs: int, beside: int) -> float:
+    """How much longer everything takes on `jobs` worker processes, one a core, when `beside`
+    other busy processes share those cores: (jobs + beside) / jobs."""
+    return (jobs + beside) / jobs
+
+
+def left_seconds(
+    pending: list[str], running: list[Job], quick: bool, jobs: int, beside: int = 0
+) -> float:
+    """About how long the cases pending and running still take on `jobs` processes beside
+    `beside` other busy ones, s: the order compute_in_parallel takes them in, played out with
+    each case's expected wall time (store.expected_wall: a linear case's runs side by side on
+    the processes it takes) times sharing(jobs, beside)."""
+    now, factor = time.time(), sharing(jobs, beside)
     busy = [
-        (max(expected_wall(j.case, quick, j.slots) - (now - j.started), 0.0), j.slots)
+        (max(factor * expected_wall(j.case, quick, j.slots) - (now - j.started), 0.0), j.slots)
         for j in running
     ]
     t = 0.0
@@ -88,7 +101,7 @@ def left_seconds(pending: list[str], running: list[Job], quick: bool, jobs: int)
             busy.sort()
             t = max(t, busy.pop(0)[0])
         slots = slots_for(case, quick, jobs - sum(n for _, n in busy))
-        busy.append((t + expected_wall(case, quick, slots), slots))
+        busy.append((t + factor * expected_wall(case, quick, slots), slots))
     return max((end for end, _ in busy), default=0.0)
 
 
@@ -97,15 +110,20 @@ class TruthJobs:
     start() says the plan and starts the first; poll() starts and reaps workers (call it often,
     as between a paper's cases); wait() polls until every worker has ended and returns the cases
     whose worker failed (each said in one line with its exit code); stop() ends those still
-    running (a signal stopped the parent)."""
+    running (a signal stopped the parent). `beside`: the busy processes beside the workers (the
+    paper's own), which the estimates count (sharing)."""
 
-    def __init__(self, cases: list[str], quick: bool, jobs: int, say: Callable[[str], None]):
+    def __init__(
+        self, cases: list[str], quick: bool, jobs: int, say: Callable[[str], None], beside: int = 0
+    ):
         self.pending = sorted(cases, key=lambda c: -expected_seconds(c, quick))
-        self.quick, self.jobs, self.say = quick, jobs, say
+        self.quick, self.jobs, self.say, self.beside = quick, jobs, say, beside
         self.env = {
             **os.environ,
             "TISSUEBENCH_PROGRESS_BARS": "0",
             **dict.fromkeys(THREAD_VARS, "1"),
+            # the workers' own estimates: this machine's speed as measured here, shared
+            "TISSUEBENCH_SLOWDOWN": repr(slowdown() * sharing(jobs, beside)),
         }
         self.total = len(self.pending)
         self.running: list[Job] = []
@@ -115,7 +133,7 @@ class TruthJobs:
         self.started = time.time()
 
     def start(self) -> None:
-        left = left_seconds(self.pending, [], self.quick, self.jobs)
+        left = left_seconds(self.pending, [], self.quick, self.jobs, self.beside)
         self.say(
             f"truth: computing {self.total} cases, {self.jobs} processes at a time, longest "
             f"first (about {left / 60:.0f} min here): {', '.join(self.pending)}"
@@ -139,7 +157,7 @@ class TruthJobs:
             job.reader.start()
             self.running.append(job)
             runs = f", its runs {slots} at a time" if slots > 1 else ""
-            about = expected_wall(case, self.quick, slots)
+            about = sharing(self.jobs, self.beside) * expected_wall(case, self.quick, slots)
             self.say(f"truth: started {case} (about {about:.0f} s{runs})")
 
     def poll(self) -> bool:
@@ -154,7 +172,7 @@ class TruthJobs:
                 job.reader.join()
             self.done += 1
             (self.failed if code != 0 else self.succeeded).append(job.case)
-            left = left_seconds(self.pending, self.running, self.quick, self.jobs)
+            left = left_seconds(self.pending, self.running, self.quick, self.jobs, self.beside)
             self.say(
                 f"truth: {job.case} {'done' if code == 0 else f'FAILED (exit {code})'} in "
                 f"{time.time() - job.started:.0f} s ({cpu:.0f} s of CPU; {self.done} of "
