@@ -138,7 +138,7 @@ class Metrics:
     ) -> dict[str, np.ndarray]:
         """One value per reference step for each metric (numpy arrays keyed as METRICS); NaN
         for the steps a shorter candidate (a diverged run) does not have. `on_step()` is called
-        as steps are measured (a progress bar's; see histories)."""
+        twice a step as it is measured (a progress bar's; see histories)."""
         return self.histories(ref, {"": cand}, on_step)[""]
 
     def histories(
@@ -151,8 +151,9 @@ class Metrics:
         all the time, is shared out between the ranks: step i's deformed boundaries are gathered
         to rank i mod size, and each rank then measures its steps alone (the reference's
         domain of a step built once for all its candidates), with no message until the values
-        are shared at the end. On rank 0, `on_step()` is called comm.size times for each
-        candidate's step it measures (the other ranks measure as many meanwhile)."""
+        are shared at the end. `on_step()` (a progress bar's, on rank 0) is called twice for
+        each candidate's step: as its E_n and E_i are measured, and as its E_s is (comm.size
+        times for each that rank 0 measures: the other ranks measure as many meanwhile)."""
         curves = {label: {name: np.full(len(ref), np.nan) for name in METRICS} for label in cands}
         mine: dict[int, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
         for i in range(len(ref)):
@@ -167,6 +168,8 @@ class Metrics:
                 for name, value in self.evaluate(u_ref, u_cand, skip=(SURFACE,)).items():
                     curves[label][name][i] = value
                 d_cands[label] = self.boundary.gather(u_cand, root=owner)
+                if on_step is not None:
+                    on_step()
             if self.comm.rank == owner:  # gathered here: none is None
                 assert d_ref is not None
                 mine[i] = (d_ref, {label: d for label, d in d_cands.items() if d is not None})

@@ -359,13 +359,14 @@ def compute_case(
     ref_run = results[case.reference][0]
     times = np.arange(n_steps + 1) * h
     curves, status = {}, {}
-    bar = tqdm(
-        total=sum(min(len(ref_run.u), len(run.u)) for run, *_ in results.values()),
+    bar = tqdm(  # each candidate's step twice: its E_n and E_i, then its E_s (Metrics.histories)
+        total=2 * sum(min(len(ref_run.u), len(run.u)) for run, *_ in results.values()),
         desc=f"{case.name} metrics",
         unit="step",
         leave=False,
         disable=not rank0,
         mininterval=0.5,
+        miniters=1,  # not tqdm's guess from the fast first pass, which skipped the slow second
     )
     try:
         histories = metrics.histories(
