@@ -27,6 +27,8 @@ from tissuebench.workflows.leaderboard.page_words import (
 from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, finite
 
+RT_LABEL = "real time: 1 s per s"  # the real-time line's label
+
 
 def symbol(shape: str, x: float, y: float, r: float = 5.0) -> str:
     """An SVG path's d for a marker centred on (x, y)."""
@@ -185,7 +187,9 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
         pts.append(f"{ax.W - ax.RIGHT},{pts[-1].split(',')[1]}")
         out.append(f'<polyline class="front" points="{" ".join(pts)}"/>')
     users: dict[str, str] = {}
-    labels: list[tuple[float, float, float]] = []  # placed labels: x, y, width
+    # placed labels (x, y, width): the real-time line's first, so that no point's sits on it
+    rt_width = 6.2 * len(RT_LABEL)
+    labels: list[tuple[float, float, float]] = [(rt - 4 - rt_width, ax.TOP + 14, rt_width)]
     # the frontier's runs first (under the others), users last (on top)
     order = sorted(rows, key=lambda r: (r.kind is not Kind.FRONTIER, r.kind is Kind.USER))
     for r in order:
@@ -255,7 +259,7 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
             )
     out.append(  # last: over the points, which would cover it
         f'<text x="{rt - 4:.1f}" y="{ax.TOP + 14}" class="rtlabel" text-anchor="end">'
-        "real time: 1 s per s</text>"
+        f"{RT_LABEL}</text>"
     )
     out.append("</svg>")
     return "\n".join(out), users
