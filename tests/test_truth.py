@@ -310,6 +310,28 @@ def test_needle_moves_every_q2_node_of_its_segment():
     assert np.allclose(u, [-0.08 * 3 * bench.dt, 0.0], rtol=0, atol=1e-14)
 
 
+@pytest.mark.parametrize("case, n", [("block-MP2-w0.2", 10), ("rod-MP2", 1), ("rod", 1)])
+def test_step_matrix_is_symmetric_and_its_ldlt_solves_as_lu(case, n, monkeypatch):
+    """The linear truth's step matrix is symmetric (the Taylor-Hood constraint row divided by
+    d div z / d div u = 1 + beta 2/h), and its L D L^T factorisation (PETSc's own in 2D on
+    one rank, MUMPS's otherwise) gives MUMPS's LU solution to round-off, step by step."""
+    truth, bench = case_truth(case, n)
+    run = truth.run(bench.dt / 4, 6)
+    A = truth._step_solver.A
+    scale = A.norm(PETSc.NormType.INFINITY)
+    assert A.isSymmetric(tol=1e-13 * scale)
+    assert truth._step_solver.ksp.getPC().getType() == "cholesky"
+    build = Truth._linear_solver
+    monkeypatch.setattr(
+        Truth, "_linear_solver", lambda self, r, U, symmetric=False: build(self, r, U, False)
+    )
+    lu_truth, _ = case_truth(case, n)
+    lu = lu_truth.run(bench.dt / 4, 6)
+    assert lu_truth._step_solver.ksp.getPC().getType() == "lu"
+    assert np.abs(run.u - lu.u).max() <= 1e-10 * np.abs(lu.u).max()
+    assert np.abs(lu.u[-1]).max() > 0
+
+
 @pytest.mark.parametrize("case", ["rod", "rod-nhb-s3"])
 def test_one_truth_runs_again_with_another_step(case):
     """A Truth run at h and then at h/2 gives the h/2 run of a fresh Truth (the factorised

@@ -29,8 +29,10 @@ Discretisation (all in SI units: m, s, Pa, kg/m^3):
   equation of motion rho a.w + alpha rho v.w + (elastic) = f.w holds at every t_{n+1};
   constrained dofs take their prescribed u, v, a exactly (SPEC 3); u = v = 0 at t = 0 on the
   free dofs and a(0) solves the equation of motion at t = 0.
-- Solvers: linear law: the step matrix is assembled and factorised (MUMPS) once; each step is
-  one solve for the correction of a predictor whose constrained dofs hold g(t_{n+1}).
+- Solvers: linear law: the step matrix is assembled and factorised once, as L D L^T (it is
+  symmetric: the Taylor-Hood constraint row of a step is divided by d div z / d div u =
+  1 + 2 beta / h, which leaves its solution as it is; CHOLESKY); each step is one solve for
+  the correction of a predictor whose constrained dofs hold g(t_{n+1}).
   neo-Hookean: Newton (PETSc SNES through dolfinx's NonlinearProblem, MUMPS, relative residual
   1e-10) every step, forms and solver built once. The factorised tangent is kept across
   steps (modified Newton: the same solution to 1e-10) and refreshed before a step when the
@@ -96,6 +98,15 @@ CONTACT_NEWTON = {
     "snes_max_it": 50,
 }
 CONTACT_ATOL = 1e-11
+# the symmetric step and static matrices' factorisation (_linear_solver): in 2D on one rank by
+# PETSc's own Cholesky (L D L^T) in nested-dissection order, whose solves took 5 ms against
+# MUMPS's 14 (L D L^T) and 16 (LU) on block-MP2-w0.2's finest level (58,403 dofs): a truth's
+# steps are mostly solves. Its pivots may be tiny but not zero (the Taylor-Hood matrix is
+# quasi-definite; MP2's pressure rows are of order 1e-15 N/m^2 where PETSc's default calls
+# 1e-12 zero): zeropivot. In 3D (MUMPS's multifrontal factorisation: PETSc's took 19 s against
+# 1.3 s on the rod's n = 8) and on several ranks: MUMPS's L D L^T. Every factorisation's first
+# solve must leave at most `residual` relative residual.
+CHOLESKY = {"zeropivot": 1e-300, "residual": 1e-8}
 
 
 @dataclass
@@ -179,6 +190,22 @@ class JacobianRecord:
     at_point: np.ndarray
 
 
+@dataclass
+class _LinearSolver:
+    """A residual linear in the unknown (form R), its factorised Jacobian A (KSP) and the
+    vector of its residual b; `checked`: its first solve's residual was checked."""
+
+    R: Any
+    A: PETSc.Mat
+    ksp: PETSc.KSP
+    b: PETSc.Vec
+    checked: bool = False
+
+    def destroy(self) -> None:
+        for obj in (self.A, self.ksp, self.b):
+            obj.destroy()
+
+
 def _eps(u):
     return ufl.sym(ufl.grad(u))
 
@@ -241,7 +268,7 @@ class Truth:
         self.U = fem.Function(self.W)
         self.f = pb.body_force(ufl.SpatialCoordinate(mesh), self.t)
         # type comments, not annotations: the truth's cache key hashes the code's syntax tree
-        self._step_solver = None  # type: Any  # _linear_solve's tuple or a NonlinearProblem
+        self._step_solver = None  # type: Any  # a _LinearSolver or a NonlinearProblem
         self._full_newton = None  # type: dolfinx.fem.petsc.NonlinearProblem | None  # full Newton, built where the modified one first fails
         self._refresh = False  # build the modified Newton's tangent again before the next step
         self._step_h = None  # type: float | None  # the step of the factorised linear step matrix, s
@@ -269,8 +296,10 @@ class Truth:
         parts = ufl.split(U)
         return parts[0], tuple(parts[1:])
 
-    def _elastic(self, u, v, ps, w, qs):
-        """The elastic and stiffness-damping terms of the residual (N/m^3 times w)."""
+    def _elastic(self, u, v, ps, w, qs, scale=1.0):
+        """The elastic and stiffness-damping terms of the residual (N/m^3 times w); the linear
+        Taylor-Hood form's constraint row divided by `scale` (the step's d div z / d div u, so
+        that its step matrix is symmetric: the same solution)."""
         pb = self.problem
         mu, lmbda, beta = pb.mu, pb.lmbda, pb.beta
         if self.kind == "displacement":
@@ -282,7 +311,9 @@ class Truth:
             (p,), (q,) = ps, qs
             z = u + beta * v
             return (
-                2 * mu * ufl.inner(_eps(z), _eps(w)) - p * ufl.div(w) - q * (ufl.div(z) + p / lmbda)
+                2 * mu * ufl.inner(_eps(z), _eps(w))
+                - p * ufl.div(w)
+                - q * (ufl.div(z) + p / lmbda) / scale
             )
         (p, pd), (q, qd) = ps, qs
         kappa = lmbda + 2 * mu / 3
@@ -298,14 +329,14 @@ class Truth:
             + qd * (beta * ufl.div(v) - pd / lmbda)
         )
 
-    def _residual(self, u, v, a, ps):
+    def _residual(self, u, v, a, ps, scale=1.0):
         pb = self.problem
         w, qs = self._split(ufl.TestFunction(self.W))
         inertia = pb.rho * ufl.inner(a + pb.alpha * v, w) if a is not None else 0
         # Gauss with degree + 1 points per direction: exact for the linear forms on affine cells
         dx = ufl.dx(metadata={"quadrature_degree": 2 * pb.degree})
         force = self.load * ufl.inner(self.f, w)
-        residual = (inertia + self._elastic(u, v, ps, w, qs) - force) * dx
+        residual = (inertia + self._elastic(u, v, ps, w, qs, scale) - force) * dx
         if pb.contact is not None:  # the traction p n of the needle on the tissue (SPEC 12)
             c = pb.contact
             k = c.k * self._penalty
@@ -320,7 +351,7 @@ class Truth:
         u, ps = self._split(self.U)
         v = self.vpred + self.c1 * u
         a = self.apred + self.c2 * u
-        return self._residual(u, v, a, ps)
+        return self._residual(u, v, a, ps, 1 + self.problem.beta * self.c1)
 
     # -- solves ----------------------------------------------------------------------------
     def _prescribe(self, t: float) -> np.ndarray:
@@ -334,42 +365,63 @@ class Truth:
                 )
         return values[:, self.cnodes].reshape(3, -1)
 
-    def _linear_solve(self, residual, U, solver=None):
-        """One Newton step on a residual linear in U: U -= J^-1 R(U) with homogeneous
-        constraints on the correction; U's constrained dofs must hold their values. Returns the
-        (reusable) solver: (R form, factorised matrix, KSP, residual vector)."""
-        if solver is None:
-            R = fem.form(residual)
-            Jf = fem.form(ufl.derivative(residual, U))
-            A = dolfinx.fem.petsc.assemble_matrix(Jf, bcs=[self.bc0])
-            A.assemble()
-            ksp = PETSc.KSP().create(self.comm)
-            ksp.setOperators(A)
-            ksp.setType("preonly")
-            pc = ksp.getPC()
+    def _linear_solver(self, residual, U, symmetric=False):
+        """The solver of a residual linear in U, with homogeneous constraints on the
+        correction: its Jacobian assembled and factorised once (_LinearSolver). `symmetric`:
+        the Jacobian is symmetric (the step and static matrices: SPD, or quasi-definite in
+        Taylor-Hood form), factorised as L D L^T (CHOLESKY)."""
+        R = fem.form(residual)
+        A = dolfinx.fem.petsc.assemble_matrix(fem.form(ufl.derivative(residual, U)), bcs=[self.bc0])
+        A.assemble()
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOperators(A)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        if not symmetric:
             pc.setType("lu")
             pc.setFactorSolverType("mumps")
-            b = dolfinx.fem.petsc.create_vector(self.W)
-            solver = (R, A, ksp, b)
-        R, A, ksp, b = solver
+        elif self.comm.size == 1 and self.gdim == 2:
+            pc.setType("cholesky")
+            pc.setFactorSolverType("petsc")
+            pc.setFactorOrdering("nd")
+            pc.setFactorPivot(zeropivot=CHOLESKY["zeropivot"])
+        else:
+            A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+            pc.setType("cholesky")
+            pc.setFactorSolverType("mumps")
+        return _LinearSolver(R, A, ksp, dolfinx.fem.petsc.create_vector(self.W))
+
+    def _linear_solve(self, solver, U) -> None:
+        """One Newton step on a residual linear in U: U -= J^-1 R(U) by `solver`
+        (_linear_solver); U's constrained dofs must hold their values. The first solve of a
+        factorisation checks it: its relative residual at most CHOLESKY["residual"]."""
+        b = solver.b
         with b.localForm() as loc:
             loc.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, R)
+        dolfinx.fem.petsc.assemble_vector(b, solver.R)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         dolfinx.fem.petsc.set_bc(b, [self.bc0])
         dx = b.duplicate()
-        ksp.solve(b, dx)
-        if ksp.getConvergedReason() <= 0:
-            raise RuntimeError(f"truth: the linear solve failed ({ksp.getConvergedReason()})")
+        solver.ksp.solve(b, dx)
+        if solver.ksp.getConvergedReason() <= 0:
+            raise RuntimeError(
+                f"truth: the linear solve failed ({solver.ksp.getConvergedReason()})"
+            )
+        if not solver.checked:
+            r = b.duplicate()
+            solver.A.mult(dx, r)
+            r.axpy(-1.0, b)
+            error = r.norm() / max(b.norm(), np.finfo(float).tiny)
+            r.destroy()
+            if not error <= CHOLESKY["residual"]:
+                raise RuntimeError(
+                    f"truth: the factorised step matrix solves with relative residual "
+                    f"{error:.1e} (> {CHOLESKY['residual']:.0e})"
+                )
+            solver.checked = True
         U.x.petsc_vec.axpy(-1.0, dx)
         U.x.scatter_forward()
         dx.destroy()
-        return solver
-
-    @staticmethod
-    def _destroy(solver):
-        for obj in solver[1:]:
-            obj.destroy()
 
     def _set_u(self, U, values_V):
         """Write V's values into U's displacement part (owned and ghost)."""
@@ -396,7 +448,9 @@ class Truth:
         residual = self._residual(self.un, self.vn, a, ps)
         self.g.x.array[self.cdofs] = ag
         self.bc.set(A.x.array)
-        self._destroy(self._linear_solve(residual, A))
+        solver = self._linear_solver(residual, A)
+        self._linear_solve(solver, A)
+        solver.destroy()
         self.an.x.array[:] = self._get_u(A)
         self.an.x.array[self.cdofs] = ag
         self.U.x.array[:] = A.x.array  # the pressures at t = 0: the first Newton guess
@@ -416,7 +470,7 @@ class Truth:
         self.g.x.array[self.cdofs] = ug
         if self._step_solver is not None and self._step_h != h:  # its tangent holds h
             if self.kind != "mixed-nh":
-                self._destroy(self._step_solver)
+                self._step_solver.destroy()
             self._step_solver = self._full_newton = None
         self._step_h = h
         if self.needle is not None:
@@ -426,7 +480,9 @@ class Truth:
             self._newton()
         else:
             self.bc.set(self.U.x.array)
-            self._step_solver = self._linear_solve(self.step_residual(), self.U, self._step_solver)
+            if self._step_solver is None:  # the step's form built with its solver, once per h
+                self._step_solver = self._linear_solver(self.step_residual(), self.U, True)
+            self._linear_solve(self._step_solver, self.U)
         u = self._get_u(self.U)
         self.vn.x.array[:] = self.vpred.x.array + 2 / h * u
         self.an.x.array[:] = self.apred.x.array + 4 / h**2 * u
@@ -547,7 +603,9 @@ class Truth:
         if self.kind != "mixed-nh":
             self.g.x.array[self.cdofs] = ug
             self.bc.set(U.x.array)
-            self._destroy(self._linear_solve(residual, U))
+            solver = self._linear_solver(residual, U, symmetric=True)
+            self._linear_solve(solver, U)
+            solver.destroy()
             return self._get_u(U)[: self.n_owned]
         problem = dolfinx.fem.petsc.NonlinearProblem(
             residual,
