@@ -129,3 +129,41 @@ def test_report_sets_one_rank_beside_two_outside_the_run_target():
     assert "the whole command 60.0 s on one rank, 40.0 s on two (1.50 x)" in text
     assert "its metrics 40.0 s on one rank, 20.0 s on two (2.00 x)" in text
     assert "--no-figures: met." in text  # the paper's run alone: the larger rod's 40 s is not in it
+
+
+def test_a_full_bench_reports_the_paths_it_timed(tmp_path, monkeypatch):
+    """measure_into writes performance-paths.md and .json and returns what it measured;
+    performance.md's section (report.paths_section) gives the same table and run's verdict, and
+    says where a quick run left the paths untimed."""
+    from tissuebench.workflows.bench import paths
+    from tissuebench.workflows.bench.report import paths_section
+
+    record = {
+        "name": "paper, empty truth cache",
+        "argv": [],
+        "code": 0,
+        "wall_s": 300.0,
+        "lines": [],
+        "load_before": (1.0, 1.0, 1.0),
+        "load_after": (2.0, 1.0, 1.0),
+    }
+    runs = {
+        "run block --no-figures": {
+            "phases_s": {"run implicit": 1.0},
+            "loop_s": 1.0,
+            "outside_s": 2.5,
+        }
+    }
+    measured = {"when": "now", "slowdown": 0.8, "records": [record], "estimates": [], "runs": runs}
+    monkeypatch.setattr(paths, "measure", lambda work, log: dict(measured))
+    result = paths.measure_into(tmp_path, lambda line: None, command="tissuebench bench")
+    assert json.loads((tmp_path / "performance-paths.json").read_text()) == json.loads(
+        json.dumps(result)
+    )
+    written = (tmp_path / "performance-paths.md").read_text()
+    assert written.startswith("# The paths a user waits on\n\n`tissuebench bench` (now;")
+    section = "\n".join(paths_section(result))
+    row = "| paper, empty truth cache | 300.0 | 480 | met | ok | 1.0 / 2.0 |"
+    assert row in section and row in written
+    assert "--no-figures: NOT met (at most 2.5 s)." in section
+    assert "Not timed in a quick run" in "\n".join(paths_section(None))

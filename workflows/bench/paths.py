@@ -251,20 +251,44 @@ def _row(record: dict) -> str:
     )
 
 
+def table(result: dict) -> list[str]:
+    """The paths' table (markdown lines): each command's wall time against its target."""
+    return [
+        "| path | wall s | target s | | exit | load before / after |",
+        "|---|---:|---:|---|---|---|",
+        *(_row(r) for r in result["records"]),
+    ]
+
+
+def outside_target(result: dict) -> str | None:
+    """Whether the paper's rod and block spend at most the target outside their time loops
+    (with --no-figures), as a sentence; None where they were not run."""
+    target = TARGETS["run, outside the loop (warm, --no-figures)"]
+    paper = [run_name(b, figures=False) for b in PAPER_BENCHMARKS]
+    outside = [r["outside_s"] for name, r in result["runs"].items() if name in paper]
+    if not outside:
+        return None
+    return (
+        f"Target: `run` of the paper's rod and block outside its time loops at most {target:g} s "
+        "warm, with --no-figures: "
+        + ("met" if max(outside) <= target else f"NOT met (at most {max(outside):.1f} s)")
+        + "."
+    )
+
+
 def report(result: dict, machine: str) -> str:
     """performance-paths.md from measure()'s result."""
     lines = [
         "# The paths a user waits on",
         "",
-        f"`tissuebench bench --only paths` ({result['when']}; {machine}). Each path is one whole "
+        f"`{result.get('command', 'tissuebench bench --only paths')}` ({result['when']}; "
+        f"{machine}). Each path is one whole "
         "command in a process of its own, from its start to its end, in one run; the machine's "
         f"probe (core/speed.py) took {result['slowdown']:.2f} times its time on the machine the "
         "estimates were measured on, and every printed estimate is scaled by it. The load "
         "average (1 min) before and after each says how busy the 2 cores were.",
         "",
-        "| path | wall s | target s | | exit | load before / after |",
-        "|---|---:|---:|---|---|---|",
-        *(_row(r) for r in result["records"]),
+        *table(result),
         "",
         "## Where `run` spends its time (warm: forms compiled, the truth cached)",
         "",
@@ -274,7 +298,6 @@ def report(result: dict, machine: str) -> str:
         "| command | whole command s | time loops s | the rest s | phases (s) |",
         "|---|---:|---:|---:|---|",
     ]
-    target = TARGETS["run, outside the loop (warm, --no-figures)"]
     for name, r in result["runs"].items():
         each = ", ".join(f"{k} {v:.2f}" for k, v in r["phases_s"].items())
         lines.append(
@@ -297,15 +320,9 @@ def report(result: dict, machine: str) -> str:
             + "; ".join(f"{what} {said}" for what, said in ratios.items())
             + ". E_s's booleans, most of the metrics, are shared out between the ranks.",
         ]
-    paper = [run_name(b, figures=False) for b in PAPER_BENCHMARKS]
-    outside = [r["outside_s"] for name, r in result["runs"].items() if name in paper]
-    if outside:
-        lines += [
-            "",
-            f"Target: the rest at most {target:g} s with --no-figures: "
-            + ("met" if max(outside) <= target else f"NOT met (at most {max(outside):.1f} s)")
-            + ".",
-        ]
+    sentence = outside_target(result)
+    if sentence is not None:
+        lines += ["", sentence]
     lines += [
         "",
         "## Estimates against the times they estimated",
@@ -335,8 +352,19 @@ def render(out: Path) -> None:
 
 
 def run(out: Path | None, log: Callable[[str], None] = print) -> int:
+    """The benchmark (`bench --only paths`): measure_into(); 0 if every command ended well."""
+    result = measure_into(out, log)
+    return 0 if all(r["code"] == 0 for r in result["records"]) else 1
+
+
+def measure_into(
+    out: Path | None,
+    log: Callable[[str], None] = print,
+    command: str = "tissuebench bench --only paths",
+) -> dict:
     """The benchmark, in a temporary folder removed after; its report printed and, with out,
-    written to OUT/performance-paths.md and .json."""
+    written to OUT/performance-paths.md and .json; its result returned. `command`: the bench
+    command that ran it, for the report."""
     from tissuebench.workflows.bench.report import machine_description
     from tissuebench.workflows.io.output import check_writable, write_owned
 
@@ -348,6 +376,7 @@ def run(out: Path | None, log: Callable[[str], None] = print) -> int:
     finally:
         shutil.rmtree(work, ignore_errors=True)
     result["machine"] = machine_description()
+    result["command"] = command
     text = report(result, result["machine"])
     log("\n" + text)
     if out is not None:
@@ -355,7 +384,7 @@ def run(out: Path | None, log: Callable[[str], None] = print) -> int:
         write_owned(out / NAMES[0], lambda tmp: tmp.write_text(json.dumps(result, indent=1)))
         write_owned(out / NAMES[1], lambda tmp: tmp.write_text(text))
         log(f"wrote {out / NAMES[1]}")
-    return 0 if all(r["code"] == 0 for r in result["records"]) else 1
+    return result
 
 
 if __name__ == "__main__" and len(sys.argv) == 3 and sys.argv[1] == "--render":

@@ -191,6 +191,31 @@ def failures(records: list[dict]) -> list[str]:
     return errors
 
 
+def paths_section(paths: dict | None) -> list[str]:
+    """performance.md's section on the paths a user waits on (markdown lines)."""
+    from tissuebench.workflows.bench.paths import outside_target, table
+
+    head = ["## The paths a user waits on", ""]
+    if paths is None:
+        return head + [
+            "Not timed in a quick run: a full run, or `tissuebench bench --only paths`, times "
+            "them (performance-paths.md).",
+            "",
+        ]
+    sentence = outside_target(paths)
+    return [
+        *head,
+        "Each command whole, in a process of its own, timed in this run after the step "
+        f"benchmarks ({paths['when']}; the machine's probe at {paths['slowdown']:.2f}); `run`'s "
+        "phases and every printed estimate against the time it estimated are in "
+        "performance-paths.md, which the same run wrote.",
+        "",
+        *table(paths),
+        "",
+        *([sentence, ""] if sentence is not None else []),
+    ]
+
+
 def write_report(
     records: list[dict],
     probes: list[dict],
@@ -199,8 +224,10 @@ def write_report(
     wall: float,
     out: Path,
     newton: Sequence[dict] = (),
+    paths: dict | None = None,
 ) -> None:
-    """Write out/performance.md (it shows performance.png beside it)."""
+    """Write out/performance.md (it shows performance.png beside it); `paths`: the user's
+    paths timed in the same run (paths.measure_into's result), or None (a quick run)."""
     sizes = {b: [r["size"] for r in records if r["benchmark"] == b] for b in SWEPT}
     ran = sizes_ran(records)
     probe_text = ", ".join(
@@ -243,6 +270,7 @@ def write_report(
         "",
         markdown_table(*targets(records, probes, paper, newton)),
         "",
+        *paths_section(paths),
         "## Real-time capacity (rod)",
         "",
         "The largest rod mesh measured whose time per step is at most its step h (one simulated "

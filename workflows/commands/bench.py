@@ -31,8 +31,10 @@ The measurements (budgets, capacity search) are workflows/bench/measure.py, its 
 workflows/bench/workers.py;
 the tables are workflows/bench/tables.py (the targets targets.py), the figure and report
 workflows/bench/report.py.
-Writes DIR/performance.md, DIR/performance.png and DIR/performance.json. Only the driver (one
-process, not under mpiexec) prints.
+Writes DIR/performance.md, DIR/performance.png and DIR/performance.json. A full run then times
+the paths a user waits on, as `--only paths` does (into DIR/performance-paths.md and .json), and
+performance.md gives their table beside the step benchmarks'. Only the driver (one process, not
+under mpiexec) prints.
 """
 
 import argparse
@@ -225,6 +227,14 @@ def main(args: argparse.Namespace) -> int:
         f"tissuebench bench ({mode}): workers pinned to 1 BLAS/OpenMP thread per rank", flush=True
     )
     records, probes, paper, newton = measure(mode, out, lambda line: print(line, flush=True))
+    user_paths = None
+    if mode == "full":  # the commands a user waits on, each whole (no quick form)
+        from tissuebench.workflows.bench import paths as bench_paths
+
+        print("tissuebench bench: the paths a user waits on, each command whole", flush=True)
+        user_paths = bench_paths.measure_into(
+            out, lambda line: print(line, flush=True), command="tissuebench bench"
+        )
     wall = time.perf_counter() - start
     result = {
         "mode": mode,
@@ -236,7 +246,7 @@ def main(args: argparse.Namespace) -> int:
     }
     write_owned(out / "performance.json", lambda tmp: tmp.write_text(json.dumps(result)))
     write_owned(out / "performance.png", lambda tmp: plot(records, tmp))
-    write_report(records, probes, paper, mode, wall, out, newton)
+    write_report(records, probes, paper, mode, wall, out, newton, user_paths)
     for title, table in summary_tables(records, probes, paper, newton):
         print(f"\n{title}\n{text_table(*table)}")
     print(f"\nwall {wall:.0f} s; wrote {out / 'performance.md'} and {out / 'performance.png'}")
