@@ -146,3 +146,30 @@ def test_the_plates_truth_computes_in_its_own_process(plate):
     assert not in_contact(NAME) and in_contact("contact")  # the plate's entry has no tool
     assert not splittable(NAME)
     assert splittable("rod")  # a package's linear case is split
+
+
+def test_a_cache_that_lacks_truths_truth_md_reports_leaves_it(plate, tmp_path, cache, capsys):
+    """`truth` into a folder whose full truth.md reports truths this cache lacks (a clone's
+    results/ on a fresh machine) computes and caches the cases named and leaves truth.md as it
+    was, saying so; --force writes it from this cache alone."""
+    from tissuebench.solvers.truth.cases import register_case, remove_case
+    from tissuebench.solvers.truth.store import is_cached
+    from tissuebench.workflows.truth.report import reported
+
+    out = tmp_path / "results"
+    register_case("plate-MP1", NAME, "MP1")
+    try:
+        assert main(["truth", NAME, "plate-MP1", "--jobs", "1", "--out", str(out)]) == 0
+        both = (out / "truth.md").read_text()
+        assert reported(both) == [NAME, "plate-MP1"]
+        os.environ["TISSUEBENCH_CACHE"] = str(tmp_path / "fresh")  # another machine's cache
+        capsys.readouterr()
+        assert main(["truth", NAME, "--out", str(out)]) == 0
+        said = capsys.readouterr().out
+        assert "truth.md reports truths this cache lacks (plate-MP1): left as it is" in said
+        assert is_cached(NAME) and not is_cached("plate-MP1")
+        assert (out / "truth.md").read_text() == both
+        assert main(["truth", NAME, "--out", str(out), "--force"]) == 0
+        assert reported((out / "truth.md").read_text()) == [NAME]
+    finally:
+        remove_case("plate-MP1")

@@ -15,7 +15,9 @@ the cache when they are there, else as not yet computed with their expected cost
 than one case to compute, one rank and --jobs N > 1 (default: the cores, at most 2), the cases
 run N at a time in worker processes (workflows/truth/jobs.py). --quick: rod n = 1, 2, 4 and
 block N = 10, 20, 40 to T = 1 s (30 steps), a check of the workflow, cached under its own key;
-it never replaces a full truth.md (--force does).
+it never replaces a full truth.md (--force does). Nor does a run whose cache lacks truths that
+truth.md reports as computed (a fresh machine's, in a clone's results/): it computes and caches
+the cases named and leaves truth.md as it is, saying so (--force writes it from this cache).
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from tissuebench.workflows.truth.report import (
     fmt,
     markdown,
     quick_levels,
+    reported,
     summary,
     sweep_failures,
     write_csv,
@@ -83,7 +86,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help=f"{quick_levels()}, {QUICK_STEPS} steps (T = 1 s): checks "
         "the workflow; never replaces a full truth.md",
     )
-    p.add_argument("--force", action="store_true", help="let a --quick run replace a full truth.md")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="let a --quick run replace a full truth.md, and a run whose cache lacks truths it "
+        "reports",
+    )
     p.add_argument(
         "--jobs",
         type=int,
@@ -115,6 +123,18 @@ def check_target(out: Path, quick: bool, force: bool) -> None:
         raise OutputError(
             f"{md}: holds the full truth; a --quick run does not replace it (--force does)"
         )
+
+
+def dropped(out: Path, summaries: dict) -> list[str]:
+    """The cases a full truth.md in `out` reports as computed that `summaries` lack (this cache
+    lacks them: a fresh machine, another $TISSUEBENCH_CACHE): writing it would lose them."""
+    try:
+        text = (out / f"{NAME}.md").read_text(errors="replace")
+    except OSError:
+        return []
+    if text.split("\n", 1)[0] != MARKER:
+        return []
+    return [c for c in reported(text) if c not in summaries]
 
 
 def main(args: argparse.Namespace) -> int:
@@ -176,6 +196,15 @@ def main(args: argparse.Namespace) -> int:
                 )
         samples = None
         interrupt.checkpoint(comm)
+
+    lost = [] if args.quick or args.force else dropped(out, summaries)
+    if lost:  # the cases named are cached all the same
+        say(
+            f"truth: {out / NAME}.md reports truths this cache lacks ({', '.join(lost)}): left "
+            "as it is (--force writes it from this cache alone, --out DIR elsewhere)"
+        )
+        interrupt.will_write([])
+        return 1 if failed else 0
 
     def write():  # one set: both staged with the manifest, then renamed (a full disk: the old)
         text = markdown(summaries, args.quick, names, comm.size, session)

@@ -495,6 +495,17 @@ def markdown(summaries: dict, quick: bool, names: list[str], ranks: int, session
     return "\n".join(lines)
 
 
+def reported(text: str) -> list[str]:
+    """The cases a truth.md (markdown()'s text) reports as computed: those whose row in its
+    table gives a finest level."""
+    cells = (line.split("|") for line in text.splitlines() if line.startswith("| "))
+    return [
+        c[1].strip()
+        for c in cells
+        if len(c) > 2 and c[1].strip() in CASES and c[2].strip()[:1].isdigit()
+    ]
+
+
 def csv_rows(summaries: dict) -> list[list]:
     """case,level,dofs,time,u_x,u_y,u_z: the tip at whole seconds on every level of the cases
     with a probe, the finest labelled `truth`."""
