@@ -176,7 +176,7 @@ def small(argv: list[str], folder: Path) -> tuple[list[str] | None, str | None]:
     if command == "bench" and "paths" in argv:
         return None, (
             "bench --only paths: the user's commands timed whole, a first paper among them (about "
-            "20 minutes; no quick form: its committed run is results/performance-paths.md)"
+            "10 minutes; no quick form: its committed run is results/performance-paths.md)"
         )
     if command == "bench":
         return option(argv, "--quick", None), None

@@ -75,7 +75,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "it glued (SPEC 12), into DIR/performance-contact.md and .json; paths: the commands "
         "a user waits on, each timed whole (a first and a warm `paper`, `truth rod`, `run`'s "
         "phases, a 1e5-node `compare`, a 200-user leaderboard) with their printed estimates, "
-        "into DIR/performance-paths.md and .json (about 20 min)",
+        "into DIR/performance-paths.md and .json (about 10 min)",
     )
     p.add_argument(
         "--users",
