@@ -160,13 +160,13 @@ def test_a_missing_truth_names_the_command_that_computes_it(tmp_path, monkeypatc
         (mine,) = rows[board.name]
         assert mine.truth == {} and mine.truth_note == (
             "the truth rod is not computed on this machine: `tissuebench truth rod` computes it "
-            f"(about 62 s on one core, once), then `tissuebench leaderboard --out {out}` grades "
+            f"(about 65 s on one core, once), then `tissuebench leaderboard --out {out}` grades "
             "against it"
         )
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 + corrupt, err
         assert err[-1].startswith("tissuebench leaderboard: rod-MP3: 1 user row(s) not graded")
-        assert "`tissuebench truth rod` computes it (about 62 s" in err[-1]
+        assert "`tissuebench truth rod` computes it (about 65 s" in err[-1]
         if corrupt:
             assert str(store.cache_path("rod")) in err[0] and "cannot be read" in err[0]
 
@@ -217,7 +217,7 @@ def test_export_says_its_case_and_the_compare_line(tmp_path):
     lines = done.stdout.strip().splitlines()
     assert lines[-2] == (
         "leaderboard case: rod-MP3; its truth rod is computed once by `tissuebench truth rod` "
-        "(about 62 s on one core) before the leaderboard grades against it"
+        "(about 65 s on one core) before the leaderboard grades against it"
     )
     assert lines[-1].startswith(
         f"next: run your simulator; tissuebench compare {tmp_path / 'rod.reference.xdmf'} "

@@ -39,16 +39,16 @@ def test_a_first_run_says_which_truths_it_computes_and_how_long(cache):
     assert paper_truth.missing(COMM) == ["rod", "block-MP1-w0.2", "block-MP2-w0.2"]
     line = paper_truth.first_run_line(paper_truth.missing(COMM))
     assert line == (
-        "paper: the truths rod (about 62 s), block-MP1-w0.2 (about 2 min), block-MP2-w0.2 "
-        "(about 9 min) are not cached on this machine: computed once in this run, after the "
-        f"paper's cases (about 13 min in all on one core); later runs read them from "
+        "paper: the truths rod (about 65 s), block-MP1-w0.2 (about 83 s), block-MP2-w0.2 "
+        "(about 4 min) are not cached on this machine: computed once in this run, after the "
+        f"paper's cases (about 7 min in all on one core); later runs read them from "
         f"{store.cache_dir()}"
     )
     # two processes: each linear case's runs side by side (split.py), one case after another,
-    # each as long as its busiest process, then 10 s in one: 0.62 x 52 + 0.54 x 136 + 0.54 x 549
-    # + 3 x 10 s = 434 s; beside the paper's own process, 3 on the 2 cores: x 3/2, 651 s
+    # each as long as its busiest process, then 10 s in one: 0.62 x 55 + 0.54 x 73 + 0.54 x 259
+    # + 3 x 10 s = 243 s; beside the paper's own process, 3 on the 2 cores: x 3/2, 365 s
     assert (
-        "computed once in this run, 2 processes at a time beside the paper's cases (about 11 min "
+        "computed once in this run, 2 processes at a time beside the paper's cases (about 6 min "
         "here)"
     ) in paper_truth.first_run_line(paper_truth.missing(COMM), jobs=2)
     store.truth_samples("rod", comm=COMM)

@@ -24,7 +24,7 @@ substitutions (`small`), which keep the whole block to a few minutes on one core
   beyond this test's few minutes); without it the line is not run and a warning says so;
 - `make bench`: `tissuebench bench --quick` (what it runs), where the bench extra is installed;
   `bench --only explicit-models`: its `--quick`; `bench --only paths` times the user's commands
-  whole (a first `paper` among them: about 20 minutes, no quick form) and is not run.
+  whole (a first `paper` among them: about 10 minutes, no quick form) and is not run.
 
 A line whose tool is missing here (ccx for the CalculiX line, the bench extra for `make bench`)
 or whose truths are not computed here (`paper`, `frontier` and `compare truth:rod` grade
@@ -141,7 +141,7 @@ def small(argv: list[str], folder: Path) -> tuple[list[str] | None, str | None]:
             for w in argv
         ]
         if "truth:rod" in argv and not_cached("rod"):
-            return None, "compare truth:rod: the truth rod is not computed here (about 62 s)"
+            return None, "compare truth:rod: the truth rod is not computed here (about 65 s)"
         if "mine.pvd" in argv:
             write_pvd(folder / "mine.pvd", folder / "runs" / "rod" / "explicit-lumped.xdmf")
         return argv, None
@@ -155,7 +155,7 @@ def small(argv: list[str], folder: Path) -> tuple[list[str] | None, str | None]:
         return option(argv, "--quick", None), None
     if command == "frontier":
         if not_cached("rod"):
-            return None, "frontier: the truth rod is not computed here (about 62 s)"
+            return None, "frontier: the truth rod is not computed here (about 65 s)"
         return option(option(argv, "--quick", None), "--cases", "rod"), None
     if command == "sensitivity":
         return option(argv, "--quick", None), None

@@ -12,7 +12,7 @@ section of results/README.md that report.truth_section renders.
 The runs are case folders of OUT (workflows/study.run_case: the output rule, skipped when
 complete): truth-rod-MP3 and truth-block-w0.2. Each truth is read from its cache or, where it
 is not cached on this machine (a first run), computed there once (solvers/truth/store.py:
-about 62 s for the rod, 146 s and 559 s for the blocks here), with its expected time and its
+about 65 s for the rod, 83 s and 269 s for the blocks on one core), with its expected time and its
 progress said first.
 
 Units: E_n and E_s dimensionless, E_i in m^d (m^2 on the block, m^3 on the rod) as SPEC 6.
