@@ -192,17 +192,18 @@ class JacobianRecord:
 
 @dataclass
 class _LinearSolver:
-    """A residual linear in the unknown (form R), its factorised Jacobian A (KSP) and the
-    vector of its residual b; `checked`: its first solve's residual was checked."""
+    """A residual linear in the unknown (form R), its factorised Jacobian A (KSP), the vectors
+    of its residual b and correction dx; `checked`: its first solve's residual was checked."""
 
     R: Any
     A: PETSc.Mat
     ksp: PETSc.KSP
     b: PETSc.Vec
+    dx: PETSc.Vec
     checked: bool = False
 
     def destroy(self) -> None:
-        for obj in (self.A, self.ksp, self.b):
+        for obj in (self.A, self.ksp, self.b, self.dx):
             obj.destroy()
 
 
@@ -389,19 +390,19 @@ class Truth:
             A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
             pc.setType("cholesky")
             pc.setFactorSolverType("mumps")
-        return _LinearSolver(R, A, ksp, dolfinx.fem.petsc.create_vector(self.W))
+        b = dolfinx.fem.petsc.create_vector(self.W)
+        return _LinearSolver(R, A, ksp, b, b.duplicate())
 
     def _linear_solve(self, solver, U) -> None:
         """One Newton step on a residual linear in U: U -= J^-1 R(U) by `solver`
         (_linear_solver); U's constrained dofs must hold their values. The first solve of a
         factorisation checks it: its relative residual at most CHOLESKY["residual"]."""
-        b = solver.b
+        b, dx = solver.b, solver.dx
         with b.localForm() as loc:
             loc.set(0.0)
         dolfinx.fem.petsc.assemble_vector(b, solver.R)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         dolfinx.fem.petsc.set_bc(b, [self.bc0])
-        dx = b.duplicate()
         solver.ksp.solve(b, dx)
         if solver.ksp.getConvergedReason() <= 0:
             raise RuntimeError(
@@ -415,13 +416,12 @@ class Truth:
             r.destroy()
             if not error <= CHOLESKY["residual"]:
                 raise RuntimeError(
-                    f"truth: the factorised step matrix solves with relative residual "
+                    f"truth: a factorised matrix solves with relative residual "
                     f"{error:.1e} (> {CHOLESKY['residual']:.0e})"
                 )
             solver.checked = True
         U.x.petsc_vec.axpy(-1.0, dx)
         U.x.scatter_forward()
-        dx.destroy()
 
     def _set_u(self, U, values_V):
         """Write V's values into U's displacement part (owned and ghost)."""
