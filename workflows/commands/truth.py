@@ -113,28 +113,29 @@ def requested(names: list[str]) -> list[str]:
     return [c for c in CASES if "all" in names or c in names]
 
 
+def full_report(out: Path) -> str | None:
+    """The text of out/truth.md where it holds the full truth (not a quick one), else None."""
+    try:
+        text = (out / f"{NAME}.md").read_text(errors="replace")
+    except OSError:
+        return None
+    return text if text.split("\n", 1)[0] == MARKER else None
+
+
 def check_target(out: Path, quick: bool, force: bool) -> None:
     """Refuse, without force, to replace a full truth.md by a quick one."""
-    md = out / f"{NAME}.md"
-    if not md.is_file():
-        return
-    first = md.read_text(errors="replace").split("\n", 1)[0]
-    if quick and not force and first == MARKER:
+    if quick and not force and full_report(out) is not None:
         raise OutputError(
-            f"{md}: holds the full truth; a --quick run does not replace it (--force does)"
+            f"{out / NAME}.md: holds the full truth; a --quick run does not replace it "
+            "(--force does)"
         )
 
 
 def dropped(out: Path, summaries: dict) -> list[str]:
     """The cases a full truth.md in `out` reports as computed that `summaries` lack (this cache
     lacks them: a fresh machine, another $TISSUEBENCH_CACHE): writing it would lose them."""
-    try:
-        text = (out / f"{NAME}.md").read_text(errors="replace")
-    except OSError:
-        return []
-    if text.split("\n", 1)[0] != MARKER:
-        return []
-    return [c for c in reported(text) if c not in summaries]
+    text = full_report(out)
+    return [] if text is None else [c for c in reported(text) if c not in summaries]
 
 
 def main(args: argparse.Namespace) -> int:
@@ -197,7 +198,10 @@ def main(args: argparse.Namespace) -> int:
         samples = None
         interrupt.checkpoint(comm)
 
-    lost = [] if args.quick or args.force else dropped(out, summaries)
+    # rank 0 reads the file and every rank takes its answer: they return or write together
+    lost = comm.bcast(
+        dropped(out, summaries) if comm.rank == 0 and not (args.quick or args.force) else []
+    )
     if lost:  # the cases named are cached all the same
         say(
             f"truth: {out / NAME}.md reports truths this cache lacks ({', '.join(lost)}): left "
