@@ -31,7 +31,13 @@ A child process (an outside simulator, `run_child`) is stopped at once on a sign
 A signal raised inside a Python callback of PETSc or SLEPc (a Newton solve's residual) comes
 out of the solve as the library's error with the signal as its cause: `calling_back` raises
 the signal again instead, around the solves (`guard_solves` for DOLFINx's) and around the
-whole command.
+whole command; one raised there and swallowed, or turned into an error that does not name it,
+is raised by `calling_back` when the solve returns.
+
+No signal is lost at the end: one that nothing acted on (recorded after the last checkpoint,
+raised and lost, or come while the handlers are put back) is returned by `install`'s restore,
+and the command line ends with its status (workflows/cli.py). A worker process of the command
+(`run_worker`) ends likewise.
 
 This module imports nothing heavy (no MPI): the command line uses it before its imports.
 """
@@ -40,13 +46,14 @@ from __future__ import annotations
 
 import functools
 import gc
+import os
 import signal
 import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -68,6 +75,7 @@ _depth = 0  # critical sections open (`deferred`)
 _late = False  # GRACE passed inside a critical section: rank 0 raises when it ends
 _together = False  # the last signal was raised on every rank at one point
 _unwritten: list[str] = []  # what the command has still to write (`will_write`)
+_restoring = False  # the old handlers are being put back (`install`'s restore): record only
 
 
 class Terminated(BaseException):
@@ -138,6 +146,8 @@ def _handle(signum, frame):
     global _pending
     first = not _pending
     _pending = _pending or signum
+    if _restoring:  # passed on by restore() to the handlers it puts back
+        return
     if not _parallel and _depth == 0:
         raise _take()
     if _parallel and first and _rank0:
@@ -146,7 +156,7 @@ def _handle(signum, frame):
 
 def _alarm(signum, frame):
     global _late
-    if not _pending:
+    if not _pending or _restoring:
         return
     if _depth:
         _late = True  # raised when the critical section ends
@@ -154,15 +164,20 @@ def _alarm(signum, frame):
     raise _take()
 
 
-def install(comm: MPI.Comm, received: int = 0) -> Callable[[], None]:
+def install(comm: MPI.Comm, received: int = 0) -> Callable[[], int]:
     """Install the handlers for a job on `comm` (an mpi4py communicator). `received` is a
     signal recorded before, by the command line's first handler, which may also carry it as
-    its attribute `received`. Return the function that restores the old handlers."""
+    its attribute `received` (taken over here: set back to 0). Return the function that
+    restores the old handlers; it returns the signal that nothing acted on (`restore`)."""
     global _pending, _together, _parallel, _rank0, _depth, _late, _unwritten, _raised
+    global _restoring
     names = (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)
     previous = {s: signal.getsignal(s) for s in names}
     received = received or getattr(previous[signal.SIGINT], "received", 0)
+    if received and hasattr(previous[signal.SIGINT], "received"):
+        setattr(previous[signal.SIGINT], "received", 0)  # a function attribute: by name
     _pending, _together, _late, _unwritten, _raised = 0, False, False, [], 0
+    _restoring = False
     _parallel, _rank0, _depth = comm.size > 1, comm.rank == 0, 0
     signal.signal(signal.SIGALRM, _alarm)
     signal.signal(signal.SIGINT, _handle)
@@ -174,15 +189,23 @@ def install(comm: MPI.Comm, received: int = 0) -> Callable[[], None]:
         if _parallel and _rank0:
             signal.setitimer(signal.ITIMER_REAL, GRACE)
 
-    def restore():
-        global _pending, _depth, _raised
+    def restore() -> int:
+        """Put the old handlers back. Return the signal received and not raised (under
+        mpiexec after the last checkpoint; while restoring), or raised and not yet taken
+        (`_lost`), 0 if none: when the caller has not ended with a signal's status, it passes
+        it on to the handlers put back (the command line's `_record` ends the process), so
+        that no signal is lost."""
+        global _pending, _depth, _raised, _restoring
+        _restoring = True  # from here on, _handle only records (no exception, no alarm)
         signal.setitimer(signal.ITIMER_REAL, 0)
         for number, old in previous.items():
             signal.signal(number, old)
+        left = _pending or _raised  # read after the last of ours is gone: none comes later
         if _raised:  # what the signal left (in reference cycles) goes, unsaid (`_unraisable`)
             gc.collect()
         sys.unraisablehook = previous_hook
-        _pending, _depth, _raised = 0, 0, 0
+        _pending, _depth, _raised, _restoring = 0, 0, 0, False
+        return left
 
     return restore
 
@@ -300,16 +323,27 @@ def calling_back() -> Iterator[None]:
     """Around a solve that calls back into Python (PETSc's SNES and KSP, SLEPc's EPS): a
     signal raised inside a callback reaches the caller as the library's error, which the
     caller would take for a failed solve (a divergence, a load step halved, a static solve
-    not reported) or print as a traceback; it is raised here as the signal itself."""
+    not reported) or print as a traceback; it is raised here as the signal itself. So is a
+    signal raised inside and lost there (swallowed by the library, or turned into an error
+    that does not name it as its cause): once control is back in Python, at the end of the
+    block, whether it ends with an error or not."""
     try:
         yield
     except Exception as err:
         signalled = signal_behind(err)
-        if signalled is None:
+        if signalled is not None:
+            signum = signal_of(signalled)
+            if isinstance(signalled, Interrupted):
+                fresh: BaseException = Interrupted(signum)
+            else:
+                fresh = exception(signum)
+        elif _raised:  # raised in a callback, lost, and this error came after it
+            fresh = exception(_raised)
+        else:
             raise
-        signum = signal_of(signalled)
-        fresh = Interrupted(signum) if isinstance(signalled, Interrupted) else exception(signum)
     else:
+        if _lost():  # raised in a callback and swallowed: the solve went on to its end
+            raise exception(_raised)
         return
     raise fresh  # out of the `except`: the library's error and its frames go now
 
@@ -349,6 +383,40 @@ def guard_solves() -> None:
 
     setattr(guarded, "calling_back", True)  # a function attribute, which mypy does not model
     dolfinx.fem.petsc.NonlinearProblem.solve = guarded  # type: ignore[method-assign]
+
+
+def run_worker(work: Callable[[], None], name: str) -> NoReturn:
+    """Run a worker process's work (a split truth's unit, solvers/truth/worker.py) on one rank
+    and end the process: 0 when done; on SIGINT or SIGTERM at any moment (in a PETSc
+    callback, swallowed there, or as the work ends) 130 or 143 with one line on stderr,
+    `name: interrupted (SIGINT)`, never 0. Its parent stops it with SIGTERM (`stop_children`)
+    and says its own line."""
+    global _depth
+    from mpi4py import MPI
+
+    install(MPI.COMM_SELF)  # kept to the end: the handlers before may be PETSc's, not Python's
+    signum = 0
+    try:
+        with deferred():
+            guard_jit()
+            guard_solves()
+        with calling_back():
+            work()
+        checkpoint(MPI.COMM_SELF)  # one raised and lost, or recorded
+    except KeyboardInterrupt:
+        _depth += 1  # from here on a signal is only recorded (`_handle`), and read below
+        signum = signal.SIGINT
+    except Terminated:
+        _depth += 1
+        signum = signal.SIGTERM
+    else:
+        _depth += 1
+    sys.stdout.flush()
+    signum = signum or _pending or _raised
+    if signum:
+        print(f"{name}: {SAID[signum]}", file=sys.stderr)
+    sys.stderr.flush()
+    os._exit(STATUS[signum] if signum else 0)
 
 
 def run_child(command: list[str], timeout: float, **options) -> subprocess.CompletedProcess | None:

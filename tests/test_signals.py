@@ -182,6 +182,23 @@ def test_a_child_process_is_stopped_by_a_signal(handlers):
     assert interrupt.run_child(["sleep", "30"], timeout=0.3) is None  # timed out, stopped
 
 
+def test_restoring_the_handlers_passes_on_a_signal_that_nothing_acted_on():
+    """Under mpiexec a signal after a command's last checkpoint is only recorded; restoring
+    the handlers dropped it (the job ended 0). restore() now returns it, for the command
+    line to act on."""
+    from tissuebench.core import interrupt
+
+    restore = interrupt.install(SimpleNamespace(size=2, rank=1))  # rank 1: no GRACE alarm
+    try:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.05)
+        assert interrupt.pending() == signal.SIGTERM  # recorded, not raised
+    finally:
+        left = restore()
+    assert left == signal.SIGTERM
+    assert interrupt.pending() == 0
+
+
 # --- the command line --------------------------------------------------------------------------
 
 
@@ -250,6 +267,48 @@ def after_line(process, text):
 
 def files(folder):
     return sorted(str(p.relative_to(folder)) for p in Path(folder).rglob("*"))
+
+
+# A command that succeeds, run as the installed `tissuebench` runs it; after it has returned,
+# the first garbage collection (the command line's own, in its `finally`: none runs by itself
+# once `gc.disable()`) sends SIGTERM to the process from its start.
+SIGNAL_AS_IT_ENDS = """
+import gc, os, signal, sys, types
+sys.argv[0] = "tissuebench"  # cli.py installs its first handlers, as for the command
+from tissuebench.workflows import cli
+
+def done(args):
+    gc.disable()
+
+    def send(phase, info):
+        if phase == "start" and send in gc.callbacks:
+            gc.callbacks.remove(send)
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    gc.callbacks.append(send)
+    print("returned", flush=True)
+    return 0
+
+module = types.ModuleType("signal_test.done")
+module.add_parser = lambda sub: sub.add_parser("done").set_defaults(func=done)
+sys.modules[module.__name__] = module
+cli.COMMANDS.append(module.__name__)
+cli.main(["done"])
+"""
+
+
+def test_a_signal_as_the_command_line_ends_is_not_lost():
+    """Red team: the `finally` of the command line put back the handler that only records a
+    signal, then collected garbage (about 150 ms), then said the command had finished: a
+    SIGTERM in between was recorded and never read, the process ended 0 with no line (3 of
+    3 signals 0 to 0.08 s after the results were in place). Now: 143 and one line."""
+    cmd, env = job(["-c", SIGNAL_AS_IT_ENDS])
+    done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert done.stdout.strip() == "returned", (done.stdout, done.stderr[-3000:])
+    assert done.returncode == 143, (done.returncode, done.stderr[-3000:])
+    assert lines_of(done.stderr) == [
+        "tissuebench done: terminated (SIGTERM) as it ended; its output is complete"
+    ], done.stderr[-3000:]
 
 
 @pytest.mark.parametrize(
@@ -463,6 +522,98 @@ def test_a_signal_in_a_petsc_callback_is_raised_as_the_signal(handlers):
     with pytest.raises(ValueError):  # any other failure goes through as it is
         with interrupt.calling_back():
             raise ValueError("not a signal")
+
+
+def test_a_signal_lost_in_a_petsc_callback_is_raised_when_the_solve_returns(handlers):
+    """A signal raised in a callback and swallowed there (a library's broad `except`), or
+    turned into an error that does not name it as its cause, must not let the solve's caller
+    go on (a run ended 0): `calling_back` raises it once the solve is back in Python."""
+    from petsc4py import PETSc
+
+    interrupt = handlers
+
+    def solve(then, sent=True):
+        def residual(snes, x, f):
+            try:
+                if sent:
+                    os.kill(os.getpid(), signal.SIGINT)  # the handler raises in this callback
+                    time.sleep(1)
+            except BaseException:
+                then()  # what the library does with it
+            x.copy(f)
+
+        snes = PETSc.SNES().create(PETSc.COMM_SELF)
+        x = PETSc.Vec().createSeq(3)
+        x.set(1.0)
+        snes.setFunction(residual, x.duplicate())
+        snes.setType("newtonls")
+        snes.solve(None, x)
+
+    def swallow():
+        pass
+
+    def fail():
+        raise RuntimeError("the solve failed")  # its context is the signal, not its cause
+
+    with pytest.raises(KeyboardInterrupt):
+        with interrupt.calling_back():
+            solve(swallow)
+    interrupt.acknowledge()
+    with pytest.raises(KeyboardInterrupt):
+        with interrupt.calling_back():
+            solve(fail)
+    interrupt.acknowledge()
+    with interrupt.calling_back():  # no signal: the solve returns as it is
+        solve(swallow, sent=False)
+
+
+# A worker's work (run_worker): a Newton solve whose residual sends the process a signal
+# (argv[1]: none, SIGINT or SIGTERM) and then, where argv[2] is "swallow", swallows the
+# exception that its handler raised there.
+WORKER = """
+import os, signal, sys, time
+from mpi4py import MPI  # noqa: F401 (before PETSc)
+from petsc4py import PETSc  # started with PETSc's own signal handlers, as a worker's imports do
+from tissuebench.core import interrupt
+
+def work():
+    def residual(snes, x, f):
+        try:
+            if sys.argv[1] != "none":
+                os.kill(os.getpid(), getattr(signal, sys.argv[1]))
+                time.sleep(1)
+        except BaseException:
+            if sys.argv[2] != "swallow":
+                raise
+        x.copy(f)
+
+    snes = PETSc.SNES().create(PETSc.COMM_SELF)
+    x = PETSc.Vec().createSeq(3)
+    x.set(1.0)
+    snes.setFunction(residual, x.duplicate())
+    snes.setType("newtonls")
+    snes.solve(None, x)
+    print("solved", flush=True)
+
+interrupt.run_worker(work, "truth worker")
+"""
+
+
+@pytest.mark.parametrize(
+    "sent, then, status",
+    [("none", "raise", 0), ("SIGINT", "raise", 130), ("SIGTERM", "swallow", 143)],
+)
+def test_a_worker_ends_with_the_signal(sent, then, status):
+    """A split truth's worker: a signal in its Newton solve, raised through PETSc or swallowed
+    there, ends it with the signal's status and one line, never 0 with its file written."""
+    cmd, env = job(["-c", WORKER, sent, then])
+    done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == status, (done.returncode, done.stderr[-3000:])
+    if status == 0:
+        assert done.stdout == "solved\n" and done.stderr == "", done.stderr[-3000:]
+    else:
+        said = SAID[getattr(signal, sent)]
+        assert lines_of(done.stderr) == [f"truth worker: {said}"], done.stderr[-3000:]
 
 
 def ended_cleanly(process, sig, timeout=300):

@@ -19,15 +19,17 @@ from pathlib import Path
 def _record(signum, frame):
     """The command line's first handler, before the heavy imports: records a signal, which
     main() raises once MPI is up (core/interrupt.py), instead of a traceback (SIGINT) or
-    a silent death (SIGTERM). In force again once main() has returned, while the process
-    ends (`end`): a command that succeeded ends at once with the signal's status (rank 0's,
-    under mpiexec) and says that its output is complete."""
+    a silent death (SIGTERM). In force again from the end of the command on, while the
+    process ends (`end`): once `finished` is set (command_line's `finally`), a command that
+    did not end with a signal's status ends at once with this one's (rank 0's, under
+    mpiexec) and one line, which says whether its output is complete."""
     if _record.finished is not None:
-        command, rank0 = _record.finished
+        command, rank0, complete = _record.finished
         if not rank0:  # rank 0 says it and sets the status; the others end as they were
             return
         said = "interrupted (SIGINT)" if signum == signal.SIGINT else "terminated (SIGTERM)"
-        print(f"{command}: {said} as it ended; its output is complete", file=sys.stderr)
+        done = "; its output is complete" if complete else ""
+        print(f"{command}: {said} as it ended{done}", file=sys.stderr)
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(130 if signum == signal.SIGINT else 143)
@@ -163,6 +165,7 @@ def command_line(argv: list[str] | None = None) -> int:
     command = "tissuebench"
     ended = False  # the command returned: its output is complete
     succeeded = False
+    taken = False  # the command ends with a signal's status (and its line)
 
     def say(text, alone=False):
         if comm.rank == 0 or alone:
@@ -209,6 +212,7 @@ def command_line(argv: list[str] | None = None) -> int:
             return 1
         signum = interrupt.signal_of(failure)  # acknowledged by restore(), below
         status = interrupt.STATUS[signum]
+        taken = True
         if ended:
             say(f"{interrupt.SAID[signum]} as it ended; its output is complete")
         else:
@@ -230,11 +234,22 @@ def command_line(argv: list[str] | None = None) -> int:
             comm.Abort(1)
         raise
     finally:
-        restore()
-        gc.collect()
+        # No signal is lost from here to the process's end: one that nothing acted on (under
+        # mpiexec, after the last checkpoint; raised and swallowed, in a PETSc callback or a
+        # __del__; during restore()) is passed on to the handlers restore() puts back, and
+        # _record acts on any that comes once `finished` is set. When the command ended with a
+        # signal's status (taken), that status and its line stand.
+        try:
+            left = restore()
+        except signalled:  # raised as restore() began, before its first line: it did not run
+            left = restore()  # the signal raised and not taken
         first = signal.getsignal(signal.SIGINT)  # _record when run as the command line
-        if succeeded and hasattr(first, "finished"):
-            setattr(first, "finished", (command, comm.rank == 0))
+        if hasattr(first, "finished") and not taken:
+            setattr(first, "finished", (command, comm.rank == 0, succeeded))
+            left = left or getattr(first, "received")  # recorded before `finished` was set
+        if left and not taken:
+            signal.raise_signal(left)  # _record: its line and status, now
+        gc.collect()  # the command's objects go while PETSc is up (a signal: _record acts)
 
 
 if __name__ == "__main__":  # python -m: run the imported module, not a second copy of it
