@@ -9,6 +9,7 @@ import dolfinx.mesh
 import numpy as np
 
 from tissuebench.meshes.gmshio import TaggedMesh
+from tissuebench.meshes.tools import Tool
 
 
 @dataclass
@@ -24,16 +25,19 @@ class Constraint:
 
 @dataclass
 class Contact:
-    """A rigid tool in frictionless penalty contact with the body (SPEC 12): the boundary
-    facets `facets` (local indices, dimension gdim - 1) may touch the half-stadium of radius
-    `radius` (m) centred at `centre(t)` (m); the penalty is k = kappa E / edge_size (Pa/m),
-    edge_size the smallest cell size along those facets (m)."""
+    """A rigid tool in frictionless penalty contact with the body (SPEC 12, 13): the boundary
+    facets `facets` (local indices, dimension gdim - 1) may touch `tool` (meshes/tools/); the
+    penalty is k = kappa E / edge_size (Pa/m), edge_size the smallest cell size along those
+    facets (m)."""
 
     facets: np.ndarray
-    centre: Callable[[float], np.ndarray]
-    radius: float
+    tool: Tool
     kappa: float
     edge_size: float
+
+    def centre(self, t: float) -> np.ndarray:
+        """The tool's centre c(t) (m) at time t (s)."""
+        return self.tool.centre(t)
 
 
 @dataclass
@@ -85,14 +89,25 @@ class Entry:
     probe_label: str = ""  # its name in tables and figures
     # the undeformed body: the box [0, box[0]] x [0, box[1]] (x [0, box[2]]), m
     box: tuple[float, ...] = ()
+    # the undeformed body when it is no box, as the export states it ({"domain": "cylinder",
+    # ...}: its shape's words and numbers, m, and "extents", the bounding box [[min, max] per
+    # axis]); {} for the box above
+    body: dict = field(default_factory=dict)
     # its constrained regions as predicates: posing(**options) -> meshes.regions.Posing (None:
     # the benchmark states none, so that it is neither exported with a geometry nor posed on a
     # mesh that is not ours)
     posing: Callable[..., Any] | None = None
-    # a rigid tool in contact with it (SPEC 12) as the export states it: tool(mesh_size,
-    # **options) -> the JSON's `contact` object (plain data: the tool's shape and motion, the
-    # law, our penalty, what is graded); None for a benchmark without contact
-    tool: Callable[..., dict] | None = None
+    # a rigid tool in contact with it (SPEC 12, 13): tool(**options) -> its Tool (meshes/tools/)
+    # at the posing's options (load_scale); None for a benchmark without contact
+    tool: Callable[..., Tool] | None = None
+    # the contact as the export states it: contact_export(mesh_size, **options) -> the JSON's
+    # `contact` object (plain data: the tool's shape and motion, the law, our penalty, what is
+    # graded); None for a benchmark without contact
+    contact_export: Callable[..., dict] | None = None
+    # the physical group of our mesh that may touch the tool, and our mesh graded toward where
+    # the tool touches: graded(h_near, h_far=..., band=..., comm=...) -> TaggedMesh (m)
+    contact_surface: str = ""
+    graded: Callable[..., TaggedMesh] | None = None
     # the truth's hierarchy (SPEC 10): mesh sizes, each twice the last, and the quick ones (CI
     # and tests, never the truth) with about how long a quick linear case takes here, s
     truth_levels: tuple[int, ...] = ()

@@ -14,8 +14,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import numpy as np
-
 from tissuebench.meshes.benchmark import (
     LOAD_SCALE_HELP,
     Benchmark,
@@ -27,8 +25,9 @@ from tissuebench.meshes.benchmark import (
     shape_options,
 )
 from tissuebench.meshes.block import LENGTH, NEEDLE, block_mesh, needle_motion
-from tissuebench.meshes.gmshio import MeshError, TaggedMesh, start_gmsh, to_dolfinx
-from tissuebench.meshes.regions import Posing, Region, Term, Tool
+from tissuebench.meshes.gmshio import MeshError, TaggedMesh, gmsh_options, start_gmsh, to_dolfinx
+from tissuebench.meshes.regions import Posing, Region, Term, Touching
+from tissuebench.meshes.tools import HalfStadium
 
 RADIUS = 0.1  # m, R of SPEC 12 (w = 2R = 0.2 m)
 KAPPA = 10.0  # SPEC 12: the penalty k = kappa E / h_e of our algorithms, by default
@@ -36,10 +35,6 @@ KAPPA = 10.0  # SPEC 12: the penalty k = kappa E / h_e of our algorithms, by def
 # 12: 1.5 R, m)
 SWEPT = 1.5 * RADIUS
 
-SHAPE = (
-    "the half-stadium S(t): the disc of radius R centred at c(t), with the strip "
-    "{x >= c_x(t), |y - 0.5| <= R} to its right"
-)
 LAW = (
     "frictionless contact on the right edge x = 1 (free otherwise): the gap g_n, the signed "
     "distance (m, negative inside) from the deformed point x = X + u to S(t), satisfies "
@@ -48,27 +43,16 @@ LAW = (
 )
 
 
-def centre(t: float, scale: float = 1.0) -> np.ndarray:
-    """The needle's centre c(t) = (1 + R, 0.5) + s g(t) (m) at time t (s), load scale s."""
-    return np.array([NEEDLE[0] + RADIUS, NEEDLE[1]]) + scale * needle_motion(t)[0]
-
-
-def signed_distance(points: np.ndarray, c: np.ndarray, radius: float = RADIUS) -> np.ndarray:
-    """The signed distance (m, negative inside) from each point (n, 2), m, to the
-    half-stadium of radius `radius` (m) centred at c (m)."""
-    dx = points[:, 0] - c[0]
-    dy = points[:, 1] - c[1]
-    return np.where(dx >= 0, np.abs(dy), np.hypot(dx, dy)) - radius
-
-
-def outward_normal(points: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """The unit outward normal (n, 2) of the half-stadium centred at c (m) at the point of its
-    boundary closest to each point (n, 2), m (the gradient of signed_distance)."""
-    dx = points[:, 0] - c[0]
-    dy = points[:, 1] - c[1]
-    r = np.maximum(np.hypot(dx, dy), 1e-300)
-    flank = dx >= 0
-    return np.stack([np.where(flank, 0.0, dx / r), np.where(flank, np.sign(dy), dy / r)], axis=1)
+def needle(load_scale: float = 1.0) -> HalfStadium:
+    """The needle (SPEC 12) at load scale s: the half-stadium of radius R whose centre moves as
+    c(t) = (1 + R, 0.5) + s g(t) m, g the block's needle motion (SPEC 4)."""
+    check_load_scale(load_scale)
+    return HalfStadium(
+        radius=RADIUS,
+        c0=(NEEDLE[0] + RADIUS, NEEDLE[1]),
+        motion=lambda t: needle_motion(t)[:2],
+        scale=float(load_scale),
+    )
 
 
 def check_kappa(kappa: object) -> None:
@@ -121,15 +105,15 @@ def graded_block(
         field.setNumber(threshold, "DistMin", 0.0)
         field.setNumber(threshold, "DistMax", grow)
         field.setAsBackgroundMesh(threshold)
-        for name in ("MeshSizeFromPoints", "MeshSizeFromCurvature", "MeshSizeExtendFromBoundary"):
-            gmsh.option.setNumber(f"Mesh.{name}", 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
         gmsh.model.addPhysicalGroup(2, [surface], 1, name="block")
         gmsh.model.addPhysicalGroup(1, [left], 1, name="left")
         gmsh.model.addPhysicalGroup(1, [right_low, contact, right_high], 2, name="right")
         gmsh.model.addPhysicalGroup(1, [bottom], 3, name="bottom")
         gmsh.model.addPhysicalGroup(1, [top], 4, name="top")
-        gmsh.model.mesh.generate(2)
+        sizes = ("MeshSizeFromPoints", "MeshSizeFromCurvature", "MeshSizeExtendFromBoundary")
+        options = {f"Mesh.{name}": 0.0 for name in sizes} | {"Mesh.Algorithm": 6.0}  # Frontal
+        with gmsh_options(options):  # the size from the field alone, Frontal-Delaunay
+            gmsh.model.mesh.generate(2)
     return to_dolfinx(comm, gdim=2)
 
 
@@ -167,8 +151,7 @@ def benchmark(
         options=options,
         contact=Contact(
             facets=tagged.entities("right")[1],
-            centre=lambda t: centre(t, load_scale),
-            radius=RADIUS,
+            tool=needle(load_scale),
             kappa=float(kappa),
             edge_size=LENGTH / mesh_size,
         ),
@@ -188,16 +171,11 @@ def posing(load_scale: float = 1.0, kappa: float = KAPPA) -> Posing:
         ),
         (0.0, 0.0),
         LENGTH,
-        tool=Tool(
-            surface=(Term(0, NEEDLE[0]),),
-            centre=lambda t: centre(t, load_scale),
-            radius=RADIUS,
-            kappa=float(kappa),
-        ),
+        tool=Touching(surface=(Term(0, NEEDLE[0]),), tool=needle(load_scale), kappa=float(kappa)),
     )
 
 
-def tool(mesh_size: int, load_scale: float = 1.0, kappa: float = KAPPA) -> dict:
+def contact_export(mesh_size: int, load_scale: float = 1.0, kappa: float = KAPPA) -> dict:
     """The needle as the export states it (the JSON's `contact` object, SI units): its shape,
     its centre's motion c(t) = c0 + s g(t) with g's parameters, the contact law, our penalty
     k = kappa E / h_e (h_e = 1/N m, our right edge's cell size) and what is graded."""
@@ -205,20 +183,12 @@ def tool(mesh_size: int, load_scale: float = 1.0, kappa: float = KAPPA) -> dict:
     check_kappa(kappa)
     speed = needle_motion(0.0)[1]  # m/s, g's velocity until it stops
     depth = needle_motion(float("inf"))[0]  # m, g where it stops
-    c0 = centre(0.0, load_scale)
+    tool = needle(load_scale)
+    c0 = tool.centre(0.0)
     return {
         "what": "the needle as a rigid tool in frictionless contact with the block's right "
         "edge: nothing is attached to it; it pushes the edge only where the tissue touches it",
-        "shape": {
-            "kind": "half-stadium",
-            "words": SHAPE,
-            "radius": RADIUS,
-            "signed_distance": "g(x) = |x_y - c_y| - R where x_x >= c_x, else |x - c| - R "
-            "(m, negative inside): the distance from x to the ray {c + (r, 0), r >= 0} minus R",
-            "outward_normal": "n(x) = (0, sign(x_y - c_y)) where x_x >= c_x, else "
-            "(x - c) / |x - c|: the gradient of g, the outward normal of S at its point closest "
-            "to x",
-        },
+        "shape": tool.shape(),
         "motion": {
             "centre": "c(t) = c0 + s g(t)",
             "c0": [float(v) for v in c0],
@@ -298,7 +268,10 @@ ENTRY = Entry(
     },
     box=(LENGTH, LENGTH),
     posing=posing,
-    tool=tool,
+    tool=lambda load_scale=1.0, **options: needle(load_scale),
+    contact_export=contact_export,
+    contact_surface="right",
+    graded=graded_block,
     title="Block and rigid needle (contact)",
     size_name="N",
     options_text=options_text,

@@ -8,16 +8,16 @@ over the candidate's right edge: its nodes whose reference X lies at the domain'
 each straight deformed segment between consecutive edge nodes sorted by Y, as our own runs
 measure it (solvers/contact.py Measures). A 3D slab one element thick (a simulator that has no
 plane strain) has its edge nodes on several z layers: each layer is one chain, taken in x, y.
-g_n is meshes/contact.py's signed distance to the half-stadium at c(t_i).
+g_n is the tool's signed distance (meshes/tools/) at its centre c(t_i).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
-from tissuebench.meshes.contact import RADIUS, signed_distance
+from tissuebench.meshes.tools import Tool
 
 SAMPLES = 9  # points a deformed edge segment (both ends included), as solvers/contact.py
 EDGE_TOLERANCE = 1e-9  # of the domain's size: a node with X this close to its right end is on it
@@ -40,11 +40,9 @@ def edge_chains(points: np.ndarray, right: float, size: float) -> list[np.ndarra
     return [layer[np.argsort(points[layer, 1], kind="stable")] for layer in layers]
 
 
-def edge_interpenetration(
-    deformed: Sequence[np.ndarray], centre: np.ndarray, radius: float = RADIUS
-) -> float:
+def edge_interpenetration(deformed: Sequence[np.ndarray], centre: np.ndarray, tool: Tool) -> float:
     """The largest -g_n (m, >= 0) over the deformed chains (each (k, 2), m, in edge order),
-    sampled at SAMPLES points a segment, against the needle centred at `centre` (m). NaN when a
+    sampled at SAMPLES points a segment, against `tool` centred at `centre` (m). NaN when a
     point is not finite."""
     s = np.linspace(0.0, 1.0, SAMPLES)[:, None, None]
     worst = 0.0
@@ -56,7 +54,7 @@ def edge_interpenetration(
             sampled = chain
         else:
             sampled = ((1 - s) * chain[None, :-1] + s * chain[None, 1:]).reshape(-1, 2)
-        g = signed_distance(sampled, centre, radius)
+        g = tool.signed_distance(sampled, centre)
         worst = max(worst, float(-g.min()))
     return worst
 
@@ -65,13 +63,12 @@ def interpenetration_curve(
     points: np.ndarray,
     displacements: Sequence[np.ndarray],
     times: np.ndarray,
-    centre: Callable[[float], np.ndarray],
+    tool: Tool,
     right: float = 1.0,
     size: float = 1.0,
-    radius: float = RADIUS,
 ) -> np.ndarray:
     """The interpenetration (m) at each step of a series: points (n, d) m, displacements one
-    (n, d) array (m) per time of `times` (s), `centre(t)` the needle's centre (m); `right`
+    (n, d) array (m) per time of `times` (s), `tool` the rigid tool (its centre c(t)); `right`
     (m) the reference X of the contact edge and `size` (m) the domain's. NaN at a step with a
     non-finite displacement on the edge. ValueError when no node lies on the edge."""
     chains = edge_chains(points, right, size)
@@ -85,9 +82,7 @@ def interpenetration_curve(
     for i, (t, u) in enumerate(zip(times, displacements, strict=False)):
         u = np.asarray(u, dtype=float)
         x = points[:, :2] + u[:, :2]
-        curve[i] = edge_interpenetration(
-            [x[c] for c in chains], np.asarray(centre(float(t))), radius
-        )
+        curve[i] = edge_interpenetration([x[c] for c in chains], tool.centre(float(t)), tool)
     return curve
 
 

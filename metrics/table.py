@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 from mpi4py import MPI
 
@@ -24,20 +24,19 @@ from tissuebench.metrics.interior import InteriorMetric
 from tissuebench.metrics.relative import relative_error
 from tissuebench.metrics.surface import domain, surface_error
 
-if TYPE_CHECKING:
-    from tissuebench.metrics.crossmesh import CrossMetrics
-
 
 @dataclass(frozen=True)
 class Metric:
     """One metric: its symbol (tables), its label (figures; Unicode subscripts, since
     matplotlib's mathtext is slow to load), and its value for a pair of owned displacement
-    arrays, `value(metrics, u_ref, u_cand)`. A variant (E_i's nodal form) names the metric
-    whose figure panel it shares, and is left out of convergence studies."""
+    arrays, `value(metrics, u_ref, u_cand)` (metrics: a Metrics below, or
+    metrics/crossmesh.py's CrossMetrics, which has the same comm, surface and interior). A
+    variant (E_i's nodal form) names the metric whose figure panel it shares, and is left out
+    of convergence studies."""
 
     symbol: str
     label: str
-    value: Callable[[Metrics | CrossMetrics, np.ndarray, np.ndarray], float]
+    value: Callable[[Any, np.ndarray, np.ndarray], float]
     variant_of: str | None = None
 
 

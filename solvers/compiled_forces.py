@@ -3,7 +3,7 @@ and the smallest J = det F at the quadrature points, in one compiled element loo
 explicit schemes' force, as solvers/blockcsr.py is their linear step's product.
 
 For P1/Q1 vector elements on triangles, quadrilaterals, tetrahedra and hexahedra, with the
-quadrature of the UFL form (solvers/elastic.py: QUADRATURE_DEGREE, basix's points and
+quadrature of the UFL form (solvers/models/model.py: QUADRATURE_DEGREE, basix's points and
 weights). Once, at construction: per owned cell and quadrature point, the inverse Jacobian
 J_e^-1 of the reference map and the weight times |det J_e| (so that the loop reads D^2 + 1
 doubles per point and no coordinates), and for a rotated model J_e^-1 at the cell centre.
@@ -14,8 +14,8 @@ reverse scatter add, as DOLFINx's assemble_vector and ghostUpdate do). F-bar (SP
 mean-dilatation with a nonlinear model) takes each cell's mean J in a first pass over its
 points, then P = s P(s F), s = (J_bar / J)^(1/D). A rotated model (corotational) takes R of the
 polar decomposition of F at the cell centre by the Newton iteration of
-solvers/elastic.py (`_polar_newton`, the same stopping rule); a cell where it fails (det F <= 0
-or no convergence) gets its R from solvers/elastic.rotations (the SVD) in Python, and a second
+solvers/polar.py (`_polar_newton`, the same stopping rule); a cell where it fails (det F <= 0
+or no convergence) gets its R from solvers/polar.rotations (the SVD) in Python, and a second
 pass over those cells only.
 
 The reference tables (the gradients of the shape functions at the points) are constants in the
@@ -30,8 +30,9 @@ from typing import TYPE_CHECKING, cast
 import basix
 import numpy as np
 
-from tissuebench.solvers import elastic
+from tissuebench.solvers import polar
 from tissuebench.solvers.blockcsr import compile_module
+from tissuebench.solvers.models.model import QUADRATURE_DEGREE
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -175,7 +176,7 @@ static inline void stresses(const double F[D * D][W], const double J[W],
 
 #if ROTATED
 /* R of F = R U by X <- (g X + X^-T / g) / 2, g = det(X)^(-1/d), from X = F, until no entry
-   changes by more than POLAR_STOP (solvers/elastic.py _polar_newton); 0 if it fails */
+   changes by more than POLAR_STOP (solvers/polar.py _polar_newton); 0 if it fails */
 static int polar(const double* restrict F, double* restrict R)
 {
   double X[D * D], C[D * D];
@@ -356,9 +357,7 @@ def source(model: Model, cell: str, gdim: int, fbar: bool) -> str:
     """The C source of the loop for `model` on `cell` in gdim dimensions (F-bar if fbar)."""
     cell_type = getattr(basix.CellType, cell)
     # basix annotates its arrays as ArrayLike
-    points, _ = cast(
-        tuple[np.ndarray, ...], basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
-    )
+    points, _ = cast(tuple[np.ndarray, ...], basix.make_quadrature(cell_type, QUADRATURE_DEGREE))
     element = basix.create_element(basix.ElementFamily.P, cell_type, 1)
     tdim = points.shape[1]
     if tdim != gdim:
@@ -370,8 +369,8 @@ def source(model: Model, cell: str, gdim: int, fbar: bool) -> str:
     head = (
         f"#define W {LANES}\n#define D {gdim}\n#define NN {nn}\n#define NQ {nq}\n"
         f"#define ROTATED {int(model.rotated)}\n#define FBAR {int(fbar)}\n"
-        f"#define POLAR_STOP {elastic.POLAR_STOP!r}\n"
-        f"#define POLAR_MAX {elastic.POLAR_MAX_ITERATIONS}\n"
+        f"#define POLAR_STOP {polar.POLAR_STOP!r}\n"
+        f"#define POLAR_MAX {polar.POLAR_MAX_ITERATIONS}\n"
     )
     tables = _c_array("DN", dN) + _c_array("DNC", dNc)
     return head + PREAMBLE.replace("STRESS_BODY", model.c_stress) + tables + KERNEL
@@ -427,7 +426,7 @@ class CompiledForces:
         nodes = x[mesh.geometry.dofmaps[0][:n_cells]]  # (cell, a, i)
         cell_type = getattr(basix.CellType, cell)
         points, weights = cast(  # basix annotates its arrays as ArrayLike
-            tuple[np.ndarray, ...], basix.make_quadrature(cell_type, elastic.QUADRATURE_DEGREE)
+            tuple[np.ndarray, ...], basix.make_quadrature(cell_type, QUADRATURE_DEGREE)
         )
         element = basix.create_element(basix.ElementFamily.P, cell_type, 1)
         nq = len(weights)
@@ -500,7 +499,7 @@ class CompiledForces:
             cells = self._failed[:n_failed].copy()
             d = self.gdim
             F = unbatched(self.R, cells).reshape(-1, d, d)
-            R = elastic.rotations(F).reshape(n_failed, d * d)
+            R = polar.rotations(F).reshape(n_failed, d * d)
             self._forces(
                 n_failed,
                 batched(unbatched(self.dofs, cells)),

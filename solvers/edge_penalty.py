@@ -1,7 +1,8 @@
-"""The penalty contact's nodal force (SPEC 12) evaluated in numpy, facet by facet, beside the
-explicit schemes' compiled element loop (solvers/compiled_forces.py): the contact edge has N
-facets against the N^2 cells of the element loop, so its cost is small beside it. The UFL
-forms of solvers/contact.py give the same force (tests/test_contact_runs.py)."""
+"""The penalty contact's nodal force (SPEC 12, 13) evaluated in numpy, facet by facet, beside the
+explicit schemes' compiled element loop (solvers/compiled_forces.py): the contact surface has
+about N^(d-1) facets against the N^d cells of the element loop, so its cost is small beside it.
+The UFL forms of solvers/contact.py give the same force (tests/test_contact_runs.py in 2D,
+tests/test_cylinder.py in 3D)."""
 
 from __future__ import annotations
 
@@ -12,8 +13,6 @@ import dolfinx.la
 import numpy as np
 from dolfinx import fem
 
-from tissuebench.meshes.contact import outward_normal as normal_numpy
-from tissuebench.meshes.contact import signed_distance as signed_distance_numpy
 from tissuebench.solvers.contact import QUADRATURE_DEGREE, penalty_stiffness
 
 if TYPE_CHECKING:
@@ -30,7 +29,7 @@ class EdgePenalty:
     def __init__(self, system: System):
         contact = system.benchmark.contact
         if contact is None or system.gdim != 2:
-            raise ValueError("EdgePenalty needs a 2D system with contact")
+            raise ValueError("EdgePenalty needs a 2D system with contact (3D: FacetPenalty)")
         mesh, V = system.mesh, system.V
         self.system, self.contact, self.k = system, contact, penalty_stiffness(system)
         tdim = mesh.topology.dim
@@ -72,13 +71,74 @@ class EdgePenalty:
         s = self.s[None, :, None]
         x = ((1 - s) * xa[:, None] + s * xb[:, None]).reshape(-1, 2)
         c = np.asarray(self.contact.centre(t), dtype=float)
-        g = signed_distance_numpy(x, c, self.contact.radius)
-        traction = (self.k * np.maximum(-g, 0.0))[:, None] * normal_numpy(x, c)
+        tool = self.contact.tool
+        g = tool.signed_distance(x, c)
+        traction = (self.k * np.maximum(-g, 0.0))[:, None] * tool.outward_normal(x, c)
         traction = traction.reshape(len(a), len(self.s), 2) * (self.w[None, :, None])
         traction *= length[:, None, None]
         force = self.f.x.array.reshape(-1, 2)
         force[:] = 0.0
         np.add.at(force, a, -np.einsum("q,fqd->fd", 1 - self.s, traction))
         np.add.at(force, b, -np.einsum("q,fqd->fd", self.s, traction))
+        self.f.x.scatter_reverse(dolfinx.la.InsertMode.add)
+        return self.f.x.array[:n_owned].copy()
+
+
+class FacetPenalty:
+    """The penalty's nodal force in 3D on first-order cells (P1 tetrahedra: triangular facets;
+    Q1 hexahedra: bilinear quadrilateral facets), facet by facet in numpy beside the compiled
+    element loop, integrated by the facet's Gauss rule of degree 2 QUADRATURE_DEGREE (the
+    UFL form's, solvers/contact.py) with the undeformed area element. Units: u in m, forces in
+    N."""
+
+    def __init__(self, system: System):
+        from tissuebench.solvers.contact import facet_nodes
+
+        contact = system.benchmark.contact
+        if contact is None or system.gdim != 3:
+            raise ValueError("FacetPenalty needs a 3D system with contact")
+        mesh, V = system.mesh, system.V
+        self.contact, self.k = contact, penalty_stiffness(system)
+        tdim = mesh.topology.dim
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        f2c = mesh.topology.connectivity(tdim - 1, tdim)
+        owned_cells = mesh.topology.index_map(tdim).size_local
+        # each facet once over the ranks: on the rank that owns its (one) cell
+        facets = np.array(
+            [f for f in contact.facets if f2c.links(f)[0] < owned_cells], dtype=np.int32
+        )
+        self.nodes = facet_nodes(system, facets)  # (facets, vertices)
+        shape = (
+            basix.CellType.quadrilateral if self.nodes.shape[1] == 4 else basix.CellType.triangle
+        )
+        points, weights = basix.make_quadrature(shape, QUADRATURE_DEGREE)
+        element = basix.create_element(basix.ElementFamily.P, shape, 1)
+        tab = element.tabulate(1, np.asarray(points))  # (derivatives, points, vertices, 1)
+        self.N = tab[0, :, :, 0]  # (q, v)
+        X = V.tabulate_dof_coordinates()[:, :3][self.nodes]  # (f, v, 3)
+        J = np.einsum("kqv,fvd->fqkd", tab[1:3, :, :, 0], X)  # (f, q, 2, 3)
+        area = np.linalg.norm(np.cross(J[:, :, 0], J[:, :, 1]), axis=2)  # (f, q)
+        self.dA = area * np.asarray(weights)[None, :]  # m^2 at each Gauss point
+        self.X = X
+        self.u = fem.Function(V)
+        self.f = fem.Function(V)
+
+    def __call__(self, u: np.ndarray, t: float) -> np.ndarray:
+        """The contact's share of f_int at the owned dof values u (m) at time t (s): the
+        owned dofs' nodal forces (N), -int p n . N_a dS, p = k <-g_n>. Collective."""
+        n_owned = len(u)
+        self.u.x.array[:n_owned] = u
+        self.u.x.scatter_forward()
+        x = self.X + self.u.x.array.reshape(-1, 3)[self.nodes]  # (f, v, 3)
+        points = np.einsum("qv,fvd->fqd", self.N, x).reshape(-1, 3)
+        c = np.asarray(self.contact.centre(t), dtype=float)
+        tool = self.contact.tool
+        p = self.k * np.maximum(-tool.signed_distance(points, c), 0.0)
+        traction = (p[:, None] * tool.outward_normal(points, c)).reshape(*self.dA.shape, 3)
+        traction *= self.dA[:, :, None]
+        nodal = -np.einsum("qv,fqd->fvd", self.N, traction)  # (f, v, 3)
+        force = self.f.x.array.reshape(-1, 3)
+        force[:] = 0.0
+        np.add.at(force, self.nodes.ravel(), nodal.reshape(-1, 3))
         self.f.x.scatter_reverse(dolfinx.la.InsertMode.add)
         return self.f.x.array[:n_owned].copy()

@@ -19,88 +19,14 @@ import ufl
 from dolfinx import fem
 
 from tissuebench.solvers import contact as penalty
-from tissuebench.solvers.models.model import Model
+from tissuebench.solvers.models.model import QUADRATURE_DEGREE, Model
+from tissuebench.solvers.polar import rotations
 from tissuebench.solvers.system import System, epsilon, sigma
 
-QUADRATURE_DEGREE = 2  # 2 Gauss points per direction: full integration of Q1, as K uses
 # The point evaluations (det F at the quadrature points, F at the cell centres) run once per
 # step of an explicit scheme: compiled with -O3 instead of DOLFINx's default -O2 they take
 # about 1/1.7 of the time on a Q1 hex, with the same values (the forms gain nothing from it).
 EXPRESSION_JIT = {"cffi_extra_compile_args": ["-O3", "-g0"]}
-POLAR_STOP = 1e-8  # Newton's polar iteration stops when no entry changes by more than this
-POLAR_MAX_ITERATIONS = 50
-
-
-def _cofactor(X: np.ndarray, C: np.ndarray, det: np.ndarray, work: np.ndarray) -> None:
-    """C = cof(X) = det(X) X^-T and det = det(X) for the matrices X[:, :, k] (d = 2 or 3),
-    stored entry by entry (shape (d, d, n)) so that every operation runs over all n."""
-    d = X.shape[0]
-    if d == 2:
-        C[0, 0], C[1, 1] = X[1, 1], X[0, 0]
-        np.negative(X[1, 0], out=C[0, 1])
-        np.negative(X[0, 1], out=C[1, 0])
-    else:
-        for i in range(3):
-            i1, i2 = (i + 1) % 3, (i + 2) % 3
-            for j in range(3):
-                j1, j2 = (j + 1) % 3, (j + 2) % 3
-                np.multiply(X[i1, j1], X[i2, j2], out=C[i, j])
-                np.multiply(X[i1, j2], X[i2, j1], out=work)
-                C[i, j] -= work
-    np.multiply(X[0, 0], C[0, 0], out=det)
-    for j in range(1, d):
-        np.multiply(X[0, j], C[0, j], out=work)
-        det += work
-
-
-def _polar_newton(F: np.ndarray) -> np.ndarray | None:
-    """The rotations R of F = R U (shape (n, d, d)) by the scaled Newton iteration
-    X <- (g X + X^-T / g) / 2, g = det(X)^(-1/d), from X = F (quadratic convergence; every
-    iterate is R times a symmetric positive definite matrix), or None if some det F <= 0 (or
-    is not finite) or the iteration has not converged."""
-    n, d = F.shape[:2]
-    if n == 0:
-        return F.copy()
-    X = np.ascontiguousarray(F.transpose(1, 2, 0))
-    C, Y = np.empty_like(X), np.empty_like(X)
-    det, scale, work = (np.empty(X.shape[2]) for _ in range(3))
-    _cofactor(X, C, det, work)
-    if not (det > 0).all():
-        return None
-    for _ in range(POLAR_MAX_ITERATIONS):
-        np.power(det, -1.0 / d, out=scale)
-        np.multiply(scale, det, out=work)
-        np.divide(0.5, work, out=work)  # 1 / (2 g det X)
-        scale *= 0.5
-        np.multiply(X, scale, out=Y)
-        C *= work
-        Y += C  # (g X + X^-T / g) / 2
-        X -= Y
-        np.abs(X, out=X)
-        change = X.max()
-        X, Y = Y, X
-        if change <= POLAR_STOP:  # the next change, about change^2 / 2, is round-off
-            return np.ascontiguousarray(X.transpose(2, 0, 1))
-        if not np.isfinite(change):
-            return None
-        _cofactor(X, C, det, work)
-    return None
-
-
-def rotations(F: np.ndarray) -> np.ndarray:
-    """R of the polar decomposition F = R U of each matrix of F (shape (n, d, d)): the
-    rotation (det R = +1) closest to F, R = U V^T from the SVD F = U S V^T with the sign of
-    U's last column chosen so that det R = +1. Where every det F > 0 this is the polar factor,
-    computed by Newton's iteration (about 10x faster than a LAPACK SVD per matrix; the same R
-    up to round-off); otherwise by the SVD."""
-    R = _polar_newton(F)
-    if R is not None:
-        return R
-    U, _, Vt = np.linalg.svd(F)
-    sign = np.sign(np.linalg.det(U @ Vt))
-    sign[sign == 0] = 1.0
-    U[:, :, -1] *= sign[:, None]
-    return U @ Vt
 
 
 class ElasticForces:
@@ -166,7 +92,7 @@ class ElasticForces:
             self.needle = fem.Constant(mesh, np.asarray(contact.centre(0.0), dtype=float))
             ds = penalty.edge_measure(mesh, contact.facets)
             k = penalty.penalty_stiffness(system)
-            energy = penalty.energy(self.u, self.needle, contact.radius, k, ds)
+            energy = penalty.energy(self.u, self.needle, contact.tool, k, ds)
             f_int = f_int + ufl.derivative(energy, self.u, w)
         self.f_form = fem.form(f_int)
         # the explicit schemes' fast path with contact: f_int from the compiled loop (or K u for
@@ -174,10 +100,10 @@ class ElasticForces:
         self.edge = None
         self._t = 0.0  # s, the time of set_time
         self.linear_k = compiled and model.linear  # f_int = K u (the linear model, with contact)
-        if contact is not None and compiled and (self.compiled is not None or model.linear):
-            from tissuebench.solvers.edge_penalty import EdgePenalty
+        if contact is not None and compiled and (self.compiled is not None or self.linear_k):
+            from tissuebench.solvers.edge_penalty import EdgePenalty, FacetPenalty
 
-            self.edge = EdgePenalty(system)
+            self.edge = EdgePenalty(system) if system.gdim == 2 else FacetPenalty(system)
         # the Jacobian of a step: c_T K_T(u) + c_K K_0 (+ c_M M, consistent mass)
         self.c_T = fem.Constant(mesh, PETSc.ScalarType(1.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype
         self.c_K = fem.Constant(mesh, PETSc.ScalarType(0.0))  # type: ignore[operator]  # petsc4py's stubs: ScalarType is the scalar class, not a dtype

@@ -133,7 +133,7 @@ def test_compiled_f_bar_equals_the_ufl_form(cell, model):
 @pytest.mark.parametrize("cell", ["quadrilateral", "hexahedron"])
 def test_rotation_falls_back_to_python_where_newton_fails(cell):
     """Corotational where a cell's centre is inverted (det F < 0 there: the polar Newton
-    iteration fails): that cell's R comes from solvers/elastic.rotations (the SVD), the force
+    iteration fails): that cell's R comes from solvers/polar.rotations (the SVD), the force
     still equals the UFL form's, and the smallest det F is negative."""
     system = System(clamped(distorted_mesh(cell)), TISSUE)
     gdim = system.gdim

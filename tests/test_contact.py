@@ -12,11 +12,16 @@ import numpy as np
 import pytest
 import ufl
 
-from tissuebench.meshes.contact import RADIUS, centre, outward_normal, signed_distance
+from tissuebench.meshes.contact import needle
 from tissuebench.solvers import contact
 from tissuebench.workflows.contact import hertz
 
 COMMITTED = Path(__file__).parents[1] / "results" / "contact" / "hertz.json"
+TOOL = needle()  # the half-stadium at load scale 1 (meshes/tools/)
+
+
+def centre(t: float, scale: float = 1.0) -> np.ndarray:
+    return needle(scale).centre(t)
 
 
 def test_signed_distance_closed_forms():
@@ -33,8 +38,8 @@ def test_signed_distance_closed_forms():
             [1.1 - 0.3, 0.5 + 0.4],  # 0.5 m from the centre, in front
         ]
     )
-    assert np.allclose(signed_distance(points, c), [0.0, 0.1, -0.1, 0.05, -0.05, 0.4])
-    n = outward_normal(points, c)
+    assert np.allclose(TOOL.signed_distance(points, c), [0.0, 0.1, -0.1, 0.05, -0.05, 0.4])
+    n = TOOL.outward_normal(points, c)
     assert np.allclose(n[[0, 1, 3, 4, 5]], [[-1, 0], [-1, 0], [0, 1], [0, 1], [-0.6, 0.8]])
     # the needle moves with the block's needle: 0.16 m in at t >= 2 s
     assert np.allclose(centre(5.0), [1.1 - 0.16, 0.5])
@@ -52,7 +57,7 @@ def test_ufl_gap_matches_numpy():
     x = contact.deformed(u)
     points = np.array([[0.1, 0.2], [0.9, 0.5], [0.99, 0.4], [0.5, 0.95]])
     expr = dolfinx.fem.Expression(
-        ufl.as_vector([contact.signed_distance(x, c, RADIUS), *contact.outward_normal(x, c)]),
+        ufl.as_vector([TOOL.ufl_signed_distance(x, c), *TOOL.ufl_outward_normal(x, c)]),
         points,
     )
     cells = np.arange(mesh.topology.index_map(2).size_local, dtype=np.int32)
@@ -63,13 +68,13 @@ def test_ufl_gap_matches_numpy():
     physical = np.einsum("pv,cvd->cpd", ref, X[mesh.geometry.dofmaps[0][cells]])
     u_h = np.einsum("pv,cvd->cpd", ref, u.x.array.reshape(-1, 2)[V.dofmap.list[cells]])
     deformed = (physical + u_h).reshape(-1, 2)
-    g = signed_distance(deformed, c.value)
+    g = TOOL.signed_distance(deformed, c.value)
     inside, outside = (
         mesh.comm.allreduce(int(n), op=MPI.SUM) for n in ((g < 0).sum(), (g > 0).sum())
     )
     assert inside > 0 and outside > 0  # points inside and outside the needle
     assert np.allclose(values[..., 0].ravel(), g, atol=1e-12)
-    assert np.allclose(values[..., 1:].reshape(-1, 2), outward_normal(deformed, c.value))
+    assert np.allclose(values[..., 1:].reshape(-1, 2), TOOL.outward_normal(deformed, c.value))
 
 
 @pytest.mark.parallel
@@ -109,12 +114,28 @@ def test_needle_force_is_the_energy_derivative():
     right = dolfinx.mesh.locate_entities_boundary(mesh, 1, lambda x: np.isclose(x[0], 1.0))
     tags = dolfinx.mesh.meshtags(mesh, 1, right, np.ones(len(right), np.int32))
     ds = ufl.Measure("ds", mesh, subdomain_data=tags)(1)
-    energy = contact.energy(u, c, RADIUS, k, ds)
+    energy = contact.energy(u, c, TOOL, k, ds)
     comm = mesh.comm
-    for i, form in enumerate(contact.needle_force(u, c, RADIUS, k, ds)):
+    for i, form in enumerate(contact.needle_force(u, c, TOOL, k, ds)):
         F = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(form)), op=MPI.SUM)
         direction = dolfinx.fem.Constant(mesh, np.eye(2)[i])
         virtual = ufl.derivative(energy, u, ufl.as_vector([direction[0], direction[1]]))
         work = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(virtual)), op=MPI.SUM)
         assert abs(F) > 0.01  # N/m: the edge is inside the needle, off its axis
         assert F == pytest.approx(work, rel=1e-10, abs=1e-12)
+
+
+def test_the_graded_block_leaves_gmsh_as_it_was():
+    """The graded block's gmsh options (its sizes from the field alone, Frontal-Delaunay) are
+    put back after it: gmsh.clear() keeps options, and an unstructured rod meshed after it had
+    24 tetrahedra in place of its 383."""
+    from tissuebench.meshes.contact import graded_block
+    from tissuebench.meshes.rod import rod_mesh
+
+    def tetrahedra() -> int:
+        mesh = rod_mesh(3, MPI.COMM_SELF, cell="tetrahedron", mesh="unstructured").mesh
+        return mesh.topology.index_map(3).size_local
+
+    before = tetrahedra()
+    graded_block(0.02, comm=MPI.COMM_SELF)
+    assert tetrahedra() == before

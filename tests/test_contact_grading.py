@@ -17,7 +17,7 @@ import pytest
 from helpers import tissuebench
 
 from tissuebench.core.errors import UserError
-from tissuebench.meshes.contact import centre
+from tissuebench.meshes.contact import needle
 from tissuebench.metrics.contact import interpenetration_curve
 from tissuebench.workflows.compare.grading import GradingError, compare
 from tissuebench.workflows.io.series import read_series
@@ -131,7 +131,7 @@ def test_a_slab_has_the_interpenetration_of_its_plane(run4):
     """A one-element-thick slab (the 2D mesh's nodes at z = 0 and 0.1 m, the same in-plane
     displacement on both layers) has the 2D mesh's interpenetration, each z layer its chain."""
     series = read_series(run4 / "explicit.xdmf")
-    c = lambda t: centre(t, 1.0)  # noqa: E731
+    c = needle(1.0)
     flat = interpenetration_curve(series.points, series.displacements, series.times, c)
     n = len(series.points)
     slab = np.vstack([np.c_[series.points, np.zeros(n)], np.c_[series.points, np.full(n, 0.1)]])

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tissuebench.meshes import get_benchmark
-from tissuebench.meshes.contact import RADIUS, centre
+from tissuebench.meshes.contact import needle
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.contact import Measures
 from tissuebench.solvers.stability import stability_limits
@@ -126,11 +126,11 @@ def test_the_edge_loop_equals_the_ufl_penalty():
         lambda x: np.stack([-0.1 * x[0] ** 4 * (1 - 4 * (x[1] - 0.5) ** 2), 0.02 * x[0] * x[1]])
     )
     t = 1.5
-    c = fem.Constant(system.mesh, np.asarray(centre(t)))
+    c = fem.Constant(system.mesh, np.asarray(needle().centre(t)))
     ds = contact.edge_measure(system.mesh, system.benchmark.contact.facets)
     k = contact.penalty_stiffness(system)
     w = ufl.TestFunction(system.V)
-    form = fem.form(ufl.derivative(contact.energy(u, c, RADIUS, k, ds), u, w))
+    form = fem.form(ufl.derivative(contact.energy(u, c, needle(), k, ds), u, w))
     b = dolfinx.fem.petsc.assemble_vector(form)
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     n = system.V.dofmap.index_map.size_local * 2

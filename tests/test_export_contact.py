@@ -10,7 +10,7 @@ import pytest
 from tissuebench.core.errors import UserError
 from tissuebench.meshes import get_benchmark
 from tissuebench.meshes.block import block_mesh
-from tissuebench.meshes.regions import on_mesh
+from tissuebench.meshes.posed import on_mesh
 from tissuebench.solvers import get_integrator
 from tissuebench.solvers.contact import Measures
 from tissuebench.solvers.materials import get_material
@@ -42,7 +42,7 @@ def test_on_mesh_poses_the_needle_as_on_our_mesh():
     assert [c.name for c in posed.constraints] == ["left", "bottom", "top"]
     contact = posed.contact
     assert contact is not None and contact.edge_size == pytest.approx(0.1, rel=1e-12)
-    assert (contact.radius, contact.kappa) == (0.1, 20.0)
+    assert (contact.tool.radius, contact.kappa) == (0.1, 20.0)
     assert np.allclose(contact.centre(1.0), ours.contact.centre(1.0), rtol=0, atol=1e-15)
     owned = posed.mesh.topology.index_map(1).size_local
     assert MPI.COMM_WORLD.allreduce(int(np.sum(contact.facets < owned))) == 10

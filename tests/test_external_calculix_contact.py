@@ -1,5 +1,5 @@
 """CalculiX's own contact on the contact benchmark (SPEC 12; workflows/io/calculix_contact.py,
-workflows/simulators/calculix_contact.py), each check against something independent of the
+workflows/simulators/contact/calculix.py), each check against something independent of the
 code it tests: the needle's shape from meshes/contact.py's signed distance, our own contact
 (solvers/contact.py's penalty, quasi-static) on the same mesh, and static equilibrium (the
 needle's force equals the fixed edges' reactions)."""
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from helpers import needs_ccx
 
-from tissuebench.meshes.contact import signed_distance
+from tissuebench.meshes.contact import needle
 from tissuebench.solvers.materials import get_material
 from tissuebench.workflows.compare.grading import compare
 from tissuebench.workflows.compare.posing import build, run_reference
@@ -27,7 +27,8 @@ from tissuebench.workflows.io.calculix_contact import (
 from tissuebench.workflows.io.summary import read_compare_summary
 from tissuebench.workflows.io.tables import read_force_csv
 from tissuebench.workflows.io.xdmf import write_series
-from tissuebench.workflows.simulators import calculix, calculix_contact
+from tissuebench.workflows.simulators.contact import adapter
+from tissuebench.workflows.simulators.contact import calculix as calculix_contact
 
 CCX = shutil.which("ccx")
 H = 1 / 30  # s
@@ -51,8 +52,8 @@ def test_band_is_the_needle_and_faces_point_out():
     nodes, quads = needle_band(data)
     c0 = np.asarray(data.contact["motion"]["c0"])
     P = len(nodes) // 2
-    assert np.abs(signed_distance(nodes[:P], c0)).max() < 1e-12
-    assert np.allclose(signed_distance(nodes[P:], c0), -BAND, atol=1e-12)
+    assert np.abs(needle().signed_distance(nodes[:P], c0)).max() < 1e-12
+    assert np.allclose(needle().signed_distance(nodes[P:], c0), -BAND, atol=1e-12)
     a, b, c, d = (nodes[quads[:, k]] for k in range(4))
     p, q = c - a, d - b
     area = 0.5 * (p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0])
@@ -60,7 +61,7 @@ def test_band_is_the_needle_and_faces_point_out():
     middle, edge = 0.5 * (a + b), b - a
     out = np.column_stack([edge[:, 1], -edge[:, 0]])  # right of 1 -> 2: out of a CCW cell
     out /= np.linalg.norm(out, axis=1)[:, None]
-    assert (signed_distance(middle + 1e-4 * out, c0) > 0).all()
+    assert (needle().signed_distance(middle + 1e-4 * out, c0) > 0).all()
     faces = slave_faces(data)
     assert len(faces) == 8
     corners = {1: (0, 1), 2: (1, 2), 3: (2, 3), 4: (3, 0)}
@@ -106,10 +107,11 @@ def test_static_contact_against_ours_and_in_equilibrium(tmp_path):
     gaps = {}
     for n in (10, 20):
         data, bench, material = contact(n, STOP, "static")
-        assert calculix.CONTACT and list(calculix.variants(data)) == ["static-contact-CPE4"]
+        assert adapter("calculix") is calculix_contact
+        assert list(calculix_contact.variants(data)) == ["static-contact-CPE4"]
         work = tmp_path / f"n{n}"
         work.mkdir()
-        run = calculix.run(data, "static-contact-CPE4", work)
+        run = calculix_contact.run(data, "static-contact-CPE4", work)
         assert run.status == "ok", run.reason
         times, force = read_force_csv(run.force)
         assert np.allclose(times, data.times) and force[0].tolist() == [0.0, 0.0]
@@ -134,8 +136,8 @@ def test_dynamic_contact_is_not_posed(tmp_path):
     quasi-static one (the load history by *STATIC) and skipped says why; if a later CalculiX
     runs the dynamic deck to the end, this test fails, and the dynamic variant can be offered."""
     data, _, _ = contact(8, 30, "dynamic")
-    assert list(calculix.variants(data)) == [calculix_contact.QUASI_STATIC]
-    assert "contact-implicit-CPE4" in calculix.skipped(data)
+    assert list(calculix_contact.variants(data)) == [calculix_contact.QUASI_STATIC]
+    assert "contact-implicit-CPE4" in calculix_contact.skipped(data)
     (tmp_path / "job.inp").write_text(contact_inp_text(data))
     import subprocess
 

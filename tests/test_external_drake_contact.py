@@ -1,4 +1,4 @@
-"""Drake on the contact benchmark (workflows/simulators/drake_contact.py): contact-MP1 on the
+"""Drake on the contact benchmark (workflows/simulators/contact/drake.py): contact-MP1 on the
 block of mesh size 8 for 2 s (60 steps of h = 1/30 s, the needle 0.16 m deep at the end), its
 one-element slab of P1 tetrahedra pushed by the rigid needle on a prismatic joint, against our
 own implicit with penalty contact on the same grid (kappa = 100, so that our penalty's own
@@ -17,8 +17,9 @@ if dk.available() is not None:
 from contact_setup import contact_case, series  # noqa: E402
 
 from tissuebench.workflows.io.tables import read_force_csv  # noqa: E402
-from tissuebench.workflows.simulators import drake_contact as dc  # noqa: E402
-from tissuebench.workflows.simulators import mujoco_contact as mc  # noqa: E402
+from tissuebench.workflows.simulators.contact import adapter  # noqa: E402
+from tissuebench.workflows.simulators.contact import drake as dc  # noqa: E402
+from tissuebench.workflows.simulators.contact import mujoco as mc  # noqa: E402
 
 STEPS = 60  # 2 s: the needle stops 0.16 m deep
 
@@ -33,8 +34,8 @@ def contact(tmp_path_factory):
 @pytest.mark.serial
 def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
     data, ours, info = contact
-    assert dk.CONTACT and "linear" in dk.variants(data) and dk.skipped(data) == {}
-    result = dk.run(data, "linear", tmp_path)
+    assert adapter("drake") is dc and "linear" in dc.variants(data) and dc.skipped(data) == {}
+    result = dc.run(data, "linear", tmp_path)
     assert result.status == "ok", result.reason
     U = series(tmp_path / "drake.xdmf", STEPS)
     # the fixed edges stay fixed (Drake's fixed constraints to a reset body, module docstring)
@@ -61,6 +62,6 @@ def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
 def test_what_the_contact_runner_does_not_pose(contact):
     data, _, _ = contact
     static = type(data)(**{**data.__dict__, "procedure": "static"})
-    assert "time only" in dk.skipped(static)["all"] and dk.variants(static) == {}
+    assert "time only" in dc.skipped(static)["all"] and dc.variants(static) == {}
     barrier = type(data)(**{**data.__dict__, "model": "neo-hookean-barrier"})
-    assert "neo-hookean" in dk.variants(barrier)
+    assert "neo-hookean" in dc.variants(barrier)

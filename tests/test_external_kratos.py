@@ -26,6 +26,7 @@ from tissuebench.solvers.simulate import simulate  # noqa: E402
 from tissuebench.solvers.system import System  # noqa: E402
 from tissuebench.workflows.compare.posing import build  # noqa: E402
 from tissuebench.workflows.io.xdmf import gather_series  # noqa: E402
+from tissuebench.workflows.simulators.contact import adapter  # noqa: E402
 from tissuebench.workflows.simulators.newton import split_hexahedra  # noqa: E402
 
 H = 1 / 30  # the paper's h, s
@@ -222,11 +223,11 @@ def test_what_is_posed_and_what_fails(rod, tmp_path, monkeypatch):
 
 def test_the_contact_benchmark_is_not_posed_and_says_why():
     """A contact export (SPEC 12) gets no Kratos variant (the block's would pose it without
-    its needle) and CONTACT_NOTE as the reason; no CONTACT flag for the runner."""
+    its needle) and CONTACT_NOTE as the reason; no contact adapter for the runner."""
     data, _, _ = build(
         "contact", 4, {"kappa": 10.0, "load_scale": 1.0}, get_material("MP1"), "linear", H, 2,
         "strain", "dynamic", MPI.COMM_WORLD,
     )  # fmt: skip
     assert kr.variants(data) == {}
     assert kr.skipped(data) == {"all": kr.CONTACT_NOTE}
-    assert not getattr(kr, "CONTACT", False)
+    assert adapter("kratos") is None

@@ -1,4 +1,4 @@
-"""MuJoCo on the contact benchmark (workflows/simulators/mujoco_contact.py): contact-MP1 on the
+"""MuJoCo on the contact benchmark (workflows/simulators/contact/mujoco.py): contact-MP1 on the
 block of mesh size 8 for 1 s (30 steps of h = 1/30 s, the needle 0.08 m deep), its
 one-element slab pushed by the mocap needle, against our own implicit with penalty contact
 on the same grid (kappa = 100, so that our penalty's own interpenetration, 3e-3 m, is not the
@@ -17,7 +17,8 @@ if mj.available() is not None:
 from contact_setup import contact_case, series  # noqa: E402
 
 from tissuebench.workflows.io.tables import read_force_csv  # noqa: E402
-from tissuebench.workflows.simulators import mujoco_contact as mc  # noqa: E402
+from tissuebench.workflows.simulators.contact import adapter  # noqa: E402
+from tissuebench.workflows.simulators.contact import mujoco as mc  # noqa: E402
 
 STEPS = 30  # 1 s: the needle 0.08 m deep, before MuJoCo's SVK inverts a tetrahedron (1.9 s)
 
@@ -32,8 +33,8 @@ def contact(tmp_path_factory):
 @pytest.mark.serial
 def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
     data, ours, info = contact
-    assert mj.CONTACT and "euler-10" in mj.variants(data) and mj.skipped(data) == {}
-    result = mj.run(data, "euler-10", tmp_path)
+    assert adapter("mujoco") is mc and "euler-10" in mc.variants(data) and mc.skipped(data) == {}
+    result = mc.run(data, "euler-10", tmp_path)
     assert result.status == "ok", result.reason
     assert result.force is not None
     U = series(tmp_path / "mujoco.xdmf", STEPS)
@@ -60,7 +61,7 @@ def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
 def test_what_the_contact_runner_does_not_pose(contact):
     data, _, _ = contact
     static = {**data.__dict__, "procedure": "static"}
-    assert "dynamics only" in mj.skipped(type(data)(**static))["all"]
-    assert mj.variants(type(data)(**static)) == {}
+    assert "dynamics only" in mc.skipped(type(data)(**static))["all"]
+    assert mc.variants(type(data)(**static)) == {}
     stress = {**data.__dict__, "plane": "stress"}
-    assert "plane-strain" in mj.skipped(type(data)(**stress))["all"]
+    assert "plane-strain" in mc.skipped(type(data)(**stress))["all"]

@@ -1,4 +1,4 @@
-"""Newton on the contact benchmark (workflows/simulators/newton_contact.py): contact-MP1 on the
+"""Newton on the contact benchmark (workflows/simulators/contact/newton.py): contact-MP1 on the
 block of mesh size 8 for 1 s (30 steps of h = 1/30 s, the needle 0.08 m deep), its
 one-element VBD slab pushed by the kinematic needle, against our own implicit with penalty
 contact on the same grid (kappa = 10, from which Newton's particle penalty is derived).
@@ -16,8 +16,9 @@ if nw.available() is not None:
 
 from contact_setup import contact_case, series  # noqa: E402
 
-from tissuebench.workflows.simulators import mujoco_contact as mc  # noqa: E402
-from tissuebench.workflows.simulators import newton_contact as nc  # noqa: E402
+from tissuebench.workflows.simulators.contact import adapter  # noqa: E402
+from tissuebench.workflows.simulators.contact import mujoco as mc  # noqa: E402
+from tissuebench.workflows.simulators.contact import newton as nc  # noqa: E402
 
 STEPS = 30  # 1 s: the needle 0.08 m deep
 
@@ -32,8 +33,8 @@ def contact(tmp_path_factory):
 @pytest.mark.serial
 def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
     data, ours, info = contact
-    assert nw.CONTACT and "vbd-10" in nw.variants(data) and nw.skipped(data) == {}
-    result = nw.run(data, "vbd-10", tmp_path)
+    assert adapter("newton") is nc and "vbd-10" in nc.variants(data) and nc.skipped(data) == {}
+    result = nc.run(data, "vbd-10", tmp_path)
     assert result.status == "ok", result.reason
     assert result.force is None  # Newton reports no contact force (module docstring)
     U = series(tmp_path / "newton.xdmf", STEPS)
@@ -57,6 +58,6 @@ def test_the_slab_is_pushed_as_our_implicit_pushes_the_block(contact, tmp_path):
 def test_what_the_contact_runner_does_not_pose(contact):
     data, _, _ = contact
     static = type(data)(**{**data.__dict__, "procedure": "static"})
-    assert "in time only" in nw.skipped(static)["all"] and nw.variants(static) == {}
+    assert "in time only" in nc.skipped(static)["all"] and nc.variants(static) == {}
     svk = type(data)(**{**data.__dict__, "model": "svk"})
-    assert "svk" in nw.skipped(svk)["all"]
+    assert "svk" in nc.skipped(svk)["all"]

@@ -1,4 +1,4 @@
-"""SfePy on the contact benchmark (SPEC 12; workflows/simulators/sfepy_contact.py) against our
+"""SfePy on the contact benchmark (SPEC 12; workflows/simulators/contact/sfepy.py) against our
 own implicit run on the same mesh: SfePy's dw_contact_sphere / dw_contact_plane penalty terms
 with the export's k = kappa E / h_e and 3 Gauss points an edge are the same penalty law and
 discretisation as ours (solvers/contact.py), stepped by the same trapezoidal rule, so the
@@ -21,8 +21,8 @@ from tissuebench.solvers.materials import get_material  # noqa: E402
 from tissuebench.workflows.compare.grading import compare  # noqa: E402
 from tissuebench.workflows.compare.posing import build, run_reference  # noqa: E402
 from tissuebench.workflows.io.tables import read_force_csv  # noqa: E402
-from tissuebench.workflows.simulators import sfepy as sf  # noqa: E402
-from tissuebench.workflows.simulators import sfepy_contact as sc  # noqa: E402
+from tissuebench.workflows.simulators.contact import adapter  # noqa: E402
+from tissuebench.workflows.simulators.contact import sfepy as sc  # noqa: E402
 
 pytestmark = [pytest.mark.serial, pytest.mark.outside]  # an outside simulator: make external-tests
 
@@ -65,7 +65,7 @@ def deep(tmp_path_factory):
 def graded(data, ref, ours, tmp_path) -> tuple[float, float, float, float]:
     """SfePy's run against ours: (E_i max m^2, F_x(2 s) relative to ours, SfePy's largest
     interpenetration m, ours)."""
-    run = sf.run(data, "newmark", tmp_path)
+    run = sc.run(data, "newmark", tmp_path)
     assert run.status == "ok", run.reason
     out = tmp_path / "graded"
     compare(ref, run.series, out, reference_field="displacement", candidate_field=run.field)
@@ -83,23 +83,23 @@ def graded(data, ref, ours, tmp_path) -> tuple[float, float, float, float]:
 
 def test_contact_variants_and_refusals(pushed):
     data, _, _ = pushed
-    assert sf.CONTACT is True
-    offered = sf.variants(data)
+    assert adapter("sfepy") is sc
+    offered = sc.variants(data)
     assert (
         list(offered) == ["newmark"]
         and "k = kappa E / h_e = 10 x 200 / 0.125" in offered["newmark"]
     )
     assert "16000 Pa/m" in offered["newmark"]
-    assert {"central-difference", "velocity-verlet"} <= set(sf.skipped(data))
+    assert {"central-difference", "velocity-verlet"} <= set(sc.skipped(data))
     for other in (
         dataclasses.replace(data, model="neo-hookean-barrier"),
         dataclasses.replace(data, procedure="static"),
     ):
-        assert sf.variants(other) == {} and "all" in sf.skipped(other)
+        assert sc.variants(other) == {} and "all" in sc.skipped(other)
         with pytest.raises(ValueError, match="SfePy cannot pose this contact export"):
-            sf.run(other, "newmark", None)
+            sc.run(other, "newmark", None)
     with pytest.raises(ValueError, match="unknown SfePy contact variant"):
-        sf.run(data, "bathe", None)
+        sc.run(data, "bathe", None)
 
 
 def test_contact_newmark_matches_our_implicit(pushed, tmp_path):

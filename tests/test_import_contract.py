@@ -22,6 +22,7 @@ LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")  # the test extra 
 LAYERS = "The folders depend in one direction"
 COMMANDS = "Nothing imports the commands"
 FEATURES = "The features of workflows/ depend in one direction"
+BENCHMARK_MODULES = "Nothing outside meshes/ imports a benchmark's own module"
 
 
 def contracts() -> list[dict]:
@@ -91,6 +92,15 @@ def test_every_feature_folder_is_a_layer():
     assert folders - {"package"} | modules == named  # package/: the tissuebench package itself
 
 
+def test_every_benchmark_module_is_forbidden():
+    """The benchmark modules' contract lists the module of every registered benchmark (the
+    module its entry's build function comes from), so that a new benchmark is covered."""
+    from tissuebench.meshes import BENCHMARKS
+
+    modules = {entry.build.__module__ for entry in BENCHMARKS.values()}
+    assert modules == set(contract(BENCHMARK_MODULES)["forbidden_modules"])
+
+
 def test_the_contract_holds_on_the_sources(tmp_path):
     result = lint(copy_package(tmp_path))
     assert result.returncode == 0, result.stdout + result.stderr
@@ -120,6 +130,18 @@ def test_the_contract_holds_on_the_sources(tmp_path):
             "tissuebench.workflows.io.summary",
             "def planted():\n    from tissuebench.workflows.run import case\n    return case",
             FEATURES,
+        ),
+        # a benchmark's module from outside meshes/: its needle's radius, in a workflow
+        (
+            "tissuebench.workflows.contact.hertz",
+            "from tissuebench.meshes.contact import RADIUS",
+            BENCHMARK_MODULES,
+        ),
+        # and inside a function, from metrics/
+        (
+            "tissuebench.metrics.relative",
+            "def planted():\n    from tissuebench.meshes import rod\n    return rod.SIZE",
+            BENCHMARK_MODULES,
         ),
         # the commands' shared options, imported from outside the commands (by the Python API,
         # beside them in the features' top layer: only the commands' own contract breaks)

@@ -1,15 +1,17 @@
 """A contact case on the leaderboard (SPEC 12): its rows carry the force error and the
 interpenetration in the record, leaderboard.csv, leaderboard.md and the page, with a force
-figure; a simulator module that does not say CONTACT = True is not run on it.
+figure; a simulator without a contact adapter (workflows/simulators/contact/) is not run on it.
 
-A tiny case of ours (N = 4, 0.5 s) and two stand-in simulators: `mirror`, which says CONTACT =
-True and hands back our reference's own series and force (so its force error must be exactly 0
-and its interpenetration, measured by compare from the series file, what our run's Measures
-recorded for the reference, to round-off), and `plain`, which poses no contact."""
+A tiny case of ours (N = 4, 0.5 s) and two stand-in simulators: `mirror`, whose contact
+adapter (registered in ADAPTERS from here) hands back our reference's own series and force (so
+its force error must be exactly 0 and its interpenetration, measured by compare from the
+series file, what our run's Measures recorded for the reference, to round-off), and `plain`,
+which poses no contact."""
 
 import argparse
 import csv
 import json
+import sys
 import types
 
 import numpy as np
@@ -20,11 +22,12 @@ from tissuebench.workflows.leaderboard import build as leaderboard
 from tissuebench.workflows.leaderboard import runs
 from tissuebench.workflows.leaderboard.rows import Board
 from tissuebench.workflows.simulators import ExternalRun, runner
+from tissuebench.workflows.simulators.contact import ADAPTERS
 
 pytestmark = pytest.mark.serial  # the whole command on rank 0's files
 
 
-def simulator(name: str, contact: bool) -> types.ModuleType:
+def simulator(name: str) -> types.ModuleType:
     module = types.ModuleType(name)
 
     def run(data, variant, workdir):
@@ -42,14 +45,12 @@ def simulator(name: str, contact: bool) -> types.ModuleType:
         skipped=lambda data: {},
         run=run,
     )
-    if contact:
-        module.CONTACT = True
     return module
 
 
 @pytest.fixture(scope="module")
 def board_out(tmp_path_factory):
-    fakes = {"mirror": simulator("mirror", True), "plain": simulator("plain", False)}
+    fakes = {"mirror": simulator("mirror"), "plain": simulator("plain")}
     board = Board(
         "contact-tiny", "contact", "MP1", "linear", mesh_size=4, end_time=0.5,
         options={"kappa": 10.0, "load_scale": 1.0}, simulators=("mirror", "plain"),
@@ -60,6 +61,10 @@ def board_out(tmp_path_factory):
         mp.setattr(leaderboard, "BOARDS", [board])
         for module in (leaderboard, runs, runner):
             mp.setattr(module, "get_simulator", fakes.__getitem__)
+        # mirror's contact adapter: one line in the registry (the fake poses contact as it
+        # poses anything else: it hands back our reference)
+        mp.setitem(sys.modules, "tests_mirror_contact", fakes["mirror"])
+        mp.setitem(ADAPTERS, "mirror", "tests_mirror_contact")
         args = argparse.Namespace(out=out, solver="direct", petsc="", force=False, rerun=[])
         assert leaderboard.main(args) == 0
     return out

@@ -10,8 +10,8 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-from tissuebench.solvers.truth.split import compute_split, split_share, splittable, units_of
-from tissuebench.solvers.truth.store import compute
+from tissuebench.solvers.truth.split import split_share, splittable, units_of
+from tissuebench.solvers.truth.store import compute, compute_split
 
 # one rank: the workers are processes of their own; about a minute in all
 pytestmark = [pytest.mark.serial, pytest.mark.slow]

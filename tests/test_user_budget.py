@@ -22,7 +22,7 @@ import pytest
 
 from tissuebench.meshes import get_entry
 from tissuebench.meshes.gmshio import MeshError
-from tissuebench.meshes.regions import on_mesh, posing
+from tissuebench.meshes.posed import on_mesh, posing
 from tissuebench.workflows.compare.grading import compare
 from tissuebench.workflows.compare.posing import geometry
 from tissuebench.workflows.io.series import read_series

@@ -29,7 +29,8 @@ from tissuebench.meshes.benchmark import (
     shape_options,
 )
 from tissuebench.meshes.gmshio import check_positive_int, start_gmsh, to_dolfinx
-from tissuebench.meshes.regions import Posing, Region, Term, on_mesh
+from tissuebench.meshes.posed import on_mesh
+from tissuebench.meshes.regions import Posing, Region, Term
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.models import REFERENCE_MODEL, run_label
 from tissuebench.solvers.truth.cases import register_case, remove_case

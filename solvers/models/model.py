@@ -12,6 +12,10 @@ from dataclasses import dataclass
 import ufl
 from ufl.core.expr import Expr
 
+# the elastic forms' quadrature, UFL's (solvers/elastic.py) and the compiled loop's
+# (solvers/compiled_forces.py): 2 Gauss points per direction, full integration of Q1, as K uses
+QUADRATURE_DEGREE = 2
+
 
 @dataclass(frozen=True)
 class Model:

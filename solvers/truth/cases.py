@@ -22,8 +22,8 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
+from tissuebench.meshes import get_entry
 from tissuebench.meshes.benchmark import Benchmark
-from tissuebench.meshes.rod import SIZE as ROD_SIZE
 from tissuebench.solvers.materials import Material, get_material
 from tissuebench.solvers.truth.solver import Boundary, ContactLaw, Problem, Truth
 
@@ -41,6 +41,8 @@ CASES = {
     "contact-MP2": ("contact", "MP2", "linear", 1.0, None),
     "contact-MP1-nhb": ("contact", "MP1", "neo-hookean-barrier", 1.0, None),
 }
+# SPEC 12's Hertz check: the benchmark whose tool is pushed statically (solvers/truth/hertz.py)
+HERTZ = "contact"
 
 
 def register_case(
@@ -70,7 +72,7 @@ GRADING = 2.0  # the power of the block grid's grading toward the needle's ends
 GRADED = {
     "block-MP1-w0.2": lambda x: graded_block(x, 0.2),
     "block-MP2-w0.2": lambda x: graded_block(x, 0.2),
-    "rod-MP2": lambda x: graded_rod(x, ROD_SIZE),
+    "rod-MP2": lambda x: graded_rod(x, get_entry("rod").box),
     "contact-MP1": lambda x: graded_contact(x),
     "contact-MP2": lambda x: graded_contact(x),
     "contact-MP1-nhb": lambda x: graded_contact(x),
@@ -122,7 +124,7 @@ def graded_contact(x: np.ndarray) -> None:
     x[:, 1] = np.interp(x[:, 1], eta, [0.0, low, high, 1.0])
 
 
-def graded_rod(x: np.ndarray, size: tuple[float, float, float]) -> None:
+def graded_rod(x: np.ndarray, size: tuple[float, ...]) -> None:
     """Move the uniform rod grid's points x (rows x, y, z, m) in place toward the clamped face's
     edges: x toward 0; y toward 0 and the height, z toward 0 and the depth, from the middle."""
     length, height, depth = size
@@ -172,7 +174,7 @@ def _contact_law(benchmark: Benchmark, E: float, penalty: float) -> ContactLaw |
     lengths = np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1)
     shortest = mesh.comm.allreduce(float(lengths.min()) if len(lengths) else np.inf, op=MPI.MIN)
     k = penalty * TRUTH_KAPPA * E / shortest
-    return ContactLaw(facets=c.facets, centre=c.centre, radius=c.radius, k=k)
+    return ContactLaw(facets=c.facets, tool=c.tool, k=k)
 
 
 def benchmark_problem(

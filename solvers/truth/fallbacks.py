@@ -15,7 +15,7 @@ a case added there would make every cached truth be computed again; a case's own
 benchmark, material, model, load scale) are in its key either way (store.inputs).
 """
 
-from tissuebench.meshes.rod import SIZE as ROD_SIZE
+from tissuebench.meshes import get_entry
 from tissuebench.solvers.truth.cases import (
     GRADED,
     STEP_DIVISOR,
@@ -35,7 +35,7 @@ for _s in ROD_SWEEP:
     SWEEP_CASES.append(_case)
     FALLBACKS[_case] = ("rod-nhb-s3", _s)
     register_case(_case, "rod", "MP3", "neo-hookean-barrier", load_scale=_s)
-    GRADED[_case] = lambda x: graded_rod(x, ROD_SIZE)
+    GRADED[_case] = lambda x: graded_rod(x, get_entry("rod").box)
 # measured: every s of the sweep folds on the graded n = 8 (truth.md), so the same loads on the
 # uniform levels that rod-nh-s1 and rod-nhb-s3 take, largest first (they do not meet SPEC 10's
 # rule of a graded level: their edge cells are those of the graded n = 4). Their Newton may stop

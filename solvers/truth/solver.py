@@ -68,6 +68,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
+from tissuebench.meshes.tools import Tool
 from tissuebench.solvers import contact
 
 # motion(t, x) -> (u, v, a): prescribed displacement (m), velocity (m/s) and acceleration
@@ -121,13 +122,16 @@ class Boundary:
 @dataclass
 class ContactLaw:
     """SPEC 12: the boundary facets `facets` (local indices) in frictionless penalty contact
-    with the rigid half-stadium of radius `radius` (m) centred at centre(t) (m), penalty k
-    (Pa/m): the traction p n on the tissue, p = k <-g_n>, driven toward its limit by k."""
+    with the rigid `tool` (meshes/tools/), penalty k (Pa/m): the traction p n on the tissue,
+    p = k <-g_n>, driven toward its limit by k."""
 
     facets: np.ndarray
-    centre: Callable[[float], np.ndarray]
-    radius: float
+    tool: Tool
     k: float
+
+    def centre(self, t: float) -> np.ndarray:
+        """The tool's centre c(t) (m) at time t (s)."""
+        return self.tool.centre(t)
 
 
 @dataclass
@@ -286,7 +290,7 @@ class Truth:
             self._force = [
                 fem.form(f)
                 for f in contact.needle_force(
-                    self._split(self.U)[0], self.needle, c.radius, c.k, self._ds
+                    self._split(self.U)[0], self.needle, c.tool, c.k, self._ds
                 )
             ]
 
@@ -341,7 +345,7 @@ class Truth:
         if pb.contact is not None:  # the traction p n of the needle on the tissue (SPEC 12)
             c = pb.contact
             k = c.k * self._penalty
-            traction = contact.pressure(u, self.needle, c.radius, k) * contact.outward_normal(
+            traction = contact.pressure(u, self.needle, c.tool, k) * c.tool.ufl_outward_normal(
                 contact.deformed(u), self.needle
             )
             residual = residual - ufl.inner(traction, w) * self._ds

@@ -3,7 +3,7 @@
 store.compute() runs a case's hierarchy one run after another: each level n at the truth's step
 h / k, the coarsest again at h / 2k and h / 4k (its time order) and the finest at h / 2k. These
 runs are independent: compute_split() runs each in a worker process of its own (`python -m
-tissuebench.solvers.truth.split`, one rank, one BLAS thread), `jobs` at a time, longest first,
+tissuebench.solvers.truth.worker`, one rank, one BLAS thread), `jobs` at a time, longest first,
 and then takes the same differences, estimate and samples from their kept steps as compute()
 does, in the same order, on the same spaces. The numbers are compute()'s, bit for bit (a fresh
 Truth's run is the run of one that ran before: Truth.run starts from initial_state(), and the
@@ -27,6 +27,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from mpi4py import MPI
@@ -90,36 +91,8 @@ def split_share(levels: tuple[int, ...], benchmark: str, jobs: int) -> float:
 def worker_command(case: str, quick: bool, unit: Unit, out: Path) -> list[str]:
     """The command line of one unit's worker."""
     n, m = unit
-    module = "tissuebench.solvers.truth.split"
+    module = "tissuebench.solvers.truth.worker"
     return [sys.executable, "-m", module, case, str(n), str(m), str(int(quick)), str(out)]
-
-
-def run_unit(case: str, quick: bool, unit: Unit, out: Path) -> None:
-    """Compute one unit on COMM_SELF and write it to `out` (.npz). A worker's work."""
-    from tissuebench.solvers.truth.store import inputs, level_truth
-
-    given = inputs(case, quick)
-    steps, k = given["steps"], given["step_divisor"]
-    n, m = unit
-    truth, bench = level_truth(case, n, MPI.COMM_SELF)
-    run = truth.run(bench.dt / (m * k), m * k * steps, keep=m * k)
-    arrays: dict[str, np.ndarray] = {
-        "u": np.asarray(run.u),
-        "times": np.asarray(run.times),
-        "dofs": np.asarray(run.dofs),
-        "wall": np.asarray(run.wall),
-    }
-    if run.tip is not None:
-        arrays["tip"] = np.asarray(run.tip)
-        if m == 1:  # as compute(): the static tip right after the level's run, on its Truth
-            try:
-                arrays["static"] = np.asarray(truth.tip(truth.static(steps * bench.dt)))
-            except RuntimeError as err:
-                arrays["static"] = np.full(3, np.nan)
-                arrays["static_error"] = np.asarray(str(err))
-    partial = out.with_name(out.name + ".partial.npz")
-    np.savez(partial, allow_pickle=False, **arrays)
-    os.replace(partial, out)
 
 
 def run_units(
@@ -190,19 +163,27 @@ def _load(path: Path, V) -> tuple[TruthRun, dict]:
     return run, arrays
 
 
+@dataclass(frozen=True)
+class Levels:
+    """What a split computation takes from the store (solvers/truth/store.py hands them in: it
+    imports this module, never the other way): the case's inputs, a level's Truth, the levels,
+    the own error and the samples, as store.compute() uses them."""
+
+    inputs: Callable[..., dict]
+    level_truth: Callable[..., tuple]
+    levels_of: Callable[..., tuple[int, ...]]
+    own_error: Callable[..., dict]
+    sample: Callable[..., TruthSamples | None]
+
+
 def compute_split(
-    case: str, quick: bool, jobs: int, log: Callable[[str], None] | None = None
+    case: str, quick: bool, jobs: int, parts: Levels, log: Callable[[str], None] | None = None
 ) -> TruthSamples | None:
     """store.compute()'s TruthSamples of a splittable case on one rank, its runs `jobs` at a
-    time in worker processes. `log` hears each run's end."""
-    from tissuebench.solvers.truth.store import (
-        inputs,
-        level_truth,
-        levels_of,
-        own_error,
-        sample,
-    )
-
+    time in worker processes (store.compute_split hands in `parts`). `log` hears each run's
+    end."""
+    inputs, level_truth, levels_of = parts.inputs, parts.level_truth, parts.levels_of
+    own_error, sample = parts.own_error, parts.sample
     say = log or (lambda line: None)
     comm = MPI.COMM_SELF
     start = time.perf_counter()
@@ -255,8 +236,3 @@ def compute_split(
     if samples is not None:
         samples.hierarchy["total_wall"] = time.perf_counter() - start
     return samples
-
-
-if __name__ == "__main__":  # a unit's worker: CASE N M QUICK OUT (the package's cases)
-    name, n_, m_, quick_, out_ = sys.argv[1:6]
-    run_unit(name, quick_ == "1", (int(n_), int(m_)), Path(out_))

@@ -53,7 +53,8 @@ from tissuebench.solvers.truth.estimate import estimate_error, interior_differen
 from tissuebench.solvers.truth.floor import FLOOR_CASES, FLOOR_RTOL, FloorTruth
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.solvers.truth.solver import MIXED_NU, VOLUMETRIC, Truth, TruthRun
-from tissuebench.solvers.truth.split import compute_split, split_share, splittable
+from tissuebench.solvers.truth.split import Levels, split_share, splittable
+from tissuebench.solvers.truth.split import compute_split as _compute_split
 
 SAMPLING = 2  # the version of sample() and compute(): part of the inputs (the cache key)
 QUADRATURE_POINTS = 3  # Gauss-Legendre points per direction (metrics/crossmesh.py's rule)
@@ -687,6 +688,15 @@ TEMPORARY = re.compile(r"\..+\.npz\.(?P<pid>\d+)\.tmp\.npz")  # TruthSamples.sav
 # differences between levels and steps, the estimate and the sampling of the finest level
 # (measured by `tissuebench bench --only paths`: about 11 s on the rod and on the blocks)
 SPLIT_FIXED_SECONDS = 10.0
+
+
+def compute_split(
+    case: str, quick: bool, jobs: int, log: Callable[[str], None] | None = None
+) -> TruthSamples | None:
+    """compute()'s TruthSamples of a splittable case on one rank, its runs `jobs` at a time in
+    worker processes (solvers/truth/split.py), bit for bit."""
+    parts = Levels(inputs, level_truth, levels_of, own_error, sample)
+    return _compute_split(case, quick, jobs, parts, log)
 
 
 def expected_wall(case: str, quick: bool = False, jobs: int = 1) -> float:

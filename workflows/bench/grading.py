@@ -41,11 +41,20 @@ import basix  # noqa: E402
 import numpy as np  # noqa: E402
 from dolfinx import fem, geometry  # noqa: E402
 
-from tissuebench.meshes.rod import SIZE, rod_mesh  # noqa: E402
+from tissuebench.meshes import get_benchmark, get_entry  # noqa: E402
 from tissuebench.metrics.cells import Locator  # noqa: E402
 from tissuebench.metrics.crossmesh import PointValues  # noqa: E402
 from tissuebench.workflows.compare.grading import grade  # noqa: E402
 from tissuebench.workflows.io.xdmf import gather_mesh, write_series  # noqa: E402
+
+ROD = "rod"  # the benchmark whose meshes this bench grades
+SIZE = get_entry(ROD).box  # m: the rod's length, height and depth
+
+
+def rod_mesh(n: int, comm: MPI.Comm):
+    """The rod's mesh at size n on comm (its TaggedMesh)."""
+    return get_benchmark(ROD, mesh_size=n, comm=comm).tagged
+
 
 T = TypeVar("T")
 H = 1 / 30  # s, the rod's step

@@ -365,7 +365,7 @@ def measure_into(
     """The benchmark, in a temporary folder removed after; its report printed and, with out,
     written to OUT/performance-paths.md and .json; its result returned. `command`: the bench
     command that ran it, for the report."""
-    from tissuebench.workflows.bench.report import machine_description
+    from tissuebench.workflows.bench.machine import machine_description
     from tissuebench.workflows.io.output import check_writable, write_owned
 
     if out is not None:

@@ -5,11 +5,10 @@ from performance.json) and the tables of workflows/bench/tables.py (targets.py: 
 Units: seconds, bytes (MiB in the tables), degrees of freedom.
 """
 
-import os
-import platform
 from collections.abc import Sequence
 from pathlib import Path
 
+from tissuebench.workflows.bench.machine import machine_description
 from tissuebench.workflows.bench.measure import (
     BLOCK,
     BLOCK_WARM,
@@ -146,18 +145,6 @@ def plot(records: list[dict], path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
-
-
-def machine_description() -> str:
-    """'CPU model, N cores, M GiB' of this machine."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
-    return f"{cpu}, {os.cpu_count()} cores, {mem:.0f} GiB"
 
 
 def sizes_ran(records: list[dict]) -> dict[tuple[str, str, str], list[str]]:

@@ -18,9 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from tissuebench.core.errors import UserError
-from tissuebench.meshes import in_contact
-from tissuebench.meshes.block import LENGTH
-from tissuebench.meshes.contact import RADIUS, centre
+from tissuebench.meshes import get_entry, in_contact
+from tissuebench.meshes.tools import Tool
 from tissuebench.metrics.contact import force_error, interpenetration_curve
 
 BENCHMARK = "contact"
@@ -52,19 +51,26 @@ class ContactGradingError(UserError):
 
 @dataclass
 class ContactReference:
-    """A contact reference: its needle's load scale s (c(t) = c0 + s g(t)), radius (m), its
-    force (steps, 2) N/m at t_i = i h (None: it states none), where that force comes from (a
-    few words), and its own relative error (a truth's; None for a run of ours)."""
+    """A contact reference: its needle's load scale s (c(t) = c0 + s g(t)), its force (steps,
+    2) N/m at t_i = i h (None: it states none), where that force comes from (a few words), its
+    own relative error (a truth's; None for a run of ours) and its benchmark."""
 
     load_scale: float
     force: np.ndarray | None
     source: str
     own_error: float | None = None
-    radius: float = RADIUS
+    benchmark: str = BENCHMARK
+
+    @property
+    def tool(self) -> Tool:
+        """The benchmark's tool at the reference's load scale (meshes/tools/)."""
+        make = get_entry(self.benchmark).tool
+        assert make is not None  # a contact benchmark
+        return make(load_scale=self.load_scale)
 
     def centre(self, t: float) -> np.ndarray:
         """The needle's centre c(t) (m) at t (s)."""
-        return centre(t, self.load_scale)
+        return self.tool.centre(t)
 
 
 @dataclass
@@ -129,7 +135,11 @@ def truth_reference(truth) -> ContactReference:
     scale = float(CASES[truth.case][3])
     force = truth_force(truth)
     return ContactReference(
-        scale, force.force, f"the truth {truth.case}'s force", float(force.own_error)
+        scale,
+        force.force,
+        f"the truth {truth.case}'s force",
+        float(force.own_error),
+        benchmark=CASES[truth.case][0],
     )
 
 
@@ -153,7 +163,9 @@ def file_reference(path: Path, fingerprint: dict) -> ContactReference:
         stem = path.name.split(".")[0]
         force = export_force(path.parent / f"{stem}.json")
         source = f"our {fingerprint.get('case')} export's reference force"
-    return ContactReference(scale, force, source)
+    return ContactReference(
+        scale, force, source, benchmark=fingerprint.get("benchmark") or BENCHMARK
+    )
 
 
 def export_force(json_path: Path) -> np.ndarray | None:
@@ -179,6 +191,7 @@ def exported_reference(data) -> ContactReference | None:
         float(data.options.get("load_scale", 1.0)),
         None if force is None else np.asarray(force, dtype=float).reshape(-1, 2),
         "our reference's force (the export's reference.contact.force)",
+        benchmark=data.benchmark,
     )
 
 
@@ -216,14 +229,14 @@ def grade_contact(
     error against the reference's force. ContactGradingError for a force file that cannot be
     read or a candidate with no node on the contact edge."""
     try:
+        box = get_entry(reference.benchmark).box
         own = interpenetration_curve(
             series.points,
             series.displacements,
             series.times,
-            reference.centre,
-            right=LENGTH,
-            size=LENGTH,
-            radius=reference.radius,
+            reference.tool,
+            right=box[0],
+            size=box[0],
         )
     except ValueError as err:
         raise ContactGradingError(str(err)) from None
@@ -263,7 +276,7 @@ def force_columns(grades: ContactGrades, steps: int) -> dict[str, np.ndarray]:
 def reference_benchmark(reference: str | Path, case: str | None) -> str | None:
     """The benchmark the reference poses, as far as it can be told before reading its series:
     the truth case's, or its folder's (folder_fingerprint); None when unknown."""
-    from tissuebench.workflows.compare.grading import folder_fingerprint
+    from tissuebench.workflows.compare.fingerprint import folder_fingerprint
 
     if case is not None:
         from tissuebench.solvers.truth.cases import CASES

@@ -48,6 +48,7 @@ from tissuebench.workflows.compare.contact import (
     force_columns,
     is_contact_reference,
 )
+from tissuebench.workflows.compare.fingerprint import folder_fingerprint
 from tissuebench.workflows.io.manifest import file_hash
 from tissuebench.workflows.io.output import RunFolder, collective
 from tissuebench.workflows.io.series import read_on_rank0
@@ -57,9 +58,6 @@ from tissuebench.workflows.io.summary import (  # candidate_file: read here by o
     CompareSummary,
     candidate_file,  # noqa: F401
     dumps,
-    kind_of,
-    read_case_summary,
-    read_summary,
 )
 from tissuebench.workflows.io.tables import spans_decades, write_metrics_csv
 
@@ -542,51 +540,3 @@ def reference_fingerprint(reference: str | Path, series) -> dict:
     except Exception:  # anything a file can hold: the folder says nothing
         pass
     return found | {"nodes": int(len(series.points)), "dimension": int(series.dim)}
-
-
-def folder_fingerprint(path: Path) -> dict:
-    """reference_fingerprint's fields that the reference's folder states ({} when none): a
-    study case's summary.json with a run of the file's name, else the export STEM.json beside
-    STEM.reference.xdmf (read by io/exported.py)."""
-    from tissuebench.workflows.io.exported import read_json
-
-    folder = path.parent
-    found = read_summary(folder)
-    if found is not None and kind_of(found) == "case":
-        try:
-            summary = read_case_summary(folder)
-        except UserError:  # not a case summary of this tissuebench: the folder says nothing
-            summary = None
-        run = summary.runs.get(path.stem) if summary is not None else None
-        if summary is not None and run is not None:
-            material = next(
-                (
-                    r["material"]["name"]
-                    for r in summary.inputs.get("runs", [])
-                    if r.get("label") == path.stem
-                ),
-                None,
-            )
-            return {
-                "source": "run folder",
-                "benchmark": summary.benchmark,
-                "case": summary.case,
-                "options": dict(summary.inputs.get("options") or {}),
-                "material": material,
-                "model": run.model,
-                "mesh_size": summary.mesh_size,
-            }
-    stem = path.name.split(".")[0]
-    export = folder / f"{stem}.json"
-    if path.name.startswith(f"{stem}.reference.") and export.is_file():
-        data = read_json(export)
-        return {
-            "source": "export",
-            "benchmark": data.benchmark,
-            "case": stem,
-            "options": dict(data.options),
-            "material": data.material.name,
-            "model": data.model,
-            "mesh_size": data.mesh_size,
-        }
-    return {}

@@ -79,20 +79,17 @@ def geometry(benchmark: str, options: dict) -> dict | None:
     coordinates (the JSON's `geometry`, schema in workflows/io/exported.py), from the
     benchmark's entry (its box and posing); None for a benchmark that states no regions."""
     from tissuebench.meshes import get_entry
-    from tissuebench.meshes.regions import posing
+    from tissuebench.meshes.posed import posing
 
     entry = get_entry(benchmark)
-    if entry.posing is None or not entry.box:
+    if entry.posing is None or not (entry.box or entry.body):
         return None
     _, posed = posing(benchmark, **options)
+    regions = {"regions": {r.name: r.predicate for r in posed.regions}, "tolerance": TOLERANCE}
+    if entry.body:  # a body that is no box: its entry says it
+        return {**entry.body, **regions}
     extents = [[0.0, float(length)] for length in entry.box]
-    return {
-        "domain": "box",
-        "axes": ["x", "y", "z"][: len(extents)],
-        "extents": extents,
-        "regions": {r.name: r.predicate for r in posed.regions},
-        "tolerance": TOLERANCE,
-    }
+    return {"domain": "box", "axes": ["x", "y", "z"][: len(extents)], "extents": extents, **regions}
 
 
 def contact_object(benchmark: str, bench, V, material: Material, times: np.ndarray) -> dict | None:
@@ -107,7 +104,7 @@ def contact_object(benchmark: str, bench, V, material: Material, times: np.ndarr
     from tissuebench.solvers.contact import QUADRATURE_DEGREE
 
     entry, contact = get_entry(benchmark), bench.contact
-    if entry.tool is None or contact is None:
+    if entry.contact_export is None or contact is None:
         return None
     mesh, imap = V.mesh, V.dofmap.index_map
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
@@ -117,13 +114,14 @@ def contact_object(benchmark: str, bench, V, material: Material, times: np.ndarr
     if mesh.comm.rank != 0:
         return None
     assert parts is not None  # gathered on rank 0
-    stated = entry.tool(
+    stated = entry.contact_export(
         bench.mesh_size, **{k: v for k, v in bench.options.items() if k in entry.options}
     )
     stated["penalty"]["k"] = contact.kappa * material.E / contact.edge_size
+    points = QUADRATURE_DEGREE // 2 + 1  # Gauss-Legendre with n points: exact to degree 2n - 1
     stated["penalty"]["quadrature"] = (
-        f"Gauss-Legendre, exact to degree {QUADRATURE_DEGREE}, {QUADRATURE_DEGREE // 2 + 1} "
-        "points on each edge of the surface"
+        f"Gauss-Legendre, {points} points on each edge of the surface (exact to degree "
+        f"{2 * points - 1})"
     )
     stated["motion"]["c"] = [[float(v) for v in contact.centre(float(t))] for t in times]
     stated["law"]["surface_nodes"] = np.unique(np.concatenate(parts)).tolist()

@@ -15,7 +15,6 @@ from mpi4py import MPI
 
 import numpy as np
 
-from tissuebench.meshes.contact import RADIUS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.truth.hertz import DEPTH, Push, hertz, push
 
@@ -39,13 +38,13 @@ def record(pushes: list[Push]) -> dict:
     material = get_material(MATERIAL)
     E, nu = material.E, material.nu
     best = pushes[-1]
-    p0_hertz, a_hertz = hertz(best.P, E, nu)
+    p0_hertz, a_hertz = hertz(best.P, E, nu, best.radius)
     return {
         "check": "SPEC 12 Hertz: the rigid needle pushed statically into the linear block",
         "material": MATERIAL,
         "E": E,
         "nu": nu,
-        "R": RADIUS,
+        "R": best.radius,
         "depth": DEPTH,
         "P": best.P,
         "p0": best.p0,
@@ -84,7 +83,7 @@ def figure(path: Path, pushes: list[Push]) -> None:
 
     material = get_material(MATERIAL)
     best = pushes[-1]
-    p0_hertz, a_hertz = hertz(best.P, material.E, material.nu)
+    p0_hertz, a_hertz = hertz(best.P, material.E, material.nu, best.radius)
     fig = Figure(figsize=(7, 4.5), layout="constrained")
     ax = fig.subplots()
     y = np.linspace(-a_hertz, a_hertz, 401)

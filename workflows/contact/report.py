@@ -10,10 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuebench.meshes.contact import RADIUS, centre, signed_distance
+from tissuebench.meshes import get_entry
+from tissuebench.meshes.tools import Tool
+from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.fallbacks import FALLBACKS
 from tissuebench.solvers.truth.samples import TruthSamples
-from tissuebench.workflows.contact.study import ALGORITHMS, TruthForce, label_of
+from tissuebench.workflows.contact.study import ALGORITHMS, BENCHMARK, TruthForce, label_of
 from tissuebench.workflows.io.tables import read_rows
 
 COLUMNS = (
@@ -76,10 +78,10 @@ def markdown(
         "",
         "Written by `tissuebench contact --out results`. The block of the paper (1 m square, "
         "fixed left, bottom and top edges, plane strain) pushed by a rigid, frictionless needle "
-        f"with a rounded tip (radius R = {RADIUS:g} m; 0.16 s m deep at t = 2 s for a load scale "
-        "s, held there to t = 10 s). Our algorithms impose the contact by a penalty "
-        "k = kappa E / h_e; the truth is Taylor-Hood Q2-Q1 on graded grids with a 100 times "
-        "stiffer penalty, checked against 10 times that (see truth.md). Every run is graded "
+        f"with a rounded tip (radius R = {needle(BENCHMARK).radius:g} m; 0.16 s m deep at t = 2 s "
+        "for a load scale s, held there to t = 10 s). Our algorithms impose the contact by a "
+        "penalty k = kappa E / h_e; the truth is Taylor-Hood Q2-Q1 on graded grids with a 100 "
+        "times stiffer penalty, checked against 10 times that (see truth.md). Every run is graded "
         "against the truth: E_i (m^2, max and "
         "time-mean), the needle force's error (the largest |F - F_truth| over the largest "
         "|F_truth|), the largest interpenetration of the deformed edge into the needle (m), "
@@ -180,13 +182,11 @@ def plot_force(
     fig.savefig(path, format="png", dpi=110)
 
 
-def needle_outline(c: np.ndarray, radius: float = RADIUS, length: float = 1.5) -> np.ndarray:
-    """The half-stadium's outline (n, 2), m, centred at c: its left half circle and its
-    flanks, `length` m long to the right."""
-    angles = np.linspace(np.pi / 2, 3 * np.pi / 2, 91)
-    arc = np.column_stack([c[0] + radius * np.cos(angles), c[1] + radius * np.sin(angles)])
-    ends = [[c[0] + length, c[1] - radius], [c[0] + length, c[1] + radius]]
-    return np.vstack([arc, ends])
+def needle(benchmark: str, scale: float = 1.0) -> Tool:
+    """The tool of a contact benchmark at load scale `scale` (meshes/tools/)."""
+    make = get_entry(benchmark).tool
+    assert make is not None  # a contact case
+    return make(load_scale=scale)
 
 
 def edge_pressure(folder: Path, label: str, t: float, scale: float) -> tuple[np.ndarray, ...]:
@@ -209,7 +209,8 @@ def edge_pressure(folder: Path, label: str, t: float, scale: float) -> tuple[np.
     x = np.vstack([x, nodes[-1:]])
     E = get_material(summary.runs[label].material).E
     k = float(summary.options["kappa"]) * E * summary.mesh_size  # kappa E / h_e, h_e = 1/N m
-    p = k * np.maximum(-signed_distance(x, centre(float(series.times[i]), scale)), 0.0)
+    tool = needle(summary.benchmark, scale)
+    p = k * np.maximum(-tool.signed_distance(x, tool.centre(float(series.times[i]))), 0.0)
     return x[:, 0], x[:, 1], p
 
 
@@ -230,13 +231,14 @@ def plot_deformed(
 
     i = int(np.argmin(np.abs(truth.times - t)))
     x = truth.vertices + truth.u_vertices[i]
-    c = centre(float(truth.times[i]), scale)
+    tool = needle(CASES[case][0], scale)
+    c = tool.centre(float(truth.times[i]))
     fig = Figure(figsize=(12, 5), layout="constrained")
     body, pressure = fig.subplots(1, 2, width_ratios=(1.1, 1))
     cells = truth.cells
     edges = np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [2, 3]], cells[:, [3, 0]]])
     body.add_collection(LineCollection(x[edges], colors="0.55", linewidths=0.3))
-    body.add_patch(Polygon(needle_outline(c), closed=True, color="C3", alpha=0.35, lw=0))
+    body.add_patch(Polygon(tool.outline(c), closed=True, color="C3", alpha=0.35, lw=0))
     for k, (folder, label) in enumerate(runs):
         ex, ey, p = edge_pressure(folder, label, float(truth.times[i]), scale)
         name = f"{label}, N = {folder.name.split('-N')[-1].replace('-kappa', ', kappa = ')}"

@@ -33,6 +33,7 @@ from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.tables import read_rows
 from tissuebench.workflows.run.case import Case, run_case
 
+BENCHMARK = "contact"  # the benchmark of SPEC 12's cases
 ALGORITHMS = ("implicit", "implicit-lumped", "explicit", "explicit-lumped", "quasi-static")
 SIZE = 20  # the paper's grid
 KAPPA = 10.0  # SPEC 12's default penalty
@@ -69,7 +70,7 @@ def study_cases(truth_case: str, quick: bool = False) -> list[Case]:
         runs = [(label_of(a, model), a, material, model) for a in algorithms]
         return Case(
             f"{truth_case}-N{size}-kappa{kappa:g}",
-            "contact",
+            BENCHMARK,
             runs,
             implicit,
             mesh_size=size,

@@ -22,7 +22,9 @@ JSON alone. One object:
   node set, the region it covers as a predicate on the coordinates ("x = 0",
   "x = 1 and |y - 0.5| <= 0.1"; terms joined by "and", each "c = v", "c <= v", "c >= v" or
   "|c - v| <= r", holding within the tolerance), so that any mesh of the box can find its
-  constrained nodes. null for a benchmark whose geometry is not written here.
+  constrained nodes. A body that is no box states its own domain beside the same keys (the
+  cylinder: {"domain": "cylinder", "radius", "height", "extents": its bounding box, ...}).
+  null for a benchmark whose geometry is not written here.
 - `nodes`: [[x, y(, z)], ...], m; node i is row i (0-based; the deck numbers it i + 1).
 - `cells`: {"type": "quadrilateral" | "hexahedron", "order": "vtk", "connectivity":
   [[n0, n1, ...], ...]}: first-order cells, corners in VTK order (a quadrilateral

@@ -131,11 +131,14 @@ def write_tip_csv(path: Path, times: np.ndarray, tips: dict[str, np.ndarray]) ->
 
 
 def write_contact_csv(path: Path, times: np.ndarray, contacts: dict[str, np.ndarray]) -> None:
-    """contact.csv (SPEC 12): for each run label, the needle's force per unit thickness (N/m,
-    x and y) and the interpenetration (m) at every step it has."""
+    """contact.csv (SPEC 12, 13): for each run label, the force on the tool (per unit thickness
+    in 2D, N/m, x and y; in N in 3D, x, y and z) and the interpenetration (m) at every step it
+    has (each run's rows: its steps, gdim + 1)."""
+    width = next((np.shape(rows)[-1] for rows in contacts.values() if np.ndim(rows) == 2), 3)
+    forces = [f"force_{c}" for c in "xyz"[: width - 1]]
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["algorithm", "step", "time", "force_x", "force_y", "interpenetration"])
+        writer.writerow(["algorithm", "step", "time", *forces, "interpenetration"])
         for label, rows in contacts.items():
             for i, t in enumerate(times[: len(rows)]):
                 writer.writerow([label, i, repr(float(t)), *(repr(float(x)) for x in rows[i])])

@@ -146,13 +146,15 @@ def user_contact(board, rows: list[Row], row: Row, series, truth=None) -> None:
     file its compare graded (rows.user_force, checked against its hash) against the truth's
     force where the truth is in the cache and converged (`truth`: its TruthSamples, where
     loaded already), else against our reference row's."""
-    from tissuebench.meshes.contact import centre
+    from tissuebench.meshes import get_entry
     from tissuebench.metrics.contact import interpenetration_curve
 
     scale = float(board.options.get("load_scale", 1.0))
+    make = get_entry(board.benchmark).tool
+    assert make is not None  # a contact board's benchmark
     try:
         curve = interpenetration_curve(
-            series.points, series.displacements, series.times, lambda t: centre(t, scale)
+            series.points, series.displacements, series.times, make(load_scale=scale)
         )
         finite = curve[np.isfinite(curve)]
         depth = number(finite.max()) if len(finite) else None

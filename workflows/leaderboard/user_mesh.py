@@ -27,7 +27,7 @@ import ufl
 from dolfinx.io.utils import cell_perm_vtk
 
 from tissuebench.core.errors import UserError
-from tissuebench.meshes.regions import on_mesh
+from tissuebench.meshes.posed import on_mesh
 from tissuebench.metrics.series import CELLS, Series
 
 if TYPE_CHECKING:

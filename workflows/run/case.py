@@ -281,7 +281,7 @@ def compute_case(
     system_s = (time.perf_counter() - start) / len(systems)  # M, K, f of one material
 
     results, tips, shapes = {}, {}, {}  # shapes: the runs' displacement Series (rank 0)
-    contacts = {}  # SPEC 12: each run's (F_x, F_y, interpenetration) at every step kept
+    contacts = {}  # SPEC 12, 13: each run's (F's gdim components, interpenetration) a step kept
     measures: dict = {}  # SPEC 12: each material system's Measures
     for label, algorithm, material, model in case.runs:
         system = systems[material]
@@ -354,7 +354,7 @@ def compute_case(
                 measures[material] = Measures(system)
             measure = measures[material]
             contacts[label] = np.reshape(
-                [measure(u, i * h) for i, u in enumerate(run.u)], (len(run.u), 3)
+                [measure(u, i * h) for i, u in enumerate(run.u)], (len(run.u), system.gdim + 1)
             )
     ref_run = results[case.reference][0]
     times = np.arange(n_steps + 1) * h
@@ -446,7 +446,8 @@ def compute_case(
         if figures:
             with phases.timed("figures"):
                 if contacts:
-                    plot_contact(tmp / "contact.png", case.name, times, contacts)
+                    tool = bench.contact.tool if bench.contact is not None else None
+                    plot_contact(tmp / "contact.png", case.name, times, contacts, tool)
                     files.append("contact.png")
                 from tissuebench.workflows.run import figures as drawn
 

@@ -8,9 +8,14 @@ from pathlib import Path
 import numpy as np
 
 
-def plot_contact(path: Path, name: str, times: np.ndarray, contacts: dict[str, np.ndarray]) -> None:
-    """contact.png: F_x (N/m), the force the tissue exerts on the needle along its motion's
-    axis, and the interpenetration (mm) against time (s), each run a line."""
+def plot_contact(
+    path: Path, name: str, times: np.ndarray, contacts: dict[str, np.ndarray], tool=None
+) -> None:
+    """contact.png: the force the tissue exerts on the needle along its motion's axis (F_x in
+    N/m for the 2D needle, F_z in N for the 3D capsule: the tool's axis and unit), and the
+    interpenetration (mm) against time (s), each run a line."""
+    axis = tool.axis if tool is not None else 0
+    unit = tool.force_unit if tool is not None else "N/m"
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(11, 4.2), layout="constrained")
@@ -18,9 +23,9 @@ def plot_contact(path: Path, name: str, times: np.ndarray, contacts: dict[str, n
     for k, (label, rows) in enumerate(contacts.items()):
         t = times[: len(rows)]
         style = {"color": f"C{k % 10}", "lw": 1.2, "label": label}
-        force.plot(t, rows[:, 0], **style)
-        depth.plot(t, 1e3 * rows[:, 2], **style)
-    force.set_ylabel("needle force F_x (N/m)")
+        force.plot(t, rows[:, axis], **style)
+        depth.plot(t, 1e3 * rows[:, -1], **style)
+    force.set_ylabel(f"needle force F_{'xyz'[axis]} ({unit})")
     depth.set_ylabel("interpenetration, largest -g_n (mm)")
     for ax in (force, depth):
         ax.set_xlabel("time t (s)")

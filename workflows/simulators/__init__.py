@@ -19,17 +19,18 @@ One module per simulator, with a small fixed interface (as benchopt's solvers):
   fails or blows up is not an exception: it comes back with status "failed" and the reason,
   and the leaderboard records it as a divergence.
 
-- `CONTACT = True` (optional module attribute): it poses a rigid tool in contact (SPEC 12:
-  the export's `contact` block, the needle of the benchmark "contact") in its variants. A
-  module without it is never run on such an export (runner.py: SimulatorError with its
-  `CONTACT_NOTE`, a line on why not, or "cannot pose a rigid tool in contact here", which the
-  leaderboard shows as the simulator skipped), lest it pose the export as if the needle were
-  absent. A module with it says in `skipped()` which
-  variants cannot pose the contact and why, and hands its needle force as
-  `ExternalRun.force` (io/tables.py write_force_csv), which compare grades as the force
-  error; its interpenetration is graded from its series.
+- A rigid tool in contact (SPEC 12: an export with a `contact` block) is posed by the
+  simulator's contact adapter, one file in contact/ and one line in its ADAPTERS, with the same
+  three functions: its `skipped()` says which variants cannot pose the contact and why, and its
+  runs hand the tool's force as `ExternalRun.force` (io/tables.py write_force_csv), which
+  compare grades as the force error; the interpenetration is graded from the series. A
+  simulator without an adapter is never run on such an export (runner.py: SimulatorError with
+  its module's `CONTACT_NOTE`, a line on why not, or "cannot pose a rigid tool in contact
+  here", which the leaderboard shows as the simulator skipped), lest it pose the export as if
+  the tool were absent.
 
-Adding a simulator: one file here and one line in SIMULATORS.
+Adding a simulator: one file here and one line in SIMULATORS (and its contact: one file in
+contact/ and one line in ADAPTERS).
 """
 
 from __future__ import annotations

@@ -10,8 +10,8 @@ quadratic_hexahedra; graded at the corners, which are the export's nodes) in 3D;
 CPE4R in plane strain (CPS4, CPS4R in plane stress). The models `linear`, `svk` and
 `neo-hookean` (NLGEOM); the static procedure has one `static-ELEMENT` per element.
 
-A contact export (SPEC 12: its `contact` block) is posed by calculix_contact.py, with
-CalculiX's own contact against a rigid needle (CONTACT).
+A contact export (SPEC 12: its `contact` block) is posed by its adapter, contact/calculix.py,
+with CalculiX's own contact against a rigid needle.
 
 Not posed (`skipped`): CalculiX's explicit dynamics. CalculiX 2.20 refuses stiffness
 proportional damping there ("the coefficient beta of the stiffness proportional term must be
@@ -37,14 +37,13 @@ import numpy as np
 
 from tissuebench.core import interrupt
 from tissuebench.workflows.io.calculix_deck import ELEMENTS, SECOND_ORDER, quadratic_hexahedra
-from tissuebench.workflows.simulators import ExternalRun, calculix_contact, given
+from tissuebench.workflows.simulators import ExternalRun, given
 
 NAME = "calculix"
 TITLE = "CalculiX"
 JOB = "job"
 SCHEMES = {"implicit": 0.0, "hht": -0.05}  # variant prefix -> HHT alpha
 MODELS = ("linear", "svk", "neo-hookean")
-CONTACT = True  # poses a contact export (SPEC 12) with its own contact: calculix_contact.py
 TIMEOUT = 3600.0  # s: a ccx run beyond this is stopped and recorded as failed
 
 
@@ -91,9 +90,7 @@ def element_words(data, element: str) -> str:
 
 def variants(data) -> dict[str, str]:
     """The variants that pose this export: scheme x element (see the module docstring); a
-    contact export's are calculix_contact.py's."""
-    if data.contact is not None:
-        return calculix_contact.variants(data)
+    contact export's are its adapter's (contact/calculix.py)."""
     if data.model not in MODELS:
         return {}
     flags = ", NLGEOM" if data.model != "linear" else ""
@@ -130,8 +127,6 @@ def elastic(data) -> str:
 
 def skipped(data) -> dict[str, str]:
     """Variants that cannot pose this export, with why."""
-    if data.contact is not None:
-        return calculix_contact.skipped(data)
     if data.model not in MODELS:
         return {"all": f"the {data.model} model has no CalculiX material"}
     if data.procedure != "dynamic":
@@ -149,8 +144,6 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
     .frd (DISP) as the series."""
     from tissuebench.workflows.io.calculix_deck import write_inp
 
-    if data.contact is not None:
-        return calculix_contact.run(data, variant, workdir)
     scheme, element = variant.split("-", 1)
     workdir = Path(workdir)
     write_inp(data, workdir / f"{JOB}.inp", element, SCHEMES.get(scheme, 0.0))

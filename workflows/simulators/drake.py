@@ -85,7 +85,7 @@ neo-hookean 0.075 (0.138) / 0.053 (0.095), 3.2 s / 32 s; corotated 0.094 (0.168)
 At load scale 0.01 the neo-Hookean stays within 6e-4 (E_n max) of the linear P1 on
 Drake's own scheme and mass: its loose Newton tolerance costs less than that there.
 
-The contact benchmark (SPEC 12) is posed in `drake_contact` (a one-element slab, u_z
+The contact benchmark (SPEC 12) is posed by its adapter, contact/drake.py (a one-element slab, u_z
 projected to zero after each step, the needle a rigid body on a prismatic joint).
 
 Not posed: the 2D block with its glued needle (a one-layer slab needs u_z held on every node
@@ -110,7 +110,6 @@ if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
 
 NAME = "drake"
-CONTACT = True  # poses the contact benchmark (SPEC 12): module drake_contact
 
 
 def _version() -> str:
@@ -194,10 +193,6 @@ def variants(data: Exported) -> dict[str, str]:
     """The variants that pose this export, name -> one line: `linear` for the linear model,
     the nonlinear ones for the neo-Hookean (and, but `neo-hookean`, the corotational) model;
     none for the static procedure, 2D, or constrained nodes that no wall holds."""
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import drake_contact
-
-        return drake_contact.variants(data)
     if data.procedure != "dynamic" or data.dim != 3 or data.cell_type != "hexahedron":
         return {}
     if wall(data) is None:
@@ -219,10 +214,6 @@ def elastic_words(material: Material, variant: str) -> str:
 
 def skipped(data: Exported) -> dict[str, str]:
     """What is not posed of this export and why ({} when some variant poses it)."""
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import drake_contact
-
-        return drake_contact.skipped(data)
     if data.procedure != "dynamic":
         return {"all": "Drake steps its deformable bodies in time only: no static procedure"}
     if data.dim != 3 or data.cell_type != "hexahedron":
@@ -372,10 +363,6 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     from tissuebench.workflows.io.xdmf import write_series
 
     workdir = Path(workdir)
-    if data.contact is not None and variant in variants(data):
-        from tissuebench.workflows.simulators import drake_contact
-
-        return drake_contact.run(data, variant, workdir, _version())
     nodes = np.asarray(data.nodes, dtype=np.float64)
     dofs = 3 * len(nodes)
     if variant not in variants(data):

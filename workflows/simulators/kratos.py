@@ -118,7 +118,7 @@ if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
 
 NAME = "kratos"
-# The contact benchmark (SPEC 12) is not posed (no CONTACT flag): why, in one line.
+# The contact benchmark (SPEC 12) is not posed (no contact adapter): why, in one line.
 CONTACT_NOTE = (
     "not posed yet: Kratos's contact is its ContactStructuralMechanicsApplication (PyPI wheel "
     "10.4.4 for cp312, installed and imported here: mortar penalty and ALM frictionless "

@@ -90,8 +90,8 @@ m^3) and wall time per simulated second (compile and steps, one thread):
 machine's). `euler-10` needs h/10 from n = 6 on and more at n = 12: MuJoCo's bad-acceleration
 reset at t_2, an explicit scheme's stable step shrinking with the element size.
 
-The contact benchmark (SPEC 12) is posed in `mujoco_contact` (a one-element slab of the block
-with u_z held, the needle a mocap body in frictionless contact).
+The contact benchmark (SPEC 12) is posed by its adapter, contact/mujoco.py (a one-element slab of
+the block with u_z held, the needle a mocap body in frictionless contact).
 
 Not posed: the 2D block with its glued needle (`dof="2d"` would hold z on a one-layer slab,
 but the needle is a moving constrained set: a pinned flex vertex follows its body, and a
@@ -112,7 +112,6 @@ from tissuebench.workflows.simulators import (
     given,
     installed_version,
     integrated,
-    mujoco_contact,
 )
 from tissuebench.workflows.simulators.newton import (
     conforming,
@@ -125,7 +124,6 @@ if TYPE_CHECKING:
     from tissuebench.workflows.io.exported import Exported
 
 NAME = "mujoco"
-CONTACT = True  # poses the contact benchmark (SPEC 12): module mujoco_contact
 
 
 def _version() -> str:
@@ -196,8 +194,6 @@ def _posed(data: Exported) -> bool:
 def variants(data: Exported) -> dict[str, str]:
     """The variants that pose this export, name -> one line (with how SVK stands to the
     export's model); empty where skipped() says why."""
-    if data.contact is not None:
-        return mujoco_contact.variants(data)
     if not _posed(data):
         return {}
     elastic = f"<elasticity young poisson>: the export's {given(data.material)}"
@@ -208,8 +204,6 @@ def variants(data: Exported) -> dict[str, str]:
 
 def skipped(data: Exported) -> dict[str, str]:
     """Why no variant poses this export, when none does."""
-    if data.contact is not None:
-        return mujoco_contact.skipped(data)
     if data.procedure != "dynamic":
         return {"all": "MuJoCo steps dynamics only; the static procedure has no counterpart"}
     if data.dim != 3:
@@ -399,8 +393,6 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     from tissuebench.workflows.io.xdmf import write_series
 
     workdir = Path(workdir)
-    if data.contact is not None and variant in variants(data):
-        return mujoco_contact.run(data, variant, workdir, _version())
     if variant not in variants(data):
         return not_run(
             data,

@@ -72,7 +72,7 @@ The tetrahedra alone (linear P1 on the same split, our trapezoidal Newmark) stan
 Q1's on n = 2, 0.80 on n = 3). Warp's warm-up (kernel compilation, excluded from the wall
 time): 13-45 s per solver with a cold cache, 4-7 s from its cache (module hashing).
 
-The contact benchmark (SPEC 12) is posed in `newton_contact` (a one-element slab, u_z
+The contact benchmark (SPEC 12) is posed by its adapter, contact/newton.py (a one-element slab, u_z
 projected to zero after each substep, the needle a kinematic body).
 
 Not posed (variants() is empty): the 2D block with its glued needle (its plane-strain slab
@@ -93,7 +93,6 @@ import numpy as np
 from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
 
 NAME = "newton"
-CONTACT = True  # poses the contact benchmark (SPEC 12): module newton_contact
 
 
 def _version() -> str:
@@ -194,11 +193,7 @@ def available() -> str | None:
 def variants(data) -> dict[str, str]:
     """The variants that pose this export, name -> one line; empty for the static procedure,
     for 2D exports and for moving constrained sets (module docstring); a contact export's
-    variants are newton_contact's."""
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import newton_contact
-
-        return newton_contact.variants(data)
+    variants are its adapter's (contact/newton.py)."""
     if data.procedure != "dynamic" or data.dim != 3 or data.cell_type != "hexahedron":
         return {}
     if any(np.any(np.abs(np.asarray(x)) > 0) for motion in data.motions.values() for x in motion):
@@ -225,10 +220,6 @@ def elastic_words(material, variant: str) -> str:
 
 def skipped(data) -> dict[str, str]:
     """Why no variant poses this export, when none does."""
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import newton_contact
-
-        return newton_contact.skipped(data)
     if data.procedure != "dynamic":
         return {"all": "Newton steps dynamics only; the static procedure has no counterpart"}
     if data.dim != 3 or data.cell_type != "hexahedron":
@@ -490,10 +481,6 @@ def run(data, variant: str, workdir: Path) -> ExternalRun:
     from tissuebench.workflows.io.xdmf import write_series
 
     workdir = Path(workdir)
-    if data.contact is not None and variant in variants(data):
-        from tissuebench.workflows.simulators import newton_contact
-
-        return newton_contact.run(data, variant, workdir, _version())
     nodes = np.asarray(data.nodes, dtype=np.float64)
     dofs = 3 * len(nodes)
     if variant not in variants(data):

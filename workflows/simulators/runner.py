@@ -16,6 +16,7 @@ A simulator folder (one per `external` run; one per simulator and case in the le
 from __future__ import annotations
 
 from pathlib import Path
+from types import ModuleType
 from typing import cast
 
 from mpi4py import MPI
@@ -39,21 +40,35 @@ from tissuebench.workflows.io.summary import (
 )
 from tissuebench.workflows.run.case import versions
 from tissuebench.workflows.simulators import ExternalRun, get_simulator
+from tissuebench.workflows.simulators.contact import ADAPTERS, adapter
 
 
 class SimulatorError(UserError):
     """A simulator or variant that cannot run here or does not pose the benchmark."""
 
 
-# a module without CONTACT = True, unless it says why in its CONTACT_NOTE
+# a simulator without a contact adapter, unless its module says why in its CONTACT_NOTE
 NO_CONTACT = "cannot pose a rigid tool in contact here"
 
 
-def poses_contact(sim) -> bool:
-    """Whether a simulator module poses an export with a rigid tool in contact (SPEC 12): it
-    says so with the module attribute CONTACT = True. One that does not is never run on such
-    an export, lest it pose it as if the needle were absent."""
-    return getattr(sim, "CONTACT", False) is True
+def poses_contact(simulator: str) -> bool:
+    """Whether a simulator poses an export with a rigid tool in contact (SPEC 12): it has an
+    adapter (workflows/simulators/contact/). One that has none is never run on such an export,
+    lest it pose it as if the needle were absent."""
+    return simulator in ADAPTERS
+
+
+def posing(simulator: str, data: Exported | None) -> ModuleType:
+    """The module that poses `data` for `simulator`: its contact adapter for an export with a
+    rigid tool in contact, else the simulator's own module (SimulatorError, one line, for a
+    contact export that it cannot pose)."""
+    sim = get_simulator(simulator)
+    if data is None or getattr(data, "contact", None) is None:
+        return sim
+    found = adapter(simulator)
+    if found is None:
+        raise SimulatorError(f"{simulator}: {getattr(sim, 'CONTACT_NOTE', NO_CONTACT)}")
+    return found
 
 
 def label_of(simulator: str, variant: str) -> str:
@@ -64,7 +79,7 @@ def label_of(simulator: str, variant: str) -> str:
 def choose_variants(simulator: str, data: Exported, wanted: list[str] | None) -> dict[str, str]:
     """The variants to run (all that pose the export when wanted is None); refuses a variant
     that the simulator does not have for this export, with the ones it has."""
-    sim = get_simulator(simulator)
+    sim = posing(simulator, data)
     offered = sim.variants(data)
     if wanted is None:
         return offered
@@ -92,7 +107,7 @@ def run_variant(
     """Run one variant in folder/work (rank 0; outside simulators run serially), grade its
     output against reference into folder, and return its entry (see the module docstring).
     A failed run or an output that compare refuses is an entry with status "failed"."""
-    sim = get_simulator(simulator)
+    sim = posing(simulator, data) if comm.rank == 0 else get_simulator(simulator)
     contact = None
     if comm.rank == 0 and data is not None and getattr(data, "contact", None) is not None:
         from tissuebench.workflows.compare.contact import exported_reference
@@ -214,13 +229,14 @@ def run_external(
     in_contact = comm.bcast(
         getattr(data, "contact", None) is not None if comm.rank == 0 else None, root=0
     )
-    if in_contact and not poses_contact(sim):  # SPEC 12: not posed as if the needle were absent
+    if in_contact and not poses_contact(simulator):  # SPEC 12: never as if the tool were absent
         raise SimulatorError(f"{simulator}: {getattr(sim, 'CONTACT_NOTE', NO_CONTACT)}")
+    posed_by = posing(simulator, data) if comm.rank == 0 else sim  # a contact export: its adapter
     chosen = comm.bcast(
         choose_variants(simulator, data, variants) if comm.rank == 0 else None, root=0
     )
     if not chosen:
-        why = comm.bcast(sim.skipped(data) if comm.rank == 0 else None)
+        why = comm.bcast(posed_by.skipped(data) if comm.rank == 0 else None)
         raise SimulatorError(
             f"{simulator} poses no variant of this benchmark"
             + (f": {'; '.join(f'{k}: {v}' for k, v in why.items())}" if why else "")
@@ -270,7 +286,7 @@ def run_external(
                     "num_dofs": int(data.nodes.size) if comm.rank == 0 else None,
                     "end_time": steps * h,
                     "reference": {**info, "file": "reference.xdmf"},
-                    "skipped_variants": sim.skipped(data) if comm.rank == 0 else None,
+                    "skipped_variants": posed_by.skipped(data) if comm.rank == 0 else None,
                     "runs": runs,
                     "files": ["benchmark.json", "reference.xdmf", "reference.h5", SUMMARY],
                     "inputs": inputs,

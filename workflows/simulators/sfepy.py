@@ -29,7 +29,7 @@ Lagrangian hyperelastic terms, each the SPEC's energy exactly, by its implicit s
 Newton loop (sfepy_nonlinear.py).
 
 The contact benchmark (SPEC 12: an export with a `contact` block) is posed with SfePy's rigid
-contact terms by sfepy_contact.py, to which variants, skipped and run hand it (CONTACT).
+contact terms by its adapter, contact/sfepy.py.
 
 Run, the displacement at every t_i goes to WORKDIR/sfepy.xdmf; a run stops at its first step
 with a non-finite displacement or one beyond 100 times the domain's extent (SPEC section 3)
@@ -64,7 +64,6 @@ SERIES = "sfepy.xdmf"
 FIELD = "displacement"
 TIMING = "SfePy problem setup and time loop, in process"
 DIVERGENCE_FACTOR = 100.0  # SPEC section 3: a displacement beyond 100 x the extent diverges
-CONTACT = True  # poses the contact benchmark (SPEC 12), in sfepy_contact.py
 
 # variant -> (SfePy time stepper, its parameters, mass, one line of what it is)
 VARIANTS: dict[str, tuple[str, dict[str, float | None], str, str]] = {
@@ -129,11 +128,7 @@ def variants(data: Exported) -> dict[str, str]:
     """The variants that pose the export faithfully: every SfePy elastodynamics stepper for a
     dynamic export of the linear model, the implicit ones for a 3D dynamic export of a model
     in NONLINEAR; none for the static procedure or another model. A contact export:
-    sfepy_contact.py's."""
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import sfepy_contact
-
-        return sfepy_contact.variants(data)
+    its adapter's (contact/sfepy.py)."""
     if data.procedure != "dynamic" or skipped(data).get("all"):
         return {}
     if data.model in nl.NONLINEAR:
@@ -147,10 +142,6 @@ def variants(data: Exported) -> dict[str, str]:
 
 def skipped(data: Exported) -> dict[str, str]:
     """Variants that cannot pose this export, with why ({"all": why} when none can)."""
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import sfepy_contact
-
-        return sfepy_contact.skipped(data)
     posed = ", ".join(["linear", *nl.NONLINEAR])
     if data.model != "linear" and data.model not in nl.NONLINEAR:
         return {"all": f"the {data.model} model is not posed in SfePy here ({posed} only)"}
@@ -455,10 +446,6 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     reason; wall_time_s (s) covers SfePy's problem setup and time loop."""
     from tissuebench.workflows.io.xdmf import write_series
 
-    if data.contact is not None:
-        from tissuebench.workflows.simulators import sfepy_contact
-
-        return sfepy_contact.run(data, variant, workdir)
     if variant not in VARIANTS:
         raise ValueError(f"unknown SfePy variant {variant!r}: use one of {', '.join(VARIANTS)}")
     offered = variants(data)

@@ -62,7 +62,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, given, integrated
+from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
 from tissuebench.workflows.simulators.newton import (
     conforming,
     lumped_masses,
@@ -359,11 +359,12 @@ def planar(U: np.ndarray) -> np.ndarray:
     return out
 
 
-def run(data: Exported, variant: str, workdir: Path, version: str) -> ExternalRun:
+def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     """Run one contact variant serially in workdir: mujoco.xml (the posed MJCF, masses and
     damping set after compiling), mujoco.xdmf (the displacement, m, at every t_i on the
     export's quadrilaterals, NaN from a divergence on) and mujoco_force.csv (the needle force,
     N/m, up to the last good step)."""
+    version = installed_version("mujoco", "mujoco-core")
     from tissuebench.workflows.io.tables import write_force_csv
     from tissuebench.workflows.io.xdmf import write_series
 

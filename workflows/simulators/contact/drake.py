@@ -46,7 +46,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, integrated
+from tissuebench.workflows.simulators import ExternalRun, installed_version, integrated
+from tissuebench.workflows.simulators.contact.mujoco import (
+    MESH,
+    planar,
+    slab,
+    slab_problem,
+    tool,
+)
 from tissuebench.workflows.simulators.drake import (
     DIVERGED,
     drake_elasticity,
@@ -54,13 +61,6 @@ from tissuebench.workflows.simulators.drake import (
 )
 from tissuebench.workflows.simulators.drake import (
     VARIANTS as ROD_VARIANTS,
-)
-from tissuebench.workflows.simulators.mujoco_contact import (
-    MESH,
-    planar,
-    slab,
-    slab_problem,
-    tool,
 )
 from tissuebench.workflows.simulators.newton import tet_volumes
 
@@ -265,10 +265,11 @@ def integrate(data: Exported, variant: str, workdir: Path, steps: int | None = N
     }
 
 
-def run(data: Exported, variant: str, workdir: Path, version: str) -> ExternalRun:
+def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     """Run one contact variant serially in workdir: drake.xdmf (the displacement, m, at every
     t_i on the export's quadrilaterals, NaN from a divergence on) and drake_force.csv (the
     needle force, N/m, up to the last good step)."""
+    version = installed_version("drake")
     from tissuebench.workflows.io.tables import write_force_csv
     from tissuebench.workflows.io.xdmf import write_series
 

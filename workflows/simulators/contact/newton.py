@@ -48,8 +48,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.workflows.simulators import ExternalRun, given, integrated
-from tissuebench.workflows.simulators.mujoco_contact import (
+from tissuebench.workflows.simulators import ExternalRun, given, installed_version, integrated
+from tissuebench.workflows.simulators.contact.mujoco import (
     MESH,
     fixed_nodes,
     planar,
@@ -234,9 +234,10 @@ def integrate(data: Exported, variant: str, steps: int | None = None) -> dict:
     }
 
 
-def run(data: Exported, variant: str, workdir: Path, version: str) -> ExternalRun:
+def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     """Run one contact variant serially in workdir: newton.xdmf, the displacement (m) at
     every t_i on the export's quadrilaterals, NaN from a divergence on; no force file."""
+    version = installed_version("newton")
     from tissuebench.workflows.io.xdmf import write_series
 
     workdir = Path(workdir)

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tissuebench.meshes.contact import signed_distance
+from tissuebench.meshes.tools import from_shape
 from tissuebench.workflows.simulators import ExternalRun, given
 
 if TYPE_CHECKING:
@@ -367,15 +367,15 @@ def term_force(term) -> np.ndarray:
 
 
 def interpenetration(
-    nodes: np.ndarray, u: np.ndarray, edge: np.ndarray, c: np.ndarray, radius: float
+    nodes: np.ndarray, u: np.ndarray, edge: np.ndarray, c: np.ndarray, shape: dict
 ) -> float:
     """The largest -g_n (m, 0 where nothing penetrates) over the deformed surface: the edges
     between consecutive surface nodes `edge` (ordered along the edge), SAMPLES points each;
-    nodes (N, 2) and u (N, 2) in m, c the needle's centre (m)."""
+    nodes (N, 2) and u (N, 2) in m, c the needle's centre (m), `shape` the export's tool."""
     x = nodes[edge] + u[edge]
     s = np.linspace(0.0, 1.0, SAMPLES)[None, :, None]
     points = ((1 - s) * x[:-1, None, :] + s * x[1:, None, :]).reshape(-1, 2)
-    return max(0.0, float(-signed_distance(points, c, radius).min()))
+    return max(0.0, float(-from_shape(shape).signed_distance(points, c).min()))
 
 
 def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
@@ -401,7 +401,6 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
     nodes = np.asarray(data.nodes, dtype=np.float64)
     N, steps, h = len(nodes), data.steps, data.h
     contact = tool(data)
-    radius = float(contact["shape"]["radius"])
     centres = np.asarray(contact["motion"]["c"], dtype=np.float64)
     edge = np.asarray(contact["law"]["surface_nodes"], dtype=np.int64)
     edge = edge[np.argsort(nodes[edge, 1])]
@@ -430,7 +429,7 @@ def run(data: Exported, variant: str, workdir: Path) -> ExternalRun:
         base.check_step(values, i, h, limit)
         U[i, :, :2] = values
         F[i] = sum(term_force(t) for t in terms)[:2] / SLAB
-        depth[i] = interpenetration(nodes, values, edge, centres[i], radius)
+        depth[i] = interpenetration(nodes, values, edge, centres[i], contact["shape"])
 
     saved = output.output_function, output.level
     output.set_output(quiet=True)
