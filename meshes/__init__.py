@@ -8,7 +8,7 @@ benchmark defined elsewhere (a test's) joins with register(name, entry).
 
 from mpi4py import MPI  # noqa: F401 (loads libmpi before PETSc and DOLFINx do)
 
-from tissuebench.meshes import block, contact, rod
+from tissuebench.meshes import block, contact, cylinder, rod
 from tissuebench.meshes.benchmark import Benchmark, Entry
 from tissuebench.meshes.gmshio import MeshError
 
@@ -16,6 +16,7 @@ BENCHMARKS = {
     "block": block.ENTRY,
     "rod": rod.ENTRY,
     "contact": contact.ENTRY,
+    "cylinder": cylinder.ENTRY,
 }
 
 
