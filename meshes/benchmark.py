@@ -123,6 +123,11 @@ class Entry:
     # (from the point, the mesh size and option: ", beside the needle")
     title: str = ""
     size_name: str = "n"
+    # what its mesh size gives, for --mesh-size's help: a grid's cells per axis as multiples of
+    # the size, the cells' name and what else the size must be ((1, 1), "quadrilaterals", "N
+    # even"), or, for a mesh that is no grid, a sentence (size_words)
+    grid: tuple[tuple[int, ...], str, str] | None = None
+    size_words: str = ""
     options_text: Callable[[Callable], str] = lambda option: ""
     place: Callable[[Sequence[float], int, Callable], str] = lambda x, size, option: ""
     # what SPEC 7 claims of it by material, quoted in the stability report

@@ -264,6 +264,7 @@ ENTRY = Entry(
     truth_hint=truth_hint,
     title="Block and needle",
     size_name="N",
+    grid=((1, 1), "quadrilaterals", "N even: the needle's end on a node"),
     options_text=options_text,
     place=place,
     # SPEC 7, our paraphrase of the paper

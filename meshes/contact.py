@@ -274,6 +274,7 @@ ENTRY = Entry(
     graded=graded_block,
     title="Block and rigid needle (contact)",
     size_name="N",
+    grid=((1, 1), "quadrilaterals", "N even"),
     options_text=options_text,
     truth_levels=(10, 20, 40),
     quick_truth_levels=(4, 8, 16),

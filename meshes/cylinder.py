@@ -253,6 +253,8 @@ ENTRY = Entry(
     contact_surface="top",
     title="Tissue cylinder and rigid capsule (3D contact)",
     size_name="n",
+    size_words="n cells along the radius, h = 0.5/n m: an O-grid of hexahedra (a square core "
+    "and four blocks to the circle, 2n layers), or gmsh's tetrahedra (--cell tetrahedron)",
     options_text=options_text,
     studied=False,
 )

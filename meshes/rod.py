@@ -157,5 +157,6 @@ ENTRY = Entry(
     quick_truth_seconds=3.0,  # rod 1.7 s, rod-MP2 2.8 s, whole commands (probe 0.78)
     title="Bending rod",
     size_name="n",
+    grid=((2, 1, 1), "hexahedra", ""),
     place=place,
 )

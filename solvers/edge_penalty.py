@@ -113,7 +113,7 @@ class FacetPenalty:
         )
         points, weights = basix.make_quadrature(shape, QUADRATURE_DEGREE)
         element = basix.create_element(basix.ElementFamily.P, shape, 1)
-        tab = element.tabulate(1, np.asarray(points))  # (derivatives, points, vertices, 1)
+        tab = np.asarray(element.tabulate(1, np.asarray(points)))  # (derivative, q, vertex, 1)
         self.N = tab[0, :, :, 0]  # (q, v)
         X = V.tabulate_dof_coordinates()[:, :3][self.nodes]  # (f, v, 3)
         J = np.einsum("kqv,fvd->fqkd", tab[1:3, :, :, 0], X)  # (f, q, 2, 3)

@@ -64,7 +64,7 @@ def board_out(tmp_path_factory):
         # mirror's contact adapter: one line in the registry (the fake poses contact as it
         # poses anything else: it hands back our reference)
         mp.setitem(sys.modules, "tests_mirror_contact", fakes["mirror"])
-        mp.setitem(ADAPTERS, "mirror", "tests_mirror_contact")
+        mp.setitem(ADAPTERS, "mirror", {"half-stadium": "tests_mirror_contact"})
         args = argparse.Namespace(out=out, solver="direct", petsc="", force=False, rerun=[])
         assert leaderboard.main(args) == 0
     return out

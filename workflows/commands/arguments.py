@@ -66,24 +66,17 @@ def add_shape_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-# what --mesh-size is on each benchmark: its letter, the grid's cells per axis as multiples of
-# it, and what else it must be (the meshes' own docstrings; mesh_size_help)
-GRIDS = {
-    "block": ("N", (1, 1), "quadrilaterals", "N even: the needle's end on a node"),
-    "rod": ("n", (2, 1, 1), "hexahedra", ""),
-    "contact": ("N", (1, 1), "quadrilaterals", "N even"),
-}
-
-
 def mesh_size_help(benchmarks: dict[str, Entry]) -> str:
     """--mesh-size's help: on each benchmark what its size gives (the grid's cells, their
     size in m, its default), and the simplices' meshes."""
     said = []
     for name, e in benchmarks.items():
-        if name not in GRIDS:
-            said.append(f"{name}: {e.mesh_size} by default")
+        letter = e.size_name
+        if e.grid is None:
+            words = e.size_words or "its mesh size"
+            said.append(f"{name}: {words} (default {letter} = {e.mesh_size})")
             continue
-        letter, counts, cells, rule = GRIDS[name]
+        counts, cells, rule = e.grid
         grid = " x ".join(f"{k if k > 1 else ''}{letter}" for k in counts)
         size = f"{e.cell_size(1):g}/{letter} m"
         said.append(

@@ -20,9 +20,12 @@ import numpy as np
 from tissuebench.core.errors import UserError
 from tissuebench.meshes import get_entry, in_contact
 from tissuebench.meshes.tools import Tool
-from tissuebench.metrics.contact import force_error, interpenetration_curve
+from tissuebench.metrics.contact import (
+    force_error,
+    interpenetration_curve,
+    surface_interpenetration_curve,
+)
 
-BENCHMARK = "contact"
 TIME_TOLERANCE = 1e-5  # of max(|t|, h): compare's time stamps match to six printed digits
 NOT_GIVEN = (
     "force error: not given (no --needle-force FILE.csv: the candidate's needle force, columns "
@@ -59,7 +62,7 @@ class ContactReference:
     force: np.ndarray | None
     source: str
     own_error: float | None = None
-    benchmark: str = BENCHMARK
+    benchmark: str = ""  # the benchmark it poses (its entry's tool: meshes/tools/)
 
     @property
     def tool(self) -> Tool:
@@ -88,6 +91,7 @@ class ContactGrades:
     force_source: str
     own_error: float | None = None  # the reference force's own relative error (a truth's)
     force_file: str | None = None  # the candidate's force file, absolute (None: not given)
+    force_unit: str = "N/m"  # the tool's (meshes/tools/): N/m in 2D, N in 3D
 
     def summaries(self) -> dict[str, str]:
         """One line each: the interpenetration, and the force error or why it is not given."""
@@ -123,7 +127,11 @@ class ContactGrades:
             "force_file": self.force_file,
             "force_reference": self.force_source,
             "reference_force_own_error": self.own_error,
-            "units": {"force_error": "1", "interpenetration_max": "m", "force": "N/m"},
+            "units": {
+                "force_error": "1",
+                "interpenetration_max": "m",
+                "force": self.force_unit,
+            },
         }
 
 
@@ -163,9 +171,7 @@ def file_reference(path: Path, fingerprint: dict) -> ContactReference:
         stem = path.name.split(".")[0]
         force = export_force(path.parent / f"{stem}.json")
         source = f"our {fingerprint.get('case')} export's reference force"
-    return ContactReference(
-        scale, force, source, benchmark=fingerprint.get("benchmark") or BENCHMARK
-    )
+    return ContactReference(scale, force, source, benchmark=str(fingerprint.get("benchmark") or ""))
 
 
 def export_force(json_path: Path) -> np.ndarray | None:
@@ -177,7 +183,8 @@ def export_force(json_path: Path) -> np.ndarray | None:
         force = data["reference"]["contact"]["force"]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    return np.asarray(force, dtype=float).reshape(-1, 2)
+    force = np.asarray(force, dtype=float)
+    return force.reshape(len(force), -1)
 
 
 def exported_reference(data) -> ContactReference | None:
@@ -189,7 +196,7 @@ def exported_reference(data) -> ContactReference | None:
     force = (reference.get("contact") or {}).get("force")
     return ContactReference(
         float(data.options.get("load_scale", 1.0)),
-        None if force is None else np.asarray(force, dtype=float).reshape(-1, 2),
+        None if force is None else np.asarray(force, dtype=float).reshape(len(force), -1),
         "our reference's force (the export's reference.contact.force)",
         benchmark=data.benchmark,
     )
@@ -208,7 +215,7 @@ def read_needle_force(path: Path, times: np.ndarray) -> np.ndarray:
         raise ContactGradingError(f"--needle-force: {err}") from None
     h = float(times[1] - times[0]) if len(times) > 1 else 1.0
     if len(t) and len(times) > 1 and abs(t[0] - times[1]) <= TIME_TOLERANCE * max(abs(t[0]), h):
-        t, force = np.concatenate([[0.0], t]), np.vstack([[0.0, 0.0], force])
+        t, force = np.concatenate([[0.0], t]), np.vstack([np.zeros(force.shape[1]), force])
     n = min(len(t), len(times))
     wrong = np.abs(t[:n] - times[:n]) > TIME_TOLERANCE * np.maximum(np.abs(times[:n]), h)
     if len(t) > len(times) or wrong.any():
@@ -228,16 +235,28 @@ def grade_contact(
     at every step it has (metrics/contact.py) and, when it hands its force file, the force
     error against the reference's force. ContactGradingError for a force file that cannot be
     read or a candidate with no node on the contact edge."""
+    tool = reference.tool
     try:
-        box = get_entry(reference.benchmark).box
-        own = interpenetration_curve(
-            series.points,
-            series.displacements,
-            series.times,
-            reference.tool,
-            right=box[0],
-            size=box[0],
-        )
+        if tool.dim == 3:  # SPEC 13: the candidate's own faces on the contact surface
+            own = surface_interpenetration_curve(
+                series.points,
+                series.cells,
+                series.cell_type,
+                series.displacements,
+                series.times,
+                tool,
+                surface_mask(reference, series.points),
+            )
+        else:
+            box = get_entry(reference.benchmark).box
+            own = interpenetration_curve(
+                series.points,
+                series.displacements,
+                series.times,
+                tool,
+                right=box[0],
+                size=box[0],
+            )
     except ValueError as err:
         raise ContactGradingError(str(err)) from None
     curve = np.full(len(times), np.nan)
@@ -251,12 +270,32 @@ def grade_contact(
     force = None if needle_force is None else read_needle_force(Path(needle_force), times)
     error = float("nan")
     if force is not None and reference.force is not None:
-        error = force_error(force, reference.force)
+        if force.shape[1] != reference.force.shape[1]:
+            raise ContactGradingError(
+                f"--needle-force {needle_force}: {force.shape[1]} force components, the "
+                f"reference's tool has {reference.force.shape[1]} ({tool.force_unit})"
+            )
+        # SPEC 13: in 3D the axial component is graded (the others are a symmetry error)
+        axis = [tool.axis] if tool.dim == 3 else slice(None)
+        error = force_error(force[:, axis], reference.force[:, axis])
     source = reference.source if reference.force is not None else "no force of the reference"
     finite = curve[np.isfinite(curve)]
     peak = float(finite.max()) if len(finite) else float("nan")
     given = None if needle_force is None else str(Path(needle_force).resolve())
-    return ContactGrades(curve, force, error, peak, source, reference.own_error, given)
+    return ContactGrades(
+        curve, force, error, peak, source, reference.own_error, given, tool.force_unit
+    )
+
+
+def surface_mask(reference: ContactReference, points: np.ndarray) -> np.ndarray:
+    """Which of a candidate's nodes (n, d), m, lie on the reference benchmark's contact surface
+    (its posing's predicate, within SPEC 9's tau of its extent)."""
+    from tissuebench.meshes.posed import posing
+    from tissuebench.meshes.regions import SAME_BODY
+
+    _, posed = posing(reference.benchmark, load_scale=reference.load_scale)
+    assert posed.tool is not None  # a contact benchmark
+    return posed.tool.mask(np.asarray(points, dtype=float), SAME_BODY * posed.extent)
 
 
 def force_columns(grades: ContactGrades, steps: int) -> dict[str, np.ndarray]:
@@ -264,9 +303,10 @@ def force_columns(grades: ContactGrades, steps: int) -> dict[str, np.ndarray]:
     candidate's force is given, force_x and force_y (N/m; NaN past its last row)."""
     columns = {"interpenetration": grades.interpenetration}
     if grades.force is not None:
-        padded = np.full((steps, 2), np.nan)
+        width = grades.force.shape[1]
+        padded = np.full((steps, width), np.nan)
         padded[: len(grades.force)] = grades.force[:steps]
-        columns |= {"force_x": padded[:, 0], "force_y": padded[:, 1]}
+        columns |= {f"force_{c}": padded[:, i] for i, c in enumerate("xyz"[:width])}
     return columns
 
 

@@ -304,10 +304,11 @@ def run_reference(
     if run.status != "ok":
         info["diverged_step"], info["reason"] = run.diverged_step, run.reason
     if readings is not None:
+        unit = "N/m, x and y" if system.gdim == 2 else "N, x, y and z"
         info["contact"] = {
-            "force": [[float(r[0]), float(r[1])] for r in readings],
-            "interpenetration": [float(r[2]) for r in readings],
-            "meaning": "our run's needle force F (N/m, x and y) and interpenetration (m) at "
+            "force": [[float(x) for x in r[:-1]] for r in readings],
+            "interpenetration": [float(r[-1]) for r in readings],
+            "meaning": f"our run's needle force F ({unit}) and interpenetration (m) at "
             "each t_i kept, as `contact.graded` defines them",
         }
     if comm.rank == 0:

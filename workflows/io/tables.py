@@ -145,29 +145,34 @@ def write_contact_csv(path: Path, times: np.ndarray, contacts: dict[str, np.ndar
 
 
 FORCE_COLUMNS = ("time", "force_x", "force_y")  # a candidate's needle force (SPEC 12)
+FORCE_Z = "force_z"  # and its third component, for a 3D tool (SPEC 13)
 
 
 def write_force_csv(path: Path, times: np.ndarray, force: np.ndarray) -> None:
-    """A needle force series as a candidate hands it to compare (`--needle-force`, SPEC 12):
-    columns time (s), force_x and force_y (N/m: the force per unit thickness that the tissue
-    exerts on the needle), one row per step; times (steps,), force (steps, 2)."""
-    force = np.asarray(force, dtype=float).reshape(len(times), 2)
+    """A tool's force series as a candidate hands it to compare (`--needle-force`, SPEC 12,
+    13): columns time (s), force_x, force_y (and force_z for a 3D tool): the force that the
+    tissue exerts on the tool, N/m per unit thickness in 2D and N in 3D, one row per step;
+    times (steps,), force (steps, 2) or (steps, 3)."""
+    force = np.asarray(force, dtype=float)
+    width = 3 if force.ndim == 2 and force.shape[1] == 3 else 2
+    force = force.reshape(len(times), width)
     with _staged(path) as f:
         writer = _writer(f)
-        writer.writerow(FORCE_COLUMNS)
-        for t, (fx, fy) in zip(times, force, strict=True):
-            writer.writerow([repr(float(t)), repr(float(fx)), repr(float(fy))])
+        writer.writerow(FORCE_COLUMNS + ((FORCE_Z,) if width == 3 else ()))
+        for t, row in zip(times, force, strict=True):
+            writer.writerow([repr(float(t)), *(repr(float(x)) for x in row)])
 
 
 def read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """A needle force series written as write_force_csv says: (times (steps,) in s, force
-    (steps, 2) in N/m). ValueError, in one line, for a file without those columns or with a
-    cell that is not a finite number."""
+    """A tool's force series written as write_force_csv says: (times (steps,) in s, force
+    (steps, 2) in N/m, or (steps, 3) in N where it has force_z). ValueError, in one line, for a
+    file without those columns or with a cell that is not a finite number."""
     rows = read_rows(path)
     if not rows or any(c not in rows[0] for c in FORCE_COLUMNS):
         raise ValueError(f"{path}: a needle force needs the columns {', '.join(FORCE_COLUMNS)}")
+    columns = FORCE_COLUMNS + ((FORCE_Z,) if FORCE_Z in rows[0] else ())
     try:
-        table = np.array([[float(r[c] or "nan") for c in FORCE_COLUMNS] for r in rows])
+        table = np.array([[float(r[c] or "nan") for c in columns] for r in rows])
     except ValueError as err:
         raise ValueError(f"{path}: a needle force cell is not a number ({err})") from None
     if not np.isfinite(table).all():

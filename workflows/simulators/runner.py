@@ -51,11 +51,19 @@ class SimulatorError(UserError):
 NO_CONTACT = "cannot pose a rigid tool in contact here"
 
 
-def poses_contact(simulator: str) -> bool:
-    """Whether a simulator poses an export with a rigid tool in contact (SPEC 12): it has an
-    adapter (workflows/simulators/contact/). One that has none is never run on such an export,
-    lest it pose it as if the needle were absent."""
-    return simulator in ADAPTERS
+def tool_kind(data: Exported | None) -> str | None:
+    """The kind of the export's rigid tool (its contact.shape.kind), None without contact."""
+    contact = getattr(data, "contact", None)
+    if contact is None:
+        return None
+    return str((contact.get("shape") or {}).get("kind", ""))
+
+
+def poses_contact(simulator: str, kind: str = "half-stadium") -> bool:
+    """Whether a simulator poses an export with a rigid tool of `kind` in contact (SPEC 12,
+    13): it has an adapter for it (workflows/simulators/contact/). One that has none is never
+    run on such an export, lest it pose it as if the tool were absent."""
+    return kind in ADAPTERS.get(simulator, {})
 
 
 def posing(simulator: str, data: Exported | None) -> ModuleType:
@@ -63,9 +71,10 @@ def posing(simulator: str, data: Exported | None) -> ModuleType:
     rigid tool in contact, else the simulator's own module (SimulatorError, one line, for a
     contact export that it cannot pose)."""
     sim = get_simulator(simulator)
-    if data is None or getattr(data, "contact", None) is None:
+    kind = tool_kind(data)
+    if kind is None:
         return sim
-    found = adapter(simulator)
+    found = adapter(simulator, kind)
     if found is None:
         raise SimulatorError(f"{simulator}: {getattr(sim, 'CONTACT_NOTE', NO_CONTACT)}")
     return found
@@ -226,10 +235,8 @@ def run_external(
     data, bench, _ = build(
         benchmark, mesh_size, options, material, model, h, steps, plane, "dynamic", comm
     )
-    in_contact = comm.bcast(
-        getattr(data, "contact", None) is not None if comm.rank == 0 else None, root=0
-    )
-    if in_contact and not poses_contact(simulator):  # SPEC 12: never as if the tool were absent
+    kind = comm.bcast(tool_kind(data) if comm.rank == 0 else None, root=0)
+    if kind is not None and not poses_contact(simulator, kind):  # never as if the tool were absent
         raise SimulatorError(f"{simulator}: {getattr(sim, 'CONTACT_NOTE', NO_CONTACT)}")
     posed_by = posing(simulator, data) if comm.rank == 0 else sim  # a contact export: its adapter
     chosen = comm.bcast(
