@@ -241,8 +241,8 @@ def figure(path: Path, pushes: list[Push]) -> None:
         "o",
         ms=2.5,
         color="C3",
-        label=f"truth (Q2-Q1, n = {best.n}, kappa = {best.kappa:g}): P = {best.P:.5f} N, "
-        f"p0 = {best.p0:.2f} Pa, a = {1e3 * best.a:.2f} mm",
+        label=f"truth (Q2-Q1, n = {best.n}, kappa = {best.kappa:g}; nodal values, noisy at the "
+        f"edge):\nP = {best.P:.5f} N, p0 = {best.p0:.2f} Pa, a = {1e3 * best.a:.2f} mm",
     )
     ax.set_xlabel("r of the deformed top face (mm)")
     ax.set_ylabel("contact pressure p (Pa)")
