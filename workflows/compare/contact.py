@@ -157,7 +157,7 @@ def file_reference(path: Path, fingerprint: dict) -> ContactReference:
     from tissuebench.workflows.io.tables import read_rows
 
     options = fingerprint.get("options") or {}
-    scale = float(options.get("load_scale", 1.0))
+    scale = load_scale_of(options, str(path))
     path = Path(path)
     force, source = None, "our reference's force"
     if fingerprint.get("source") == "run folder":
@@ -180,11 +180,33 @@ def export_force(json_path: Path) -> np.ndarray | None:
 
     try:
         data = json.loads(Path(json_path).read_text())
-        force = data["reference"]["contact"]["force"]
+        force, dim = data["reference"]["contact"]["force"], data["dimension"]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    force = np.asarray(force, dtype=float)
-    return force.reshape(len(force), -1)
+    return force_array(force, f"{json_path}: reference.contact.force", dim)
+
+
+def force_array(value: object, where: str, dim: object) -> np.ndarray:
+    """A force table (steps, dim) of finite numbers from a JSON value, dim the export's
+    dimension (2 or 3); ContactGradingError, one line, naming `where`, for anything else (an
+    edited export)."""
+    try:
+        force = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        force = np.zeros((0, 0))
+    if force.ndim != 2 or force.shape[1] != dim or not np.isfinite(force).all():
+        raise ContactGradingError(
+            f"{where} is not a table of finite forces, one row of {dim} numbers a step"
+        )
+    return force
+
+
+def load_scale_of(options: dict, where: str) -> float:
+    """The load scale s (a finite number > 0) of an export's options; ContactGradingError."""
+    value = options.get("load_scale", 1.0)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < np.inf:
+        raise ContactGradingError(f"{where}: options.load_scale is {value!r}, not a number > 0")
+    return float(value)
 
 
 def exported_reference(data) -> ContactReference | None:
@@ -195,8 +217,10 @@ def exported_reference(data) -> ContactReference | None:
     reference = data.reference or {}
     force = (reference.get("contact") or {}).get("force")
     return ContactReference(
-        float(data.options.get("load_scale", 1.0)),
-        None if force is None else np.asarray(force, dtype=float).reshape(len(force), -1),
+        load_scale_of(data.options, "the export"),
+        None
+        if force is None
+        else force_array(force, "the export's reference.contact.force", data.dimension),
         "our reference's force (the export's reference.contact.force)",
         benchmark=data.benchmark,
     )

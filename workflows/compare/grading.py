@@ -181,6 +181,11 @@ def compare(
             "--needle-force is for a contact reference (SPEC 12: the benchmark contact, or "
             f"truth:contact-...); {reference} is not one: leave --needle-force out"
         )
+    if needle_force is not None and not Path(needle_force).is_file():  # before it is hashed
+        what = "a folder" if Path(needle_force).is_dir() else "not a regular file"
+        if not Path(needle_force).exists():
+            what = "missing"
+        raise GradingError(f"--needle-force {needle_force}: a CSV file is needed; this is {what}")
     truth = None
 
     def grading() -> Grading:  # against the reference's file, or the truth

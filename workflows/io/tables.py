@@ -166,8 +166,17 @@ def write_force_csv(path: Path, times: np.ndarray, force: np.ndarray) -> None:
 def read_force_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """A tool's force series written as write_force_csv says: (times (steps,) in s, force
     (steps, 2) in N/m, or (steps, 3) in N where it has force_z). ValueError, in one line, for a
-    file without those columns or with a cell that is not a finite number."""
-    rows = read_rows(path)
+    path that is no regular file (a FIFO, a folder: never opened, so never waited on), a file
+    that is not CSV (a cell beyond the csv module's limit) or without those columns, or with a
+    cell that is not a finite number."""
+    path = Path(path)
+    if not path.is_file():
+        what = "a folder" if path.is_dir() else "not a regular file" if path.exists() else "missing"
+        raise ValueError(f"{path}: a needle force is a CSV file, and this is {what}")
+    try:
+        rows = read_rows(path)
+    except (CSVError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not a readable CSV file ({err})") from None
     if not rows or any(c not in rows[0] for c in FORCE_COLUMNS):
         raise ValueError(f"{path}: a needle force needs the columns {', '.join(FORCE_COLUMNS)}")
     columns = FORCE_COLUMNS + ((FORCE_Z,) if FORCE_Z in rows[0] else ())
