@@ -307,14 +307,37 @@ def record_failure(
         pass  # evidence only: the error itself is raised either way
 
 
+# a failure record's fields (record_failure) and what each must be, as its readers use them
+FAILURE_FIELDS: dict[str, Callable[[object], bool]] = {
+    "level": lambda v: isinstance(v, int) and not isinstance(v, bool),
+    "t": lambda v: _number(v),
+    "error": lambda v: isinstance(v, str),
+    "when": lambda v: isinstance(v, str),
+    "smallest_J": lambda v: v is None or _number(v),
+    "levels_done": lambda v: isinstance(v, list) and all(isinstance(x, int) for x in v),
+    "levels_done_smallest_J": lambda v: isinstance(v, list) and all(_number(x) for x in v),
+    "wall": lambda v: isinstance(v, list) and all(_number(x) for x in v),
+}
+
+
 def load_failure(case: str, quick: bool = False) -> dict | None:
-    """The failure record of a case for today's inputs (record_failure), or None."""
+    """The failure record of a case for today's inputs (record_failure), or None; a record
+    that is not one (edited, cut short: not an object, a field missing or of another type) is
+    said in one line on stderr and ignored."""
     path = failure_path(case, quick)
     try:
         record = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    return record if record.get("fingerprint") == fingerprint_of(case, quick) else None
+    if not isinstance(record, dict) or record.get("fingerprint") != fingerprint_of(case, quick):
+        if not isinstance(record, dict):
+            _stderr(f"truth {case}: {path} is no failure record (not an object); ignored")
+        return None
+    bad = [k for k, ok in FAILURE_FIELDS.items() if k not in record or not ok(record[k])]
+    if bad:
+        _stderr(f"truth {case}: {path} is no failure record ({', '.join(bad)}); ignored")
+        return None
+    return record
 
 
 def cache_path(case: str, quick: bool = False) -> Path:
