@@ -49,7 +49,7 @@ pytestmark = pytest.mark.slow  # a minute or more in all: make test starts it fi
 
 ROOT = Path(__file__).resolve().parents[1]
 HEADING = "## Commands"
-SIZES = {"block": 4, "rod": 2}  # at most, for --mesh-size
+SIZES = {"block": 4, "rod": 2, "cylinder": 3}  # at most, for --mesh-size
 END_TIME = "0.1"  # s, each run's end time: 3 steps of the benchmarks' h = 1/30 s
 TOML = 'name = "my tissue"\nE = 5000.0\nnu = 0.45\nrho = 1000.0\nalpha = 0.5\nbeta = 0.005\n'
 

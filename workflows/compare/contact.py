@@ -220,7 +220,7 @@ def exported_reference(data) -> ContactReference | None:
         load_scale_of(data.options, "the export"),
         None
         if force is None
-        else force_array(force, "the export's reference.contact.force", data.dimension),
+        else force_array(force, "the export's reference.contact.force", data.dim),
         "our reference's force (the export's reference.contact.force)",
         benchmark=data.benchmark,
     )

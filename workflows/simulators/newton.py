@@ -255,6 +255,29 @@ def tet_volumes(nodes: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6.0
 
 
+def cone_split(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Six positively oriented tetrahedra (T = 6 C, 4) per hexahedron (C, 8), VTK order, that
+    conform on any hexahedral mesh, where split_hexahedra's need not (the cylinder's O-grid,
+    whose blocks are turned against each other): each cell coned from its lowest-numbered
+    corner over the three faces away from it, each face cut along the diagonal through its own
+    lowest-numbered corner, so that both cells beside a face cut it alike. Exact for convex
+    cells (star-shaped from that corner)."""
+    nodes = np.asarray(nodes, dtype=np.float64)
+    cells = np.asarray(cells, dtype=np.int64)
+    faces = cells[:, np.array(HEX_FACES)]  # (C, 6, 4)
+    apex = cells.min(axis=1)
+    away = ~np.any(faces == apex[:, None, None], axis=2)  # (C, 6): 3 faces per cell
+    far = faces[away].reshape(len(cells), 3, 4)
+    first = np.argmin(far, axis=2)  # the face's lowest corner: its diagonal's end
+    turned = np.take_along_axis(far, (first[..., None] + np.arange(4)) % 4, axis=2)
+    triangles = np.stack([turned[..., [0, 1, 2]], turned[..., [0, 2, 3]]], axis=2)
+    triangles = triangles.reshape(len(cells), 6, 3)
+    tets = np.concatenate([np.repeat(apex, 6)[:, None], triangles.reshape(-1, 3)], axis=1)
+    negative = tet_volumes(nodes, tets) < 0
+    tets[negative] = tets[negative][:, [0, 1, 3, 2]]
+    return tets
+
+
 def split_hexahedra(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Six positively oriented tetrahedra (T = 6 C, 4) per hexahedron (C, 8), VTK order, around
     each cell's 0-6 diagonal after canonical_hexahedra."""

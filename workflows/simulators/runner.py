@@ -142,7 +142,7 @@ def run_variant(
     label = label_of(simulator, variant)
     entry: VariantRun = {
         "simulator": simulator,
-        "title": sim.TITLE,
+        "title": get_simulator(simulator).TITLE,
         "version": result.version,
         "variant": variant,
         "description": description,

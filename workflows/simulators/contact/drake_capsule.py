@@ -103,7 +103,7 @@ from tissuebench.workflows.simulators.drake import (
     VARIANTS as ROD_VARIANTS,
 )
 from tissuebench.workflows.simulators.newton import (
-    HEX_FACES,
+    cone_split,
     conforming,
     split_hexahedra,
     tet_volumes,
@@ -182,30 +182,6 @@ def skipped(data: Exported) -> dict[str, str]:
             "barrier": "neo-hookean-barrier's barrier has no Drake counterpart: kNeoHookean alone"
         }
     return {}
-
-
-def cone_split(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Six positively oriented tetrahedra (6 C, 4) per hexahedron (C, 8, VTK order) that conform
-    on any hexahedral mesh: each face cut along the diagonal through its lowest-numbered node
-    (so two cells sharing a face cut it alike), each cell a cone from its lowest-numbered node
-    over the two triangles of each of the three faces that do not hold it (the faces that do are
-    then cut through it, as the rule says). Exact for convex cells (star-shaped from that node)."""
-    cells = np.asarray(cells, dtype=np.int64)
-    tets = np.empty((6 * len(cells), 4), dtype=np.int64)
-    for c, cell in enumerate(cells):
-        apex = int(np.argmin(cell))
-        k = 6 * c
-        for face in HEX_FACES:
-            if apex in face:
-                continue
-            f = cell[list(face)]
-            m = int(np.argmin(f))
-            a, b, d, e = f[m], f[(m + 1) % 4], f[(m + 2) % 4], f[(m + 3) % 4]
-            tets[k], tets[k + 1] = (cell[apex], a, b, d), (cell[apex], a, d, e)
-            k += 2
-    negative = tet_volumes(nodes, tets) < 0
-    tets[negative] = tets[negative][:, [0, 1, 3, 2]]
-    return tets
 
 
 def tetrahedra(data: Exported) -> tuple[np.ndarray, str]:
