@@ -83,6 +83,10 @@ class EdgePenalty:
         self.f.x.scatter_reverse(dolfinx.la.InsertMode.add)
         return self.f.x.array[:n_owned].copy()
 
+    def add_to(self, out: np.ndarray, u: np.ndarray, t: float) -> None:
+        """out += the contact's share of f_int at u (m) at time t (s), N. Collective."""
+        out += self(u, t)
+
 
 class FacetPenalty:
     """The penalty's nodal force in 3D on first-order cells (P1 tetrahedra: triangular facets;
@@ -118,27 +122,53 @@ class FacetPenalty:
         X = V.tabulate_dof_coordinates()[:, :3][self.nodes]  # (f, v, 3)
         J = np.einsum("kqv,fvd->fqkd", tab[1:3, :, :, 0], X)  # (f, q, 2, 3)
         area = np.linalg.norm(np.cross(J[:, :, 0], J[:, :, 1]), axis=2)  # (f, q)
-        self.dA = area * np.asarray(weights)[None, :]  # m^2 at each Gauss point
+        self.dA = area * np.asarray(weights)[None, :]  # m^2 at each Gauss point (f, q)
+        self.dA_qf = np.ascontiguousarray(self.dA.T).ravel()  # the same, point q of each facet
         self.X = X
         self.u = fem.Function(V)
         self.f = fem.Function(V)
+        # one rank: the surface's own nodes only, no scatter of whole vectors (its nodes are
+        # all owned); each facet corner's place among them, for bincount
+        self.serial = mesh.comm.size == 1
+        self.surface, self.corner = np.unique(self.nodes, return_inverse=True)
+        self.corner = self.corner.reshape(self.nodes.shape)
+
+    def nodal(self, x: np.ndarray, t: float) -> np.ndarray:
+        """-int p n . N_a dS (N) at each facet's corners (f, v, 3) for the deformed corners x
+        (f, v, 3), m, at time t (s). The interpolation and the test functions' sums are one
+        matrix product each over all facets (corner by corner: (v, f x 3))."""
+        f, v, _ = x.shape
+        corners = np.ascontiguousarray(x.transpose(1, 0, 2)).reshape(v, -1)
+        points = (self.N @ corners).reshape(-1, 3)  # (q x f, 3): point q of every facet
+        c = np.asarray(self.contact.centre(t), dtype=float)
+        tool = self.contact.tool
+        p = self.k * np.maximum(-tool.signed_distance(points, c), 0.0) * self.dA_qf
+        traction = p[:, None] * tool.outward_normal(points, c)  # (q x f, 3), N
+        nodal = (self.N.T @ traction.reshape(len(self.N), -1)).reshape(v, f, 3)
+        return -nodal.transpose(1, 0, 2)  # (f, v, 3)
 
     def __call__(self, u: np.ndarray, t: float) -> np.ndarray:
         """The contact's share of f_int at the owned dof values u (m) at time t (s): the
         owned dofs' nodal forces (N), -int p n . N_a dS, p = k <-g_n>. Collective."""
+        out = np.zeros_like(u)
+        self.add_to(out, u, t)
+        return out
+
+    def add_to(self, out: np.ndarray, u: np.ndarray, t: float) -> None:
+        """out += the contact's share of f_int at the owned dof values u (m) at time t (s), N.
+        One rank: over the surface's nodes alone; several: through the ghosts. Collective."""
+        if self.serial:
+            nodal = self.nodal(self.X + u.reshape(-1, 3)[self.nodes], t)
+            corner, count = self.corner.ravel(), len(self.surface)
+            summed = [np.bincount(corner, nodal[..., d].ravel(), count) for d in range(3)]
+            out.reshape(-1, 3)[self.surface] += np.stack(summed, axis=1)
+            return
         n_owned = len(u)
         self.u.x.array[:n_owned] = u
         self.u.x.scatter_forward()
-        x = self.X + self.u.x.array.reshape(-1, 3)[self.nodes]  # (f, v, 3)
-        points = np.einsum("qv,fvd->fqd", self.N, x).reshape(-1, 3)
-        c = np.asarray(self.contact.centre(t), dtype=float)
-        tool = self.contact.tool
-        p = self.k * np.maximum(-tool.signed_distance(points, c), 0.0)
-        traction = (p[:, None] * tool.outward_normal(points, c)).reshape(*self.dA.shape, 3)
-        traction *= self.dA[:, :, None]
-        nodal = -np.einsum("qv,fqd->fvd", self.N, traction)  # (f, v, 3)
+        nodal = self.nodal(self.X + self.u.x.array.reshape(-1, 3)[self.nodes], t)
         force = self.f.x.array.reshape(-1, 3)
         force[:] = 0.0
         np.add.at(force, self.nodes.ravel(), nodal.reshape(-1, 3))
         self.f.x.scatter_reverse(dolfinx.la.InsertMode.add)
-        return self.f.x.array[:n_owned].copy()
+        out += self.f.x.array[:n_owned]

@@ -207,7 +207,7 @@ class ElasticForces:
             else:
                 self.system.K_csr.mult(u, out)
             if self.edge is not None:
-                out.array[:] += self.edge(u.array_r, self._t)
+                self.edge.add_to(out.array, u.array_r, self._t)
             return out
         self.set_u(u)
         b = self._b

@@ -22,11 +22,34 @@ MODELS = ("linear", "neo-hookean")
 ROUNDS, BLOCK, WARM = 5, 6, 1  # 30 steps: the glued neo-Hookean block inverts at N = 10 after 60
 
 
+def side_by_side(systems: dict, step: float, model: str) -> dict[str, float]:
+    """{name: the median explicit-lumped step time (s)} of each system's integrator at the step
+    `step` (s) with `model`: all built and started first, then ROUNDS rounds in which each takes
+    BLOCK steps in a row, the last BLOCK - WARM of them timed."""
+    from tissuebench.solvers import get_integrator
+
+    running = {}
+    for name, system in systems.items():
+        integrator = get_integrator("explicit-lumped", system, step, model=model)
+        running[name] = (integrator, integrator.start())
+    times: dict[str, list[float]] = {name: [] for name in running}
+    for _ in range(ROUNDS):
+        for name, (integrator, state) in running.items():
+            for i in range(BLOCK):
+                start = time.perf_counter()
+                state = integrator.step(state)
+                if i >= WARM:
+                    times[name].append(time.perf_counter() - start)
+            running[name] = (integrator, state)
+    for integrator, _ in running.values():
+        integrator.destroy()
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
 def measure(mode: str, log=print) -> list[dict]:
     """One record per size and model: N, dofs, model, h (s), the glued and contact step
     times (s) and their ratio."""
     from tissuebench.meshes import get_benchmark
-    from tissuebench.solvers import get_integrator
     from tissuebench.solvers.stability import stability_limits
     from tissuebench.solvers.system import System
 
@@ -39,22 +62,8 @@ def measure(mode: str, log=print) -> list[dict]:
         h = stability_limits(systems["contact"], ["explicit-lumped"])["explicit-lumped"]
         step = 0.9 * h.critical_dt
         for model in MODELS:
-            running = {}
-            for name, system in systems.items():
-                integrator = get_integrator("explicit-lumped", system, step, model=model)
-                running[name] = (integrator, integrator.start())
-            times: dict[str, list[float]] = {name: [] for name in running}
-            for _ in range(ROUNDS):
-                for name, (integrator, state) in running.items():
-                    for i in range(BLOCK):
-                        start = time.perf_counter()
-                        state = integrator.step(state)
-                        if i >= WARM:
-                            times[name].append(time.perf_counter() - start)
-                    running[name] = (integrator, state)
-            for integrator, _ in running.values():
-                integrator.destroy()
-            glued, contact = (statistics.median(times[n]) for n in ("glued", "contact"))
+            medians = side_by_side(systems, step, model)
+            glued, contact = medians["glued"], medians["contact"]
             record = {
                 "N": size,
                 "dofs": systems["contact"].num_dofs(),

@@ -65,14 +65,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--quick", action="store_true", help="small sizes only (a minute or two)")
     p.add_argument(
         "--only",
-        choices=["explicit-models", "leaderboard-users", "contact", "paths"],
+        choices=["explicit-models", "leaderboard-users", "contact", "contact-3d", "paths"],
         default=None,
         help="explicit-models: only the explicit-lumped step with each elastic model and "
         "remedy against the linear one (1 rank), into DIR/performance-explicit.md and .json, "
         "leaving DIR/performance.* alone; leaderboard-users: only `tissuebench leaderboard` "
         "grading --users user rows on each of --ranks, into DIR/performance-leaderboard.md "
         "and .json; contact: only the explicit-lumped step with the needle as contact against "
-        "it glued (SPEC 12), into DIR/performance-contact.md and .json; paths: the commands "
+        "it glued (SPEC 12), into DIR/performance-contact.md and .json; contact-3d: the same "
+        "step of the cylinder with the capsule against it with no tool (SPEC 13), into "
+        "DIR/performance-contact-3d.md and .json; paths: the commands "
         "a user waits on, each timed whole (a first and a warm `paper`, `truth rod`, `run`'s "
         "phases, a 1e5-node `compare`, a 200-user leaderboard) with their printed estimates, "
         "into DIR/performance-paths.md and .json (about 10 min)",
@@ -126,15 +128,18 @@ def explicit_models(args: argparse.Namespace) -> int:
 
 
 def contact(args: argparse.Namespace) -> int:
-    """`tissuebench bench --only contact`: workflows/bench/contact.py."""
-    from tissuebench.workflows.bench import contact as bench
+    """`tissuebench bench --only contact` (or contact-3d): workflows/bench/contact.py (or
+    contact3d.py)."""
+    from tissuebench.workflows.bench import contact, contact3d
 
+    bench = contact3d if args.only == "contact-3d" else contact
+    part = "performance-contact-3d" if args.only == "contact-3d" else "performance-contact"
     mode = "quick" if args.quick else "full"
     out = Path(args.out) if args.out is not None else quick_out() if args.quick else Path("results")
-    names = ("performance-contact.json", "performance-contact.md")
+    names = (f"{part}.json", f"{part}.md")
     check_writable(out, owned=names)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"tissuebench bench --only contact ({mode}): 1 rank", flush=True)
+    print(f"tissuebench bench --only {args.only} ({mode}): 1 rank", flush=True)
     start = time.perf_counter()
     records = bench.measure(mode, lambda line: print(line, flush=True))
     wall = time.perf_counter() - start
@@ -198,7 +203,7 @@ def main(args: argparse.Namespace) -> int:
         return explicit_models(args)
     if getattr(args, "only", None) == "leaderboard-users":
         return leaderboard_users(args)
-    if getattr(args, "only", None) == "contact":
+    if getattr(args, "only", None) in ("contact", "contact-3d"):
         return contact(args)
     if getattr(args, "only", None) == "paths":
         return paths(args)
