@@ -29,7 +29,7 @@ from tissuebench.metrics.contact import (
 TIME_TOLERANCE = 1e-5  # of max(|t|, h): compare's time stamps match to six printed digits
 NOT_GIVEN = (
     "force error: not given (no --needle-force FILE.csv: the candidate's needle force, columns "
-    "time, force_x, force_y in s and N/m)"
+    "time, force_x, force_y in s and N/m; a 3D tool's with force_z, in N)"
 )
 # summary.json's `metrics` entries of a contact reference
 CONTACT_METRICS = {
@@ -37,13 +37,15 @@ CONTACT_METRICS = {
         "symbol": "e_F",
         "unit": "1",
         "meaning": "max over the steps of |F - F_ref| / max |F_ref|, F the needle force per "
-        "unit thickness (N/m) that the candidate hands (--needle-force); null when not given",
+        "unit thickness (N/m) that the candidate hands (--needle-force); for a 3D tool its "
+        "axial component (N); null when not given",
     },
     "interpenetration_max": {
         "symbol": "d_max",
         "unit": "m",
         "meaning": "the largest -g_n over the candidate's deformed right edge (its nodes and "
-        "9 points a segment between them) and the steps",
+        "9 points a segment between them), or for a 3D tool over its deformed faces on the "
+        "contact surface (7 points an edge), and the steps",
     },
 }
 
