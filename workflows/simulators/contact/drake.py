@@ -4,7 +4,7 @@ deformable-rigid contact (SAP).
 
 The posed problem
 -----------------
-- Mesh: the slab of `mujoco_contact.slab` (the quadrilaterals extruded by t_z = 1/N m, six
+- Mesh: the slab of `contact/mujoco.py`'s `slab` (the quadrilaterals extruded by t_z = 1/N m, six
   tetrahedra per hexahedron; export node i is slab node i at z = 0 and N + i at z = t_z),
   written as the rod's .vtk; Drake's linear P1 tetrahedra (`kLinear`; the other models as the
   rod's), its one-point mass, D = alpha M + beta K, its VelocityNewmarkScheme at h (module

@@ -4,7 +4,7 @@ block as a one-element slab of VBD tetrahedra, pushed by the needle as a kinemat
 
 The posed problem
 -----------------
-- Mesh: the slab of `mujoco_contact.slab` (the quadrilaterals extruded by t_z = 1/N m, six
+- Mesh: the slab of `contact/mujoco.py`'s `slab` (the quadrilaterals extruded by t_z = 1/N m, six
   tetrahedra per hexahedron; export node i is slab node i at z = 0 and N + i at z = t_z),
   `add_soft_mesh` with VBD's stable neo-Hookean (the rod's Lame constants and k_damp =
   beta mu / 2, module `newton`), Newton's lumped mass, the fixed edges' particles of mass 0
