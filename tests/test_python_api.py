@@ -157,6 +157,12 @@ def test_bad_arrays_are_refused_in_one_line(tmp_path):
         (dict(label=" x"), "leading or trailing spaces"),
         (dict(wall_time=-1.0), "--wall-time must be a finite number"),
         (dict(series=tmp_path / "mine.vtu"), "the series is written as XDMF"),
+        # the fourth red team: each was graded as something else, or ended in a traceback
+        (dict(points=points.astype(str).astype(object)), "points: objects"),
+        (dict(displacements=u + 0j), "displacements: complex numbers"),
+        (dict(points=[[10**400, 0], [1, 0], [1, 1], [0, 1]]), "points: objects"),
+        (dict(cells=cells + 0.5), "cells: a node index is not a whole number"),
+        (dict(times=times[:, None]), "times of shape (2, 1): expected (steps,), s"),
     ]
     for change, said in cases:
         given = dict(
@@ -168,6 +174,17 @@ def test_bad_arrays_are_refused_in_one_line(tmp_path):
             tb.grade("ref.xdmf", **given, out=tmp_path / "out", **options)
         assert "\n" not in str(raised.value), change
     assert not (tmp_path / "out").exists()  # nothing written for bad input
+    notes = tmp_path / "notes"
+    notes.mkdir()
+    (notes / "todo.txt").write_text("mine")
+    a_file = tmp_path / "afile"
+    a_file.write_text("mine")
+    for out, said in ((notes, "not a compare folder of ours"), (a_file, "not a folder")):
+        given = dict(points=points, cells=cells, cell_type="quadrilateral", times=times)
+        with pytest.raises(UserError, match=said):
+            tb.grade("ref.xdmf", **given, displacements=u, out=out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "notes"]  # no series beside
+    assert [p.name for p in notes.iterdir()] == ["todo.txt"]
 
 
 def test_bad_export_options_are_refused_in_one_line(tmp_path):

@@ -206,12 +206,14 @@ def grade(
     check_label(label)
     wall = check_wall_time(wall_time)
     # checked as compare checks a file it reads (one line naming the problem), on the arrays
-    values = np.asarray(displacements, dtype=np.float64)
-    if values.ndim != 3:
-        raise GradingError(
-            f"displacements of shape {values.shape}: expected (steps, n, d), m per node and step"
-        )
+    points = real_array("points", points, 2, "(n, d), m")
+    cells = real_array("cells", cells, 2, "(C, k) node indices", whole=True)
+    times = real_array("times", times, 1, "(steps,), s")
+    values = real_array("displacements", displacements, 3, "(steps, n, d), m per node and step")
     given = series_of(path, FIELD, points, cells, cell_type, times, list(values))
+    # the compare folder checked before anything is written beside it (the red team: out= a
+    # user's folder of notes, a file, or the clone's results/ got the series and a manifest)
+    collective(comm, lambda: check_compare_folder(out), out)
     collective(comm, lambda: place_series(given, path, force), path)
     lines = compare_files(
         reference,
@@ -224,6 +226,55 @@ def grade(
         needle_force=needle_force,
     )
     return collective(comm, lambda: read_graded(out, path, label, lines))
+
+
+def real_array(
+    name: str, value: ArrayLike, ndim: int, shape: str, whole: bool = False
+) -> np.ndarray:
+    """`value` as a float64 array of `ndim` dimensions (its `shape` in words, for the message;
+    whole numbers, as int64, for `whole`); GradingError, one line, for strings or objects,
+    complex numbers, numbers beyond float64, another number of dimensions, or (whole) numbers
+    with a fraction."""
+    from tissuebench.workflows.compare.grading import GradingError
+
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as err:
+        raise GradingError(f"{name}: not an array of numbers ({err})") from None
+    if array.dtype.kind not in "biuf":
+        kind = {"c": "complex numbers", "O": "objects (or integers beyond float64)"}.get(
+            array.dtype.kind, f"{array.dtype} values"
+        )
+        raise GradingError(f"{name}: {kind}, not real numbers")
+    if array.ndim != ndim:
+        raise GradingError(f"{name} of shape {array.shape}: expected {shape}")
+    array = array.astype(np.float64)
+    if not np.isfinite(array).all() and (whole or name != "displacements"):
+        raise GradingError(f"{name}: a value is not finite")
+    if whole:
+        if (array != np.round(array)).any():
+            raise GradingError(f"{name}: a node index is not a whole number")
+        return array.astype(np.int64)
+    return array
+
+
+def check_compare_folder(out: Path) -> None:
+    """Refuse (OutputError, one line) a compare folder that cannot be ours before anything is
+    written: not a folder, or one that holds anything but a compare folder of ours (a user's
+    notes, a run's or the study's outputs such as results/). Rank 0."""
+    from tissuebench.workflows.io.output import OutputError, check_foreign, resolve
+    from tissuebench.workflows.io.summary import kind_of, read_summary
+
+    path = resolve(out)
+    if not path.is_dir() or not any(path.iterdir()):
+        return  # new or empty: compare makes it
+    summary = read_summary(path)
+    if summary is None or kind_of(summary) != "compare":
+        raise OutputError(
+            f"{out}: holds files that are not a compare folder of ours; name a new or empty "
+            "folder for out="
+        )
+    check_foreign(path)
 
 
 def place_series(given: Series, path: Path, force: bool) -> None:
