@@ -123,7 +123,6 @@ class FacetPenalty:
         J = np.einsum("kqv,fvd->fqkd", tab[1:3, :, :, 0], X)  # (f, q, 2, 3)
         area = np.linalg.norm(np.cross(J[:, :, 0], J[:, :, 1]), axis=2)  # (f, q)
         self.dA = area * np.asarray(weights)[None, :]  # m^2 at each Gauss point (f, q)
-        self.dA_qf = np.ascontiguousarray(self.dA.T).ravel()  # the same, point q of each facet
         self.X = X
         self.u = fem.Function(V)
         self.f = fem.Function(V)
@@ -135,17 +134,27 @@ class FacetPenalty:
 
     def nodal(self, x: np.ndarray, t: float) -> np.ndarray:
         """-int p n . N_a dS (N) at each facet's corners (f, v, 3) for the deformed corners x
-        (f, v, 3), m, at time t (s). The interpolation and the test functions' sums are one
-        matrix product each over all facets (corner by corner: (v, f x 3))."""
+        (f, v, 3), m, at time t (s). Only the facets that may touch the tool are integrated:
+        the signed distance is 1-Lipschitz and a facet lies in its corners' convex hull, so a
+        facet whose first corner is farther from the tool than from its other corners has no
+        point inside it (its force is exactly zero). The interpolation and the test
+        functions' sums are one matrix product each over those facets (corner by corner)."""
         f, v, _ = x.shape
-        corners = np.ascontiguousarray(x.transpose(1, 0, 2)).reshape(v, -1)
-        points = (self.N @ corners).reshape(-1, 3)  # (q x f, 3): point q of every facet
         c = np.asarray(self.contact.centre(t), dtype=float)
         tool = self.contact.tool
-        p = self.k * np.maximum(-tool.signed_distance(points, c), 0.0) * self.dA_qf
-        traction = p[:, None] * tool.outward_normal(points, c)  # (q x f, 3), N
-        nodal = (self.N.T @ traction.reshape(len(self.N), -1)).reshape(v, f, 3)
-        return -nodal.transpose(1, 0, 2)  # (f, v, 3)
+        reach = np.linalg.norm(x[:, 1:] - x[:, :1], axis=2).max(axis=1)
+        near = np.flatnonzero(tool.signed_distance(x[:, 0], c) <= reach)
+        nodal = np.zeros((f, v, 3))
+        if len(near) == 0:
+            return nodal
+        corners = np.ascontiguousarray(x[near].transpose(1, 0, 2)).reshape(v, -1)
+        points = (self.N @ corners).reshape(-1, 3)  # (q x near, 3): point q of every facet
+        dA = self.dA[near].T.ravel()  # m^2, in the same order
+        p = self.k * np.maximum(-tool.signed_distance(points, c), 0.0) * dA
+        traction = p[:, None] * tool.outward_normal(points, c)  # (q x near, 3), N
+        summed = (self.N.T @ traction.reshape(len(self.N), -1)).reshape(v, len(near), 3)
+        nodal[near] = -summed.transpose(1, 0, 2)
+        return nodal  # (f, v, 3)
 
     def __call__(self, u: np.ndarray, t: float) -> np.ndarray:
         """The contact's share of f_int at the owned dof values u (m) at time t (s): the
