@@ -37,7 +37,7 @@ import numpy as np
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
-from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize
+from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize, unit
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
 from tissuebench.solvers.truth.samples import TruthSamples
@@ -387,7 +387,7 @@ def write_grading(out: Path, g: Grading, summary: CompareSummary) -> None:
         write_metrics_csv(
             temporary[0], g.times, {g.label: g.curves}, {g.label: g.status}, extra=extra
         )
-        plot(temporary[1], g.title, g.times, g.curves)
+        plot(temporary[1], g.title, g.times, g.curves, metric_dim(summary), grades)
         temporary[2].write_text(dumps(summary))
         for tmp, path in zip(temporary, final, strict=True):
             os.replace(tmp, path)
@@ -396,24 +396,51 @@ def write_grading(out: Path, g: Grading, summary: CompareSummary) -> None:
             tmp.unlink(missing_ok=True)
 
 
+def metric_dim(summary) -> int | None:
+    """The body's dimension that a compare summary's E_i unit states ("m^3": 3), or None."""
+    for entry in (summary.get("metrics") or {}).values() if isinstance(summary, dict) else ():
+        u = entry.get("unit") if isinstance(entry, dict) else None
+        if isinstance(u, str) and u.startswith("m^") and u[2:].isdigit():
+            return int(u[2:])
+    return None
+
+
 @interrupt.drawing  # a signal while drawing: raised once drawn (core/interrupt.py)
-def plot(path, title, times, curves):
-    """One panel per metric against time (E_n, E_s, E_i; a variant such as E_i's nodal form
-    dashed in its metric's panel)."""
+def plot(path, title, times, curves, dim: int | None = None, contact=None):
+    """One panel per metric against time (E_n, E_s, E_i with its unit on a body of dimension
+    `dim`; a variant such as E_i's nodal form dashed in its metric's panel); against a contact
+    reference (`contact`: its ContactGrades) the interpenetration (mm) and, where the candidate
+    hands it, its force on the tool (N/m in 2D, N in 3D) too."""
     from matplotlib.figure import Figure  # no pyplot: no global backend state
 
     groups = panels()
-    fig = Figure(figsize=(7, 2.7 * len(groups)), layout="constrained")
-    axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, names in zip(axes, groups, strict=True):
+    extra = 0 if contact is None else 1 + (contact.force is not None)
+    fig = Figure(figsize=(7, 2.7 * (len(groups) + extra)), layout="constrained")
+    axes = fig.subplots(len(groups) + extra, 1, sharex=True, squeeze=False)[:, 0]
+    for ax, names in zip(axes, groups, strict=False):
         for name, style in zip(names, ["-", "--"], strict=False):
             ax.plot(times, curves[name], style, label=METRICS[name].label)
         if spans_decades(np.concatenate([curves[n] for n in names])):
             ax.set_yscale("log")
-        ax.set_ylabel(METRICS[names[0]].label)
+        u = unit(names[0], dim)
+        said = "" if u in (None, "dimensionless") else f" ({u})"
+        ax.set_ylabel(METRICS[names[0]].label + said)
         ax.grid(True, alpha=0.3)
         if len(names) > 1:
             ax.legend()
+    if contact is not None:
+        ax = axes[len(groups)]
+        ax.plot(times, 1e3 * np.asarray(contact.interpenetration), color="C3")
+        ax.set_ylabel("interpenetration,\nlargest -g_n (mm)")
+        ax.grid(True, alpha=0.3)
+        if contact.force is not None:
+            ax = axes[len(groups) + 1]
+            force = np.asarray(contact.force)
+            for i in range(force.shape[1]):
+                ax.plot(times[: len(force)], force[:, i], label=f"F_{'xyz'[i]}")
+            ax.set_ylabel(f"force on the tool ({contact.force_unit})")
+            ax.legend(fontsize=8)
+            ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time (s)")
     axes[0].set_title(title)
     fig.savefig(path, format="png", dpi=120)
