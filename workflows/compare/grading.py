@@ -47,6 +47,7 @@ from tissuebench.workflows.compare.contact import (
     contact_grades,
     force_columns,
     is_contact_reference,
+    reference_benchmark,
 )
 from tissuebench.workflows.compare.fingerprint import folder_fingerprint
 from tissuebench.workflows.io.manifest import file_hash
@@ -449,6 +450,16 @@ def plot(path, title, times, curves, dim: int | None = None, contact=None):
 # --- grading files ---------------------------------------------------------------------------
 
 
+def body_of(reference: str | Path) -> dict | None:
+    """The body of the benchmark that the reference poses (its folder says which), where it is
+    no box (its entry's `body`: the cylinder's curved side); None otherwise or when unknown."""
+    from tissuebench.meshes import BENCHMARKS
+
+    name = reference_benchmark(reference, None)
+    entry = BENCHMARKS.get(name) if isinstance(name, str) else None
+    return entry.body if entry is not None and entry.body else None
+
+
 def grade(
     reference: str | Path,
     candidate: str | Path,
@@ -480,7 +491,8 @@ def grade(
     ref, cand = read_on_rank0(
         comm, (reference, reference_field or field), (candidate, candidate_field or field)
     )
-    g = grade_series(ref, cand, comm, label=label)
+    body = body_of(reference) if comm.rank == 0 else None  # rank 0 checks the body
+    g = grade_series(ref, cand, comm, label=label, body=body)
     if comm.rank == 0:  # rank 0 writes the summary (its attributes beyond Grading's: getattr)
         setattr(g, "reference_fingerprint", reference_fingerprint(reference, ref))
         setattr(g, "candidate_mesh", mesh_of(cand))
