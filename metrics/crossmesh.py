@@ -106,12 +106,13 @@ def _at(points: np.ndarray, i: int) -> str:
 
 def curved_allowance(series: Series, body: dict | None) -> float:
     """How far (m) a faceted mesh of a body with a curved side may lie from the true side
-    (SPEC 13: "a faceted candidate's side lies within its facets' sagitta"): for a cylinder
-    about z (body {"domain": "cylinder", "radius": R}), the largest R (1 - cos(theta / 2)) over
-    the mesh's boundary facets whose nodes all lie on r = R (within 1e-6 R), theta the largest
-    angle its nodes span about the axis; 0 for any other body."""
-    if not body or body.get("domain") != "cylinder" or series.points.shape[1] != 3:
-        return 0.0
+    (SPEC 13: "a faceted candidate's side lies within its facets' sagitta"): for a body of
+    revolution about z (its entry's body states its "radius" R: the cylinder), the largest
+    R (1 - cos(theta / 2)) over the mesh's boundary facets whose nodes all lie on r = R
+    (within 1e-6 R), theta the largest angle its nodes span about the axis; 0 for any other
+    body."""
+    if not body or "radius" not in body or series.points.shape[1] != 3:
+        return 0.0  # a box (no radius: no curved side)
     R = float(body["radius"])
     points = np.asarray(series.points, dtype=float)
     r = np.hypot(points[:, 0], points[:, 1])
