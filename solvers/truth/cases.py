@@ -11,6 +11,12 @@ one between each two (the levels nest, as uniform refinement does), and the need
 is the same set of right-edge nodes as on the uniform grid. Measured on the static block at
 t = 2 s, MP1, N = 10, 20, 40, 80: the E_i between levels falls with order 2.0 graded and
 1.1-1.4 uniform (MP2: 2.0 and 1.4-1.7).
+
+The cylinder's cases (SPEC 13) are computed on its meridian, not on the 3D benchmark's mesh:
+their levels (MERIDIAN_LEVELS) are axisymmetric.meridian_mesh's n x n quadrilaterals on
+[0, R_B] x [0, H] graded toward the top face's centre (an evenly fine zone of MERIDIAN_FINE m
+from the axis and from the top face), posed by meridian_benchmark with the capsule's meridian
+(a half-stadium along +z) and u_r = 0 on the axis (benchmark_problem's `axisymmetric`).
 """
 
 from __future__ import annotations
@@ -23,8 +29,10 @@ import ufl
 from dolfinx import fem
 
 from tissuebench.meshes import get_entry
-from tissuebench.meshes.benchmark import Benchmark
+from tissuebench.meshes.benchmark import Benchmark, Constraint, Contact, fixed
+from tissuebench.meshes.gmshio import TaggedMesh
 from tissuebench.solvers.materials import Material, get_material
+from tissuebench.solvers.truth import axisymmetric as axi
 from tissuebench.solvers.truth.solver import Boundary, ContactLaw, Problem, Truth
 
 # case -> (benchmark, material, model, load scale s, needle width w in m or None)
@@ -40,6 +48,10 @@ CASES = {
     "contact-MP1": ("contact", "MP1", "linear", 1.0, None),
     "contact-MP2": ("contact", "MP2", "linear", 1.0, None),
     "contact-MP1-nhb": ("contact", "MP1", "neo-hookean-barrier", 1.0, None),
+    # SPEC 13: the needle in 3D, its truth on the cylinder's meridian
+    "cylinder-MP1": ("cylinder", "MP1", "linear", 1.0, None),
+    "cylinder-MP2": ("cylinder", "MP2", "linear", 1.0, None),
+    "cylinder-MP1-nhb": ("cylinder", "MP1", "neo-hookean-barrier", 1.0, None),
 }
 # SPEC 12's Hertz check: the benchmark whose tool is pushed statically (solvers/truth/hertz.py)
 HERTZ = "contact"
@@ -90,6 +102,16 @@ CONTACT_X_GRADING = 1.5
 # them first order in time (N = 20: E_i max between h/k and h/2k for k = 1, 2, 4, 8: MP1
 # 1.32e-5, 6.65e-6, 3.35e-6, 1.68e-6 m^2; MP2 6.89e-5, 3.65e-5, 1.77e-5, 8.05e-6)
 STEP_DIVISOR = {"block-MP1-w0.2": 4, "block-MP2-w0.2": 16, "rod-MP2": 4}
+# SPEC 13: the cases computed on the cylinder's meridian, case -> (levels, quick levels): n x n
+# graded meridian grids (axisymmetric.meridian_mesh), each level twice the last
+MERIDIAN_LEVELS = {
+    "cylinder-MP1": ((10, 20, 40), (4, 8, 16)),
+    "cylinder-MP2": ((10, 20, 40), (4, 8, 16)),
+    "cylinder-MP1-nhb": ((10, 20, 40), (4, 8, 16)),
+}
+# m: the meridian's evenly fine zone at the top face's centre, 1.5 R (SPEC 12's band): the
+# capsule at s = 1 is 0.16 m deep, its ball's rim (r = R = 0.1 m) and shaft in the tissue
+MERIDIAN_FINE = 0.15
 
 
 def _toward(xi: np.ndarray, a: float, b: float, end: float) -> np.ndarray:
@@ -178,18 +200,29 @@ def _contact_law(benchmark: Benchmark, E: float, penalty: float) -> ContactLaw |
 
 
 def benchmark_problem(
-    benchmark: Benchmark, material: Material | str, model: str = "linear", penalty: float = 1.0
+    benchmark: Benchmark,
+    material: Material | str,
+    model: str = "linear",
+    penalty: float = 1.0,
+    axisymmetric: bool = False,
 ) -> Problem:
     """The truth Problem of a benchmark (meshes.benchmark.Benchmark, built with its load scale
     and needle width) with a material (solvers.materials.Material or name): its constraints on
     every Q2 node of the constrained entities, gravity rho g (N/m^3), its probe, and its
-    contact (SPEC 12) with the truth's penalty times `penalty`."""
+    contact (SPEC 12) with the truth's penalty times `penalty`. `axisymmetric`: the benchmark
+    is a meridian (meridian_benchmark): u_r = 0 on the Q2 nodes of its "axis" edges, and the
+    Problem axisymmetric (SPEC 13)."""
     mat = get_material(material)
     rho = mat.rho
     gravity = np.asarray(benchmark.gravity, dtype=float)
 
     def boundaries(V):
         out = []
+        if axisymmetric:  # first: the fixed bottom's corner node keeps both components fixed
+            dim, axis = benchmark.tagged.entities("axis")
+            out.append(
+                Boundary(_constraint_nodes(V, dim, axis), lambda t, x: (0.0, 0.0, 0.0), (0,))
+            )
         for c in benchmark.constraints:
             motion = c.motion
             out.append(
@@ -209,6 +242,47 @@ def benchmark_problem(
         boundaries=boundaries,
         probe=benchmark.probe,
         contact=_contact_law(benchmark, mat.E, penalty),
+        axisymmetric=axisymmetric,
+    )
+
+
+def meridian_benchmark(
+    name: str, mesh_size: int, load_scale: float = 1.0, comm: MPI.Comm = MPI.COMM_WORLD
+) -> Benchmark:
+    """The benchmark `name` (the cylinder, SPEC 13) posed on its meridian (r, z) in m: the
+    graded n x n grid of axisymmetric.meridian_mesh (n = mesh_size, fine zone MERIDIAN_FINE),
+    its bottom edge fixed, its top edge in contact with the entry's tool at `load_scale` on
+    the meridian (the capsule's half-stadium along +z; penalty set by benchmark_problem), the
+    entry's h and T, no probe. Its physical groups are axisymmetric.TAGS's edges (the axis
+    among them: benchmark_problem(..., axisymmetric=True) holds u_r = 0 there). Collective."""
+    entry = get_entry(name)
+    radius, height = entry.body["radius"], entry.body["height"]
+    if (radius, height) != (axi.R_B, axi.H):
+        raise ValueError(f"the meridian truth is SPEC 13's body, not {radius} x {height} m")
+    meridian = axi.meridian_mesh(mesh_size, fine=MERIDIAN_FINE, comm=comm)
+    tags = {group: (1, meridian.edges) for group in axi.TAGS}
+    tagged = TaggedMesh(mesh=meridian.mesh, tags=tags, groups=dict(axi.TAGS))
+    # the ignores: the cylinder's entry has a tool, a Capsule; no check here, the truth's cache
+    # key hashes this code
+    tool = entry.tool(load_scale=load_scale)  # type: ignore[misc]
+    return Benchmark(
+        name=name,
+        tagged=tagged,
+        constraints=[Constraint("bottom", *tagged.entities("bottom"), fixed(2))],
+        gravity=(0.0, 0.0),
+        material=entry.material,
+        dt=entry.dt,
+        end_time=entry.end_time,
+        extent=height,
+        mesh_size=mesh_size,
+        probe=None,
+        options={"load_scale": load_scale, "meridian": True},
+        contact=Contact(
+            facets=tagged.entities("top")[1],
+            tool=tool.meridian(),  # type: ignore[union-attr]
+            kappa=TRUTH_KAPPA,
+            edge_size=meridian.h_near,
+        ),
     )
 
 
@@ -216,11 +290,15 @@ def case_truth(
     case: str, mesh_size: int, comm: MPI.Comm = MPI.COMM_WORLD, penalty: float = 1.0
 ) -> tuple[Truth, Benchmark]:
     """(Truth, Benchmark) of a SPEC 10 case on the benchmark's grid of `mesh_size` (the
-    linear block's graded toward the needle's ends: graded_block); a contact case's penalty is
-    the truth's times `penalty`."""
+    linear block's graded toward the needle's ends: graded_block; the cylinder's cases on its
+    graded meridian: meridian_benchmark); a contact case's penalty is the truth's times
+    `penalty`."""
     from tissuebench.meshes import get_benchmark
 
     name, material, model, scale, width = CASES[case]
+    if case in MERIDIAN_LEVELS:
+        bench = meridian_benchmark(name, mesh_size, scale, comm)
+        return Truth(benchmark_problem(bench, material, model, penalty, axisymmetric=True)), bench
     options = {"load_scale": scale}
     if width is not None:
         options["needle_width"] = width

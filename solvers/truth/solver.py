@@ -24,6 +24,13 @@ Discretisation (all in SI units: m, s, Pa, kg/m^3):
       P_iso(F) : grad w + p J F^-T : grad w + 2 mu beta eps(v) : eps(w) + p_d div w
       + q (U'(J) - p) / kappa + q_d (beta div v - p_d / lambda) = 0.
   2D is plane strain (F33 = 1: I1 = tr(C_2D) + 1, J = det F_2D).
+- Axisymmetric (SPEC 13, Problem.axisymmetric): the mesh is a meridian (r, z) of a body of
+  revolution about the z axis, u = (u_r, u_z). The strains take the hoop term u_r / r
+  (axisymmetric.eps_axi, div_axi), the neo-Hookean F its F_thetatheta = 1 + u_r / r (J =
+  det F_2D (1 + u_r / r), I1 = tr C_2D + (1 + u_r / r)^2), every integral (inertia, damping,
+  elastic, the Taylor-Hood rows, the contact's ds) is weighted by 2 pi r, so that residuals
+  and forces are the revolved body's (N); u_r = 0 on the axis is a Boundary on component 0
+  only (Boundary.components). The needle's force is then (0, 0, F_z), N.
 - Time: the trapezoidal rule (Newmark beta = 1/4, gamma = 1/2, SPEC 3) with consistent mass,
   a_{n+1} = 4/h^2 (u_{n+1} - u_n - h v_n) - a_n, v_{n+1} = 2/h (u_{n+1} - u_n) - v_n; the
   equation of motion rho a.w + alpha rho v.w + (elastic) = f.w holds at every t_{n+1};
@@ -70,6 +77,7 @@ from dolfinx import fem
 
 from tissuebench.meshes.tools import Tool
 from tissuebench.solvers import contact
+from tissuebench.solvers.truth import axisymmetric as axi
 
 # motion(t, x) -> (u, v, a): prescribed displacement (m), velocity (m/s) and acceleration
 # (m/s^2) at time t (s) of the nodes at coordinates x (n x 3); each broadcastable to (n, gdim)
@@ -113,10 +121,12 @@ CHOLESKY = {"zeropivot": 1e-300, "residual": 1e-8}
 @dataclass
 class Boundary:
     """Every component of the nodes `nodes` (local block indices of V, owned and ghost)
-    follows `motion`."""
+    follows `motion`; with `components`, those components only (0: x, or r on a meridian),
+    the others free."""
 
     nodes: np.ndarray
     motion: Motion
+    components: tuple[int, ...] | None = None
 
 
 @dataclass
@@ -152,6 +162,10 @@ class Problem:
     probe: tuple | None = None
     degree: int = 2
     contact: ContactLaw | None = None
+    # SPEC 13: the mesh is a meridian (r, z) of a body of revolution about the z axis (r = 0):
+    # the hoop strain u_r / r, every integral weighted by 2 pi r (m), so that the residual is
+    # the revolved body's (N) and the contact force its axial force (N)
+    axisymmetric: bool = False
 
     @property
     def form(self) -> str:
@@ -181,6 +195,8 @@ class TruthRun:
     wall: float
     min_jacobian: JacobianRecord | None = None
     force: np.ndarray | None = None  # SPEC 12: the needle's force (N/m; x, y) at every step
+    # SPEC 13: V is on a meridian (r, z); its force is (0, 0, F_z) in N, F_z the axial force
+    axisymmetric: bool = False
 
 
 @dataclass
@@ -213,6 +229,14 @@ class _LinearSolver:
 
 def _eps(u):
     return ufl.sym(ufl.grad(u))
+
+
+def _grad_axi(u, r):
+    """The displacement gradient (3 x 3, rows and columns r, theta, z) of the meridian
+    displacement u = (u_r, u_z) (m) at radius r (m): grad u in the plane, u_r / r the hoop
+    stretch's part."""
+    g = ufl.grad(u)
+    return ufl.as_tensor([[g[0, 0], 0, g[0, 1]], [0, u[0] / r, 0], [g[1, 0], 0, g[1, 1]]])
 
 
 class Truth:
@@ -250,10 +274,25 @@ class Truth:
         )
         self.cnodes = nodes.astype(np.int32)
         self.cdofs = (gdim * nodes[:, None] + np.arange(gdim)).ravel()
+        # some components only (u_r on the axis): the constrained dofs one by one
+        self._by_component = any(b.components is not None for b in self.boundaries)
+        if self._by_component:
+            self.cdofs = np.unique(
+                np.concatenate(
+                    [
+                        (gdim * b.nodes[:, None] + np.asarray(self._components(b))).ravel()
+                        for b in self.boundaries
+                    ]
+                )
+            ).astype(np.int64)
         self.xnodes = V.tabulate_dof_coordinates()
         self.g = fem.Function(V)  # prescribed values of the current solve
         zero = fem.Function(V)
-        if self.to_W is None:
+        if self.to_W is None and self._by_component:  # V's own dofs, unrolled
+            pair = [self.cdofs.astype(np.int32)] * 2
+            self.bc = fem.dirichletbc(self.g, pair, V)  # type: ignore[arg-type]  # dolfinx's annotation: a (V's, g's) dof pair
+            self.bc0 = fem.dirichletbc(zero, pair, V)  # type: ignore[arg-type]  # as above
+        elif self.to_W is None:
             self.bc = fem.dirichletbc(self.g, self.cnodes)
             self.bc0 = fem.dirichletbc(zero, self.cnodes)
         else:
@@ -278,7 +317,9 @@ class Truth:
         self._refresh = False  # build the modified Newton's tangent again before the next step
         self._step_h = None  # type: float | None  # the step of the factorised linear step matrix, s
         self._probe = _Probe(V, pb.probe) if pb.probe is not None else None
-        self._jacobian = _Jacobian(self.un, 2 * pb.degree) if self.kind == "mixed-nh" else None
+        self._jacobian = (
+            _Jacobian(self.un, 2 * pb.degree, pb.axisymmetric) if self.kind == "mixed-nh" else None
+        )
         # SPEC 12: the needle at the time of the solve, and the contact edge's measure
         self.needle = None  # type: fem.Constant | None
         if pb.contact is not None:
@@ -287,12 +328,23 @@ class Truth:
             self._contact_solver = None  # type: Any  # the contact steps' NonlinearProblem
             self._penalty = fem.Constant(mesh, 1.0)  # the penalty's factor: k x this
             c = pb.contact
-            self._force = [
-                fem.form(f)
-                for f in contact.needle_force(
-                    self._split(self.U)[0], self.needle, c.tool, c.k, self._ds
+            if pb.axisymmetric:  # SPEC 13: the axial force (N), over dA = 2 pi r ds
+                weight = axi.volume(axi.radius(mesh))
+                forces = contact.needle_force(
+                    self._split(self.U)[0], self.needle, c.tool, c.k * weight, self._ds
                 )
-            ]
+                self._force = [fem.form(forces[1])]
+            else:
+                self._force = [
+                    fem.form(f)
+                    for f in contact.needle_force(
+                        self._split(self.U)[0], self.needle, c.tool, c.k, self._ds
+                    )
+                ]
+
+    def _components(self, b: Boundary) -> tuple[int, ...]:
+        """The components a boundary constrains."""
+        return tuple(range(self.gdim)) if b.components is None else b.components
 
     # -- forms -----------------------------------------------------------------------------
     def _split(self, U):
@@ -307,6 +359,8 @@ class Truth:
         that its step matrix is symmetric: the same solution)."""
         pb = self.problem
         mu, lmbda, beta = pb.mu, pb.lmbda, pb.beta
+        if pb.axisymmetric:
+            return self._elastic_axi(u, v, ps, w, qs, scale)
         if self.kind == "displacement":
             z = u + beta * v
             return ufl.inner(
@@ -334,6 +388,39 @@ class Truth:
             + qd * (beta * ufl.div(v) - pd / lmbda)
         )
 
+    def _elastic_axi(self, u, v, ps, w, qs, scale):
+        """_elastic on a meridian (SPEC 13; per unit volume: the caller weights by 2 pi r):
+        the strains with the hoop term u_r / r (axisymmetric.eps_axi, div_axi) and the
+        neo-Hookean F with F_thetatheta = 1 + u_r / r (J = det F_2D (1 + u_r / r),
+        I1 = tr C_2D + (1 + u_r / r)^2)."""
+        pb = self.problem
+        mu, lmbda, beta = pb.mu, pb.lmbda, pb.beta
+        r = axi.radius(self.problem.mesh)
+        if self.kind == "displacement":
+            z = u + beta * v
+            return ufl.inner(axi.sigma(axi.eps_axi(z, r), mu, lmbda), axi.eps_axi(w, r))
+        if self.kind == "mixed":
+            (p,), (q,) = ps, qs
+            z = u + beta * v
+            return (
+                2 * mu * ufl.inner(axi.eps_axi(z, r), axi.eps_axi(w, r))
+                - p * axi.div_axi(w, r)
+                - q * (axi.div_axi(z, r) + p / lmbda) / scale
+            )
+        (p, pd), (q, qd) = ps, qs
+        kappa = lmbda + 2 * mu / 3
+        F = ufl.variable(ufl.Identity(3) + _grad_axi(u, r))
+        J = ufl.det(F)
+        I1 = ufl.tr(F.T * F)
+        P_iso = ufl.diff(mu / 2 * (J ** (-2 / 3) * I1 - 3), F)
+        return (
+            ufl.inner(P_iso + p * J * ufl.inv(F).T, _grad_axi(w, r))
+            + 2 * mu * beta * ufl.inner(axi.eps_axi(v, r), axi.eps_axi(w, r))
+            + pd * axi.div_axi(w, r)
+            + q * (VOLUMETRIC[pb.model](J) - p / kappa)
+            + qd * (beta * axi.div_axi(v, r) - pd / lmbda)
+        )
+
     def _residual(self, u, v, a, ps, scale=1.0):
         pb = self.problem
         w, qs = self._split(ufl.TestFunction(self.W))
@@ -341,10 +428,16 @@ class Truth:
         # Gauss with degree + 1 points per direction: exact for the linear forms on affine cells
         dx = ufl.dx(metadata={"quadrature_degree": 2 * pb.degree})
         force = self.load * ufl.inner(self.f, w)
-        residual = (inertia + self._elastic(u, v, ps, w, qs, scale) - force) * dx
+        if pb.axisymmetric:  # SPEC 13: dV = 2 pi r dr dz, dA = 2 pi r ds
+            weight = axi.volume(axi.radius(pb.mesh))
+            residual = (inertia + self._elastic(u, v, ps, w, qs, scale) - force) * weight * dx
+        else:
+            residual = (inertia + self._elastic(u, v, ps, w, qs, scale) - force) * dx
         if pb.contact is not None:  # the traction p n of the needle on the tissue (SPEC 12)
             c = pb.contact
             k = c.k * self._penalty
+            if pb.axisymmetric:
+                k = k * weight
             traction = contact.pressure(u, self.needle, c.tool, k) * c.tool.ufl_outward_normal(
                 contact.deformed(u), self.needle
             )
@@ -365,9 +458,14 @@ class Truth:
         values = np.zeros((3, n, gdim))
         for b in self.boundaries:
             for k, val in enumerate(b.motion(t, self.xnodes[b.nodes])):
-                values[k, b.nodes] = np.broadcast_to(
-                    np.asarray(val, dtype=float), (len(b.nodes), gdim)
-                )
+                full = np.broadcast_to(np.asarray(val, dtype=float), (len(b.nodes), gdim))
+                if b.components is None:
+                    values[k, b.nodes] = full
+                else:
+                    comps = list(b.components)
+                    values[k, b.nodes[:, None], comps] = full[:, comps]
+        if self._by_component:
+            return values.reshape(3, -1)[:, self.cdofs]
         return values[:, self.cnodes].reshape(3, -1)
 
     def _linear_solver(self, residual, U, symmetric=False):
@@ -657,7 +755,10 @@ class Truth:
             if self._probe is not None:
                 tips.append(self.tip(values))
             if self.needle is not None:  # the force of U, which holds u at this step
-                forces.append([self.comm.allreduce(fem.assemble_scalar(f)) for f in self._force])
+                values = [self.comm.allreduce(fem.assemble_scalar(f)) for f in self._force]
+                if self.problem.axisymmetric:  # (0, 0, F_z): the revolved body's force, N
+                    values = [0.0, 0.0, values[0]]
+                forces.append(values)
 
         record(0)
         for i in range(steps):
@@ -681,6 +782,7 @@ class Truth:
             wall=time.perf_counter() - start,
             min_jacobian=record_j,
             force=np.array(forces) if forces else None,
+            axisymmetric=self.problem.axisymmetric,
         )
 
 
@@ -714,16 +816,20 @@ class _Probe:
 
 class _Jacobian:
     """The smallest J = det(I + grad u) over the quadrature points (Gauss, exact to `degree`)
-    of the owned cells of every rank, and the undeformed point (m) where it is. Collective."""
+    of the owned cells of every rank, and the undeformed point (m) where it is; on a meridian
+    (`axisymmetric`), J = det(I + grad u) (1 + u_r / r). Collective."""
 
-    def __init__(self, u: fem.Function, degree: int):
+    def __init__(self, u: fem.Function, degree: int, axisymmetric: bool = False):
         mesh = u.function_space.mesh
         gdim = mesh.geometry.dim
         points, _ = basix.make_quadrature(mesh.basix_cell(), degree)
         self.mesh = mesh
         owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.cells = np.arange(owned, dtype=np.int32)
-        self.J = fem.Expression(ufl.det(ufl.Identity(gdim) + ufl.grad(u)), points)  # type: ignore[arg-type]  # basix annotates its arrays as ArrayLike
+        J = ufl.det(ufl.Identity(gdim) + ufl.grad(u))
+        if axisymmetric:
+            J = J * (1 + u[0] / axi.radius(mesh))
+        self.J = fem.Expression(J, points)  # type: ignore[arg-type]  # basix annotates its arrays as ArrayLike
         x = fem.Expression(ufl.SpatialCoordinate(mesh), points)  # type: ignore[arg-type]  # basix annotates its arrays as ArrayLike
         self.x = x.eval(mesh, self.cells).reshape(-1, gdim)
 

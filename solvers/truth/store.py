@@ -13,7 +13,11 @@ The hierarchy (SPEC 10: three refined levels, the truth's step and its half on t
 rod n = 2, 4, 8 (16 x 8 x 8 hexahedra on the finest), block N = 20, 40, 80 (the linear ones
 graded toward the needle's ends, cases.graded_block; MP1 steps h/4, MP2 h/16), each to the
 benchmark's end time T = 10 s with its h = 1/30 s. Quick (CI and tests, never the truth):
-rod n = 1, 2, 4 and block N = 10, 20, 40, 30 steps of h = 1/30 s (T = 1 s).
+rod n = 1, 2, 4 and block N = 10, 20, 40, 30 steps of h = 1/30 s (T = 1 s). The cylinder's
+cases (SPEC 13) on its graded meridian, n = 10, 20, 40 (quick 4, 8, 16; cases.MERIDIAN_LEVELS):
+their samples are the meridian's (2D, r and z), marked by inputs()["axisymmetric"]
+(is_axisymmetric), and revolve.revolve() makes the 3D ones that grading needs; their own error
+and size are of the revolved body (m^3).
 
 Units: SI (m, s); E_i in m^3 (rod) and m^2 (block).
 """
@@ -48,7 +52,7 @@ from tissuebench.core.fingerprint import fingerprint
 from tissuebench.core.speed import scaled
 from tissuebench.meshes.benchmark import Benchmark
 from tissuebench.solvers.materials import get_material
-from tissuebench.solvers.truth.cases import CASES, STEP_DIVISOR, case_truth
+from tissuebench.solvers.truth.cases import CASES, MERIDIAN_LEVELS, STEP_DIVISOR, case_truth
 from tissuebench.solvers.truth.estimate import estimate_error, interior_difference
 from tissuebench.solvers.truth.floor import FLOOR_CASES, FLOOR_RTOL, FloorTruth
 from tissuebench.solvers.truth.samples import TruthSamples
@@ -95,6 +99,17 @@ EXPECTED_SECONDS = {
     "contact-MP1-nhb": 710.0,
     "contact-MP2": 2709.0,
     "contact-MP2-s0.5": 950.0,
+    # SPEC 13's cylinder on its meridian (n = 10, 20, 40, with the 10 k check at the half step):
+    # cylinder-MP1-s0.5's CPU seconds, 809 s in 1,751 s of wall under a load of 4 to 8, over the
+    # probe's 0.042 s then (0.04 here); cylinder-MP1 at s = 1 from its stages' wall times (19,
+    # 185 and 561 s for the levels, 317 s the half step, about 1,900 s its 10 k run, Newton
+    # slowing at the deep push: it was killed from outside at 90 % of that run) at the same
+    # wall-to-CPU ratio, 2.2. MP2 and the neo-Hookean one as MP1 at the same s until measured
+    # (their quick truths took 0.95 and 1.19 times cylinder-MP1's CPU time); s = 0.25 as 0.5
+    "cylinder-MP1": 1330.0,
+    "cylinder-MP1-s0.5": 764.0,
+    **{f"cylinder-{m}": 1330.0 for m in ("MP2", "MP1-nhb")},
+    **{f"cylinder-{m}-s{s:g}": 764.0 for m in ("MP1", "MP2", "MP1-nhb") for s in (0.5, 0.25)},
 }
 PENALTY_CHECK = 10.0  # SPEC 12: the finest level of a contact case again with this times k
 # the code a truth comes from: its fingerprint changes when any of these files does
@@ -110,6 +125,15 @@ SOURCES = (
     "solvers/contact.py",
 )
 PACKAGE = Path(__file__).resolve().parents[2]  # the tissuebench package's folder
+# SPEC 13: the code a meridian truth (cases.MERIDIAN_LEVELS) comes from besides SOURCES, in its
+# key alone (inputs()["axisymmetric"]): its forms and mesh, the cylinder and its capsule
+AXISYMMETRIC_SOURCES = (
+    "solvers/truth/axisymmetric.py",
+    "meshes/cylinder.py",
+    "meshes/tools/tool.py",
+    "meshes/tools/capsule.py",
+    "meshes/tools/half_stadium.py",
+)
 
 
 def check_case(case: str) -> None:
@@ -125,6 +149,8 @@ def levels_of(case: str, quick: bool = False) -> tuple[int, ...]:
     """The mesh sizes of a case's hierarchy (its benchmark's entry's truth levels)."""
     from tissuebench.meshes import get_entry
 
+    if case in MERIDIAN_LEVELS:  # SPEC 13: the meridian's grids, not the 3D benchmark's
+        return MERIDIAN_LEVELS[case][1 if quick else 0]
     entry = get_entry(CASES[case][0])
     return entry.quick_truth_levels if quick else entry.truth_levels
 
@@ -233,6 +259,13 @@ def inputs(case: str, quick: bool = False) -> dict:
     checks = {"penalty_check": {"times": PENALTY_CHECK, "step": "h / 2k"}} if entry.tool else {}
     if case in FLOOR_CASES:  # its Newton may stop at the round-off floor (floor.py): its key alone
         checks["newton_floor"] = {"rtol": FLOOR_RTOL, "code": _code(("solvers/truth/floor.py",))}
+    if case in MERIDIAN_LEVELS:  # SPEC 13: computed on the meridian; graders revolve it
+        form = f"axisymmetric {form} on the meridian (r, z), dV = 2 pi r dr dz"
+        checks["axisymmetric"] = {
+            "axis": "z",
+            "meridian": "(r, z) in [0, R_B] x [0, H]",
+            "code": _code(AXISYMMETRIC_SOURCES),
+        }
     return {
         **checks,
         "case": case,
@@ -694,7 +727,7 @@ def compute(
     half = None
     if tips:
         info["tip"], info["static_tip"] = tips, statics
-    own = own_error(info, time_ei, bench.mesh.geometry.dim)
+    own = own_error(info, time_ei, 3 if run.axisymmetric else bench.mesh.geometry.dim)
     samples = sample(truth, run, case, own, given, info)
     wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     if samples is not None:
@@ -808,12 +841,26 @@ def _read(case: str, quick: bool) -> tuple[TruthSamples | None, str | None]:
 
 def size_of(samples: TruthSamples) -> float:
     """The truth's E_i against rest (u' = 0), its maximum over steps: |Omega_0|^(-1/d) times
-    the largest ∫ |u| dX (m^3 rod, m^2 block)."""
+    the largest ∫ |u| dX (m^3 rod, m^2 block; m^3 for a meridian's truth, of the revolved
+    body: dX = 2 pi r dr dz, d = 3)."""
     w = np.asarray(samples.weights, dtype=np.float64)
+    if is_axisymmetric(samples):
+        w = w * 2 * np.pi * np.asarray(samples.points[:, 0], dtype=np.float64)
+        return float(w.sum()) ** (-1.0 / 3) * max(
+            float(w @ np.linalg.norm(np.asarray(u, dtype=np.float64), axis=1))
+            for u in samples.u_points
+        )
     scale = float(w.sum()) ** (-1.0 / samples.gdim)
     return scale * max(
         float(w @ np.linalg.norm(np.asarray(u, dtype=np.float64), axis=1)) for u in samples.u_points
     )
+
+
+def is_axisymmetric(samples: TruthSamples) -> bool:
+    """Whether these are a meridian truth's samples (SPEC 13: its inputs say it was computed
+    on a meridian (r, z), and they are 2D): revolve.revolve() makes the 3D ones that grading
+    needs (which keep the inputs, and are 3D)."""
+    return "axisymmetric" in samples.inputs and samples.gdim == 2
 
 
 def penalty_part(h: dict) -> float | None:
