@@ -22,6 +22,7 @@ def samples(penalty_difference: list[float] | None, space: float, time: float):
         weights=np.ones(1),
         gdim=2,
         u_points=[np.array([[1.0, 0.0]])],
+        inputs={},  # not a meridian truth's (store.is_axisymmetric reads them)
     )
 
 
