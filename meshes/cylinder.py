@@ -14,7 +14,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import dolfinx.mesh
 import numpy as np
 
 from tissuebench.meshes.benchmark import (
@@ -27,6 +26,7 @@ from tissuebench.meshes.benchmark import (
     fixed,
     shape_options,
 )
+from tissuebench.meshes.contact import check_kappa
 from tissuebench.meshes.cylinder_mesh import (
     HEIGHT,
     RADIUS_BODY,
@@ -34,8 +34,8 @@ from tissuebench.meshes.cylinder_mesh import (
     cylinder_mesh,
     cylinder_nodes,
 )
-from tissuebench.meshes.gmshio import MeshError, TaggedMesh
-from tissuebench.meshes.regions import Posing, Region, Term, Touching
+from tissuebench.meshes.gmshio import TaggedMesh
+from tissuebench.meshes.regions import Posing, Region, Term, Touching, shortest_edge
 from tissuebench.meshes.tools import Capsule
 
 RADIUS = 0.1  # m, the capsule's R (SPEC 13)
@@ -66,25 +66,6 @@ def capsule(load_scale: float = 1.0) -> Capsule:
     return Capsule(
         radius=RADIUS, c0=(0.0, 0.0, HEIGHT + RADIUS), motion=needle_motion, scale=float(load_scale)
     )
-
-
-def check_kappa(kappa: object) -> None:
-    """Refuse a penalty kappa that is not a number within 0 < kappa < 1e12 (MeshError)."""
-    if not (isinstance(kappa, (int, float)) and not isinstance(kappa, bool) and 0 < kappa < 1e12):
-        raise MeshError(f"the penalty kappa must be a number > 0 (and below 1e12), got {kappa!r}")
-
-
-def shortest_edge(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> float:
-    """The shortest edge (m) of the facets (local indices) over every rank. Collective."""
-    tdim = mesh.topology.dim
-    mesh.topology.create_connectivity(tdim - 1, 0)
-    owned = facets[facets < mesh.topology.index_map(tdim - 1).size_local]
-    ends = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, owned)
-    x = mesh.geometry.x
-    pairs = [(i, j) for i in range(ends.shape[1]) for j in range(i)]
-    sizes = [np.linalg.norm(x[ends[:, i]] - x[ends[:, j]], axis=1) for i, j in pairs]
-    local = float(np.min(sizes)) if len(owned) else np.inf
-    return mesh.comm.allreduce(local, op=MPI.MIN)
 
 
 def benchmark(

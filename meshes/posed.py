@@ -18,7 +18,7 @@ import numpy as np
 from tissuebench.meshes import BENCHMARKS
 from tissuebench.meshes.benchmark import Benchmark, Constraint, Contact, Entry
 from tissuebench.meshes.gmshio import MeshError, TaggedMesh
-from tissuebench.meshes.regions import SAME_BODY, Posing, Touching
+from tissuebench.meshes.regions import SAME_BODY, Posing, Touching, shortest_edge
 
 
 def posing(benchmark: str, **options: object) -> tuple[Entry, Posing]:
@@ -94,9 +94,5 @@ def tool_on_mesh(
             f"no boundary facet of the mesh lies on {benchmark}'s contact surface "
             f"({tool.predicate}, within {tolerance:.3g} m)"
         )
-    ends = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, owned)
-    x = mesh.geometry.x[:, :gdim]
-    pairs = [(i, j) for i in range(ends.shape[1]) for j in range(i)]  # its shortest edge
-    sizes = np.min([np.linalg.norm(x[ends[:, i]] - x[ends[:, j]], axis=1) for i, j in pairs], 0)
-    h_e = mesh.comm.allreduce(float(sizes.min()) if len(sizes) else np.inf, op=MPI.MIN)
+    h_e = shortest_edge(mesh, facets)
     return Contact(facets=facets, tool=tool.tool, kappa=tool.kappa, edge_size=h_e)

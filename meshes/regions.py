@@ -21,6 +21,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from mpi4py import MPI
+
+import dolfinx.mesh
 import numpy as np
 
 from tissuebench.meshes.tools import Tool
@@ -104,3 +107,17 @@ class Posing:
     gravity: tuple[float, ...]
     extent: float
     tool: Touching | None = None
+
+
+def shortest_edge(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> float:
+    """The shortest edge (m) of the boundary facets `facets` (local indices) over every rank,
+    the penalty's h_e of a contact surface. Collective."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, 0)
+    owned = facets[facets < mesh.topology.index_map(tdim - 1).size_local]
+    ends = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, owned)
+    x = mesh.geometry.x
+    pairs = [(i, j) for i in range(ends.shape[1]) for j in range(i)]
+    sizes = [np.linalg.norm(x[ends[:, i]] - x[ends[:, j]], axis=1) for i, j in pairs]
+    local = float(np.min(sizes)) if len(owned) else np.inf
+    return mesh.comm.allreduce(local, op=MPI.MIN)
