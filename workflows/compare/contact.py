@@ -11,6 +11,7 @@ the reference.xdmf that the external runner writes).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,9 +67,9 @@ class ContactReference:
     own_error: float | None = None
     benchmark: str = ""  # the benchmark it poses (its entry's tool: meshes/tools/)
 
-    @property
+    @functools.cached_property
     def tool(self) -> Tool:
-        """The benchmark's tool at the reference's load scale (meshes/tools/)."""
+        """The benchmark's tool at the reference's load scale (meshes/tools/), built once."""
         make = get_entry(self.benchmark).tool
         assert make is not None  # a contact benchmark
         return make(load_scale=self.load_scale)
