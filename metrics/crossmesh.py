@@ -181,6 +181,53 @@ def check_same_body(ref: Series, cand: Series, body: dict | None = None) -> tupl
     return phrase, distance
 
 
+def check_same_revolved_body(
+    meridian: Series, revolved: Series, cand: Series, allowance: float
+) -> tuple[str, float]:
+    """check_same_body for a truth computed on a meridian (SPEC 13) and revolved: the
+    candidate's nodes, taken to (r, z), within tau plus `allowance` (m, the faceted side's
+    sagitta) of the meridian's domain (the exact body of revolution: the revolved mesh's cells
+    on the axis are wedges that cannot locate a point), the revolved truth's vertices within
+    as much of the candidate's domain, and the candidate's volume within the allowance times
+    the revolved body's boundary area of the revolved truth's. Returns the farthest node (a
+    phrase) and its distance (m); InputError (one line) otherwise."""
+    extent = float(np.ptp(revolved.points, axis=0).max())
+    tol = BODY_TOLERANCE * extent + allowance
+    said = f"1e-6 of the reference's extent {extent:.6g}, plus the curved side's facet sagitta "
+    said += f"{allowance:.3g}"
+    rz = np.column_stack([np.hypot(cand.points[:, 0], cand.points[:, 1]), cand.points[:, 2]])
+    worst = []
+    for who, points, other, shown in (
+        ("candidate", rz, Mesh.of(meridian), cand.points),
+        ("reference", revolved.points, Mesh.of(cand), revolved.points),
+    ):
+        distance = distances_to_domain(points, other, tol)
+        node = farthest_node(distance)
+        other_name = "reference" if who == "candidate" else "candidate"
+        phrase = f"{who} node {node} at {_at(shown, node)}"
+        worst.append((float(distance[node]), phrase, other_name))
+    distance, phrase, other_name = max(worst, key=lambda w: w[0])
+    where = f"{cand.path}: not a mesh of the body of {revolved.path}"
+    if distance > tol:
+        raise InputError(
+            f"{where}: {phrase} is {distance:.3g} from the {other_name}'s undeformed domain, "
+            f"beyond {tol:.3g} ({said})"
+        )
+    r, z = meridian.points[:, 0], meridian.points[:, 1]
+    radius, height = float(r.max()), float(np.ptp(z))
+    v_ref = np.pi * radius**2 * height  # the body of revolution: the meridian's box revolved
+    v_cand = float(measures(cand.points, cand.cells, cand.cell_type).sum())
+    bound = VOLUME_RTOL * v_ref + allowance * 2 * np.pi * radius * (radius + height)
+    if abs(v_cand - v_ref) > bound:
+        raise InputError(
+            f"{where}: its volume {v_cand:.9g} differs from the revolved body's {v_ref:.9g} by "
+            f"{abs(v_cand - v_ref) / v_ref:.3g} relative, beyond {bound / v_ref:.3g} (the "
+            f"farthest node, {phrase}, is {distance:.3g} from the {other_name}'s undeformed "
+            "domain)"
+        )
+    return phrase, distance
+
+
 def quadrature_points(cell_type: str, points: int = 3) -> int:
     """The number of quadrature points per cell of InteriorMetric with `points` Gauss points per
     direction (the rule of degree 2 points − 1)."""

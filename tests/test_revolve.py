@@ -4,6 +4,8 @@ that the Gauss rule in (r, z) and the trapezoidal rule in theta integrate exactl
 exact; the truth sampled on 3D meshes of the cylinder grades at its interpolation error,
 falling with the mesh; rotating the angles changes nothing beyond round-off."""
 
+from pathlib import Path
+
 from mpi4py import MPI
 
 import dolfinx.geometry
@@ -123,6 +125,50 @@ def test_the_truth_sampled_on_3d_meshes_grades_at_its_interpolation_error(quick)
     # contact: its top centre's node spreads the push over 0.25 m)
     assert errors[1] < 0.6 * errors[0] and errors[2] < 0.6 * errors[1], errors
     assert errors[2] < 0.2 * size
+
+
+def test_a_3d_candidate_is_graded_against_the_meridian_truth_revolved(quick):
+    """grade_truth given the meridian truth itself and a 3D candidate (the truth sampled at the
+    O-grid's nodes, n = 4, every step) revolves it on 32 angles (SPEC 13): its curves are
+    TruthMetrics' on revolve() step by step, the same-body check allows the faceted side's
+    sagitta (the candidate's 16 side facets lie inside r = R_B, the truth's 32 too), the
+    revolved history computed step by step equals the whole one, and rotating the candidate's
+    mesh about the axis by a third of its facet angle changes E_i by less than the candidate's
+    own interpolation error (the metric's size at this mesh)."""
+    from tissuebench.metrics.series import InputError, Series
+    from tissuebench.metrics.truth import grade_truth
+
+    run, samples = quick
+    three = revolve(samples, 32)
+    whole = np.asarray(three.u_points)
+    assert np.array_equal(whole[5], three.u_points[5])
+    assert np.array_equal(whole[3:7, :, 1], three.u_points[3:7, :, 1])
+
+    def candidate(turn: float):
+        points, cells = _cylinder(4)
+        c, s = np.cos(turn), np.sin(turn)
+        points = points @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]).T
+        u = [_meridian_field(run.V, run.u[k], points) for k in range(len(run.u))]
+        times = np.asarray(samples.times)
+        return Series(Path(f"turned{turn:.3f}.xdmf"), points, cells, "hexahedron", times, u), u
+
+    cand, u = candidate(0.0)
+    g = grade_truth(samples, cand, SELF, surface=False)
+    metrics = TruthMetrics(three, Mesh(cand.points, cand.cells, "hexahedron"), 0.01, "test")
+    metrics.surface = False
+    k = len(run.u) - 1
+    expected = metrics.evaluate(k, u[k])
+    assert g.curves["interior_error"][k] == pytest.approx(expected["interior_error"], rel=1e-9)
+    assert g.curves["relative_error"][k] == pytest.approx(expected["relative_error"], rel=1e-9)
+    turned, _ = candidate(2 * np.pi / 48)  # the O-grid's side: 16 facets at n = 4
+    g_turned = grade_truth(samples, turned, SELF, surface=False)
+    e, e_turned = g.curves["interior_error"][k], g_turned.curves["interior_error"][k]
+    assert e > 0 and abs(e_turned - e) < e, (e, e_turned)
+    # a narrower cylinder (r <= 0.9 R_B) is not the body: refused in one line
+    narrow = Series(cand.path, cand.points * [0.9, 0.9, 1.0], cand.cells, "hexahedron",
+                    cand.times, cand.displacements)  # fmt: skip
+    with pytest.raises(InputError, match="not a mesh of the body of truth:cylinder-MP1"):
+        grade_truth(samples, narrow, SELF, surface=False)
 
 
 # --- helpers ------------------------------------------------------------------------------------

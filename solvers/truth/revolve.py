@@ -25,11 +25,47 @@ m^3) and hierarchy, with hierarchy["revolved"] = {"angles", "offset"}.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from tissuebench.solvers.truth.samples import TruthSamples
 
 ANGLES = 32  # SPEC 13: at least 32 azimuths
+
+
+class Revolved:
+    """A revolved displacement history, (steps + 1, n, 3) m, computed from the meridian's
+    (steps + 1, n_meridian, 2) when its steps are asked for (an index, a slice or a tuple
+    starting with one), not held: a fine truth's revolved quadrature-point values would take
+    gigabytes (3.3 GB for a 40-cell meridian on 32 angles). Indexing returns numpy arrays;
+    np.asarray() gives the whole history."""
+
+    def __init__(self, meridian: np.ndarray, turn, n: int):
+        self.meridian = meridian
+        self.turn = turn  # (k, n_meridian, 2) -> (k, n, 3)
+        self.shape = (len(meridian), n, 3)
+        self.ndim = 3
+        self.dtype = np.dtype(np.float64)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key):
+        first, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
+        if isinstance(first, (int, np.integer)):
+            out = self.turn(np.asarray(self.meridian[first : first + 1 or None]))[0]
+            return out[rest] if rest else out
+        out = self.turn(np.asarray(self.meridian[first]))
+        return out[(slice(None), *rest)] if rest else out
+
+    def __iter__(self):
+        for i in range(len(self)):
+            yield self[i]
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        out = self.turn(np.asarray(self.meridian))
+        return out if dtype is None else out.astype(dtype)
 
 
 def _axis(r: np.ndarray, scale: float) -> np.ndarray:
@@ -83,8 +119,10 @@ def revolve(samples: TruthSamples, angles: int = ANGLES, offset: float = 0.0) ->
         return out
 
     vertices = np.concatenate([axis_values(R), spread(R, off_ids)], axis=0)
-    u_vertices = np.concatenate(
-        [axis_values(samples.u_vertices), spread(samples.u_vertices, off_ids)], axis=1
+    u_vertices = Revolved(
+        samples.u_vertices,
+        lambda u: np.concatenate([axis_values(u), spread(u, off_ids)], axis=1),
+        len(vertices),
     )
 
     # the cells: (c, j) -> c * angles + j; each quad (v0, v1, v2, v3) anticlockwise in (r, z)
@@ -122,8 +160,9 @@ def revolve(samples: TruthSamples, angles: int = ANGLES, offset: float = 0.0) ->
     points = at_angles(Pc)
     w = np.asarray(samples.weights, dtype=np.float64).reshape(n_c, 1, q) * Pc[:, None, :, 0]
     weights = np.broadcast_to(w * (2 * np.pi / angles), (n_c, angles, q)).reshape(-1)
-    steps = len(samples.times)
-    u_points = at_angles(np.asarray(samples.u_points).reshape(steps, n_c, q, 2))
+    u_points = Revolved(
+        samples.u_points, lambda u: at_angles(u.reshape(len(u), n_c, q, 2)), len(points)
+    )
 
     # the boundary: the meridian's edges (a, b), domain on their left, off the axis
     edges = np.asarray(samples.boundary, dtype=np.int64)
@@ -155,8 +194,8 @@ def revolve(samples: TruthSamples, angles: int = ANGLES, offset: float = 0.0) ->
         boundary=faces,
         points=points,
         weights=weights,
-        u_vertices=u_vertices,
-        u_points=u_points,
+        u_vertices=cast(np.ndarray, u_vertices),  # Revolved: indexed as an array would be
+        u_points=cast(np.ndarray, u_points),
         own_error=dict(samples.own_error),
         inputs=dict(samples.inputs),
         hierarchy={**samples.hierarchy, "revolved": {"angles": angles, "offset": offset}},
