@@ -25,6 +25,13 @@ from tissuebench.workflows.leaderboard.rows import Row
 NOT_GIVEN = "not given: the run hands no needle force"
 
 
+def graded_components(components: int) -> list[int] | slice:
+    """The force components graded (SPEC 12, 13): both of a 2D tool's (N/m); of a 3D tool's
+    (N) the axial one, z (the capsule's axis): F_x and F_y are zero for the exact axisymmetric
+    answer, a candidate's a symmetry error, reported, not graded."""
+    return [2] if components == 3 else slice(None)
+
+
 def unfinished(row: Row) -> bool:
     """A row whose run did not finish: its force error over the steps it has would flatter
     it, so it has none (its status says why)."""
@@ -56,9 +63,10 @@ def our_forces(folder: Path, rows: list[Row], forces: Path) -> None:
     mine: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     for label in dict.fromkeys(r["algorithm"] for r in table):
         got = [r for r in table if r["algorithm"] == label]
+        columns = ("force_x", "force_y") + (("force_z",) if got and got[0].get("force_z") else ())
         mine[label] = (
             np.array([float(r["time"]) for r in got]),
-            np.array([[float(r["force_x"]), float(r["force_y"])] for r in got]),
+            np.array([[float(r[c]) for c in columns] for r in got]),
             np.array([float(r["interpenetration"]) for r in got]),
         )
     reference = next((r.label for r in rows if r.reference), None)
@@ -75,7 +83,10 @@ def our_forces(folder: Path, rows: list[Row], forces: Path) -> None:
         write_force_csv(path, times, force)
         row.force = str(path)
         against = mine.get(reference or "")
-        error = None if against is None else number(force_error(force, against[1]))
+        graded = graded_components(force.shape[1])
+        error = None
+        if against is not None:
+            error = number(force_error(force[:, graded], against[1][:, graded]))
         row.contact = {
             "force_error": 0.0 if row.reference else error,
             "interpenetration_max": number(depth.max()) if len(depth) else None,
@@ -112,7 +123,8 @@ def grade_forces(rows: list[Row], truth_force: np.ndarray, case: str, own: float
                 f"{' '.join(str(exc).split())[:160]}"
             )
             continue
-        row.contact["force_error"] = number(force_error(force, truth_force))
+        graded = graded_components(force.shape[1])
+        row.contact["force_error"] = number(force_error(force[:, graded], truth_force[:, graded]))
         row.contact["force_error_how"] = (
             f"against the truth {case}'s force (impulse-averaged; its own error {own:.3g})"
         )

@@ -1,4 +1,5 @@
-"""A contact case's force figure (SPEC 12): the needle force F_x (N/m) against time of every
+"""A contact case's force figure (SPEC 12, 13): the force on the tool along its push (F_x in
+N/m for the needle in the plane, F_z in N for the capsule in 3D) against time of every
 run that hands its force (ours from contact.csv, a simulator's from its force file), beside the
 truth's with its own error as a band where the truth is computed here (leaderboard/
 CASE-force.png). Rank 0."""
@@ -35,10 +36,10 @@ def force_png(out: Path, board: Board) -> Path:
 
 
 def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
-    """F_x against t of each row with a readable force file (ours solid, the simulators'
-    dashed, a run that did not finish to where it ended), and the truth's (black, with its
-    own error as a grey band) where it is in the cache; a row whose file is missing is named
-    in the title's note."""
+    """The force along the push against t of each row with a readable force file (ours
+    solid, the simulators' dashed, a run that did not finish to where it ended), and the
+    truth's (black, with its own error as a grey band) where it is in the cache; a row whose
+    file is missing is named in the title's note."""
     from matplotlib.figure import Figure
 
     from tissuebench.workflows.io.tables import read_force_csv
@@ -46,12 +47,14 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
 
     fig = Figure(figsize=(11.5, 5.4), layout="constrained")
     ax = fig.subplots()
+    tool, unit = push_component(board)
+    name = f"F_{'xyz'[tool]}"
     force = truth_force(board.truth) if board.truth else None
     if force is not None:
         h = board_h(board, rows)
         t = np.arange(len(force.force)) * h
         band = force.own_error * np.linalg.norm(force.force, axis=1).max()
-        fx = force.force[:, 0]
+        fx = force.force[:, tool]
         ax.fill_between(t, fx - band, fx + band, color="0.82", lw=0)
         ax.plot(t, fx, "k-", lw=2.2, label=f"truth {board.truth} (band: its own error)")
     missing = []
@@ -67,7 +70,7 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
         ours = row.source == "tissuebench"
         ax.plot(
             times,
-            f[:, 0],
+            f[:, tool] if f.shape[1] > tool else np.full(len(times), np.nan),
             "-" if ours else "--",
             lw=2.4 if row.reference else (1.0 if ours else 0.8),
             zorder=3 if row.reference else 2,  # on top: the others are graded against it
@@ -77,8 +80,8 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
         )
     untold = [r.label for r in rows if r.contact and not r.force]
     ax.set_xlabel("time t (s)")
-    ax.set_ylabel("needle force F_x (N/m)")
-    title = f"{board.name}: the force the tissue exerts on the rigid needle"
+    ax.set_ylabel(f"force on the tool {name} ({unit})")
+    title = f"{board.name}: the force the tissue exerts on the rigid tool, along its push"
     if force is None:
         title += " (no truth force here)"
     ax.set_title(title, fontsize=10)
@@ -94,6 +97,18 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside: no curve hidden
     fig.savefig(path, format="png", dpi=110, metadata={STAMP: force_drawing_code()})
+
+
+def push_component(board: Board) -> tuple[int, str]:
+    """The component of the tool's force drawn, the one along its push (its entry's tool's
+    axis: x for SPEC 12's needle, z for SPEC 13's capsule), and the force's unit."""
+    from tissuebench.meshes import get_entry
+
+    make = get_entry(board.benchmark).tool
+    if make is None:
+        return 0, "N/m"
+    tool = make()
+    return int(tool.axis), tool.force_unit
 
 
 def board_h(board: Board, rows: list[Row]) -> float:
