@@ -135,25 +135,55 @@ def test_the_axisymmetric_forms_give_an_exact_loaded_column(mixed):
 
 
 def test_hertz_push_against_the_laws():
-    """SPEC 13's static 5 mm push on a coarse level (n = 16): the contact radius from the
-    pressure's second moment is Hertz's (3 P R / (4 E*))^(1/3) within 2 %, the stiffer penalty
-    moves P by less than 1e-3 and leaves an interpenetration below 1e-4 d, and the push is
-    deep enough to be a contact (P above half of Hertz's). The finite cylinder lowers P below the
-    half-space's: on a body 4 times as large P rises toward Sneddon's exact sphere and is
-    within SPEC 13's 0.5 % of it (and 1.5 % of Hertz's); on SPEC 13's own body it is below
-    both tolerances (measured: -1.0 % and -1.5 %; results/contact/hertz3d.json)."""
-    soft, stiff = hertz3d.push(E, NU, 16)
+    """SPEC 13's static 5 mm push, the quick path of `tissuebench hertz --dim 3` on two coarse
+    levels (n = 16, 32) and the body-size study at n = 32 on cylinders 2 and 4 times as large.
+    The push is a contact (P above half of Hertz's), the stiffer penalty moves P by less than
+    1e-3 and leaves an interpenetration below 1e-4 d. The finite cylinder lowers P, a and p0:
+    the finite body's effect is negative and shrinks like 1 / s, so that P rises with s toward
+    the half-space's. The half-space laws, judged on the half-space's values extrapolated in
+    1 / s, hold within SPEC 13's tolerances: P within 0.5 % of Sneddon's exact sphere and 1.5 %
+    of Hertz's, a within 2 % of (3 P R / (4 E*))^(1/3), 3 P / (2 pi a^2) within 2 % of the
+    largest pressure; and `holds` is theirs, computed. SPEC 13's own cylinder misses Sneddon's
+    0.5 % (measured: P -1.0 %; results/contact/hertz3d.json). The second moment over the
+    reference radius is below the deformed point's (the capsule pushes the face outward)."""
+    from tissuebench.workflows.contact import hertz3d as check
+
+    pushes, study = check.compute(levels=(16, 32), bodies=(2.0, 4.0))
+    r = check.record(pushes, study, 0.0)
     P_hertz = hertz3d.hertz_force(E, NU, D)
     _, P_sneddon = hertz3d.sneddon(E, NU, D)
+    soft, stiff = (p for p in pushes if p.n == 16)
     assert stiff.P > 0.5 * P_hertz
-    assert abs(stiff.a / hertz3d.hertz_radius(stiff.P, E, NU) - 1) <= 0.02
     assert abs(stiff.P / soft.P - 1) < 1e-3
     assert stiff.interpenetration < 1e-4 * D
     assert stiff.p0 > 0 and stiff.rho.max() < 1.2 * stiff.a
-    large = hertz3d.push(E, NU, 32, kappas=(hertz3d.KAPPA,), body=(4 * axi.R_B, 4 * axi.H))[-1]
-    assert stiff.P < large.P < P_sneddon * 1.001
-    assert abs(large.P / P_sneddon - 1) <= 0.005
-    assert abs(large.P / P_hertz - 1) <= 0.015
+    # the body-size study: the finite body lowers every measure, less on a larger body
+    sizes = r["body_size"]
+    assert sizes["scale"] == [1.0, 2.0, 4.0] and sizes["n"] == 32
+    for key in ("P", "a", "p0"):
+        effect = sizes["finite_body_effect"][key]
+        assert all(e < 0 for e in effect), key
+        assert abs(effect[0]) > abs(effect[1]) > abs(effect[2]), key
+        assert r["finite_body"][key] == effect[0]
+    effect = sizes["finite_body_effect"]["P"]
+    assert 0.4 < effect[1] / effect[0] < 0.6 and 0.4 < effect[2] / effect[1] < 0.6  # ~ 1 / s
+    assert sizes["P"][0] < sizes["P"][1] < sizes["P"][2] < r["half_space"]["P"]
+    assert -0.015 < r["finite_body"]["P"] < -0.005  # not SPEC 13's "less than 0.1 %"
+    # the laws on the half-space's values, and holds computed from them
+    half = r["half_space"]
+    assert half["P"] == pytest.approx(P_sneddon, rel=check.TOLERANCE["P_sneddon"])
+    assert half["P"] == pytest.approx(P_hertz, rel=check.TOLERANCE["P_hertz"])
+    errors = check.law_errors(half["P"], half["a"], half["p0"], E, NU)
+    assert errors == r["errors"]
+    for key, tolerance in check.TOLERANCE.items():
+        assert abs(errors[key]) <= tolerance, key
+    assert r["holds"] is True and all(r["holds_each"].values())
+    # SPEC 13's own cylinder, beside: its P misses Sneddon's 0.5 %
+    cylinder = r["cylinder"]
+    assert cylinder["n"] == 32 and cylinder["P"] == sizes["P"][0]
+    assert cylinder["errors"]["P_sneddon"] < -check.TOLERANCE["P_sneddon"]
+    assert cylinder["within_tolerance"]["P_sneddon"] is False
+    assert cylinder["a"] < cylinder["a_deformed"] < 1.02 * cylinder["a"]
 
 
 @pytest.mark.serial
