@@ -215,6 +215,9 @@ def paper_report(
         from tissuebench.workflows.contact.report import paper_section
 
         parts += paper_section(out / "contact")
+    from tissuebench.workflows.contact import report3d  # SPEC 13: hertz --dim 3, leaderboard
+
+    parts += report3d.paper_section(out)
     for extra, title in [
         ("stability.md", "Stability"),
         ("convergence.md", "Convergence"),
