@@ -305,9 +305,8 @@ CYLINDER_SIZES = (3, 4, 6)  # n, cells along the radius
 CYLINDER_MAIN = 6  # the benchmark's default n: the main board
 # the cylinder cases graded on the leaderboard: at s = 1 cylinder-MP1 has no truth (its levels
 # do not converge, solvers/truth/fallbacks.py), so SPEC 13's fallback at s = 0.5 is graded;
-# cylinder-MP2-s0.5's truth is computed (results/truth.md) but not boarded yet: one board of
-# ours and four simulators takes about 15 min at n = 6 here, and its 10 k penalty check did not
-# converge (Newton at t = 0.48 s), so its penalty's limit is unchecked
+# cylinder-MP2 meets SPEC 10's target at neither s = 0.5 nor 0.25 (fallbacks.py), so it has no
+# board
 CYLINDER_CASES = ("cylinder-MP1-s0.5",)
 CYLINDER_WORDS = (
     "Tissue cylinder and rigid capsule in frictionless contact (SPEC 13): R_B = 0.5 m, H = 1 m, "
