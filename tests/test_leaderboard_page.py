@@ -113,6 +113,80 @@ def test_users_page_escapes_and_counts(tmp_path):
     assert counts[page.FRONTIER] == 1  # the frontier's run: a point like every row's
 
 
+# --- the rank: E_i max over the steps (issue 59) ------------------------------------------------
+
+
+def test_a_run_right_only_on_average_does_not_lead():
+    """Every division and leaderboard.md rank by E_i max over the steps (against the truth
+    where the case has one, else against the reference), the time-mean beside it, ties by
+    label: a quasi-static run on a dynamic case, the lowest E_i mean but the highest max, does
+    not rank first (contact-MP1's calculix:quasi-static-contact-CPE4 led its Closed division on
+    its mean); and the page and leaderboard.md say the rule."""
+    from tissuebench.workflows.leaderboard import document
+    from tissuebench.workflows.leaderboard.rows import RANK_RULE
+
+    board = Board("rod-MP3", "rod", "MP3", "linear", truth="rod", truth_band=5e-6,
+                  description="the rod")  # fmt: skip
+    made = {  # label: (source, E_i mean, E_i max), m^3
+        "implicit": ("tissuebench", 5e-4, 6e-4),
+        "calculix:quasi-static": ("CalculiX 2.20", 1e-4, 9e-4),  # the best mean, the worst max
+        "sfepy:newmark": ("SfePy 2026.3", 3e-4, 4e-4),
+        "kratos:b": ("Kratos 10.3", 3.5e-4, 5e-4),  # tied on max with kratos:a
+        "kratos:a": ("Kratos 10.3", 3.5e-4, 5e-4),
+    }
+
+    def made_rows(truth: bool) -> list[Row]:
+        out = []
+        for label, (source, mean, peak) in made.items():
+            r = row(label, source, 0.1, 0.0, reference=label == "implicit")
+            errors = {"interior_error_mean": mean, "interior_error_max": peak}
+            if truth:
+                r.truth = {**errors, "relative_error_mean": 0.1, "relative_error_max": 0.2}
+            else:
+                r.truth = {}
+            r.errors = {**r.errors, **({} if r.reference else errors)}
+            out.append(r)
+        mark_pareto(out)
+        return out
+
+    def ranked(html: str) -> list[tuple[str, str]]:
+        """(rank, run) of a division's table, in its order."""
+        table = html.split("</table>")[0]
+        return re.findall(r"<tr class=\"f[^>]*><td>([^<]*)</td><td>([^<]*)</td>", table)
+
+    expected = {  # by E_i max, ties by label; against the reference the reference ranks not
+        True: [("1", "sfepy:newmark"), ("2", "kratos:a"), ("3", "kratos:b"),
+               ("4", "implicit (the reference)"), ("5", "calculix:quasi-static")],
+        False: [("1", "sfepy:newmark"), ("2", "kratos:a"), ("3", "kratos:b"),
+                ("4", "calculix:quasi-static"), ("-", "implicit (the reference)")],
+    }  # fmt: skip
+    for truth in (True, False):
+        rows = made_rows(truth)
+        for open_ in (False, True):
+            assert ranked(page.division(board, rows, truth, open_, "m^3")) == expected[truth]
+        view = page.division_view(board, rows, truth, False, "m^3")
+        quasi = next(e for e in view.entries if e.label == "calculix:quasi-static")
+        assert (quasi.max, quasi.mean) == ("0.0009", "0.0001")  # the mean beside it, shown
+        lines = document.case_lines(board, rows, [], "now")
+        head = next(k for k, line in enumerate(lines) if line.startswith("| source |"))
+        assert lines[head].startswith("| source | best run | mesh, dofs | E_i max (m^3) | E_i mean")
+        best = [line.split(" | ")[1] for line in lines[head + 2 :] if line.startswith("| ")]
+        assert best[:2] == ["sfepy:newmark", "kratos:a"]  # Kratos' best: kratos:a, by label
+        assert best.index("calculix:quasi-static") > 0
+        if truth:  # our implicit ranks against the truth; the quasi-static run comes last
+            assert best == ["sfepy:newmark", "kratos:a", "implicit (reference)",
+                            "calculix:quasi-static"]  # fmt: skip
+    # the page and leaderboard.md say the rule
+    rows = made_rows(True)
+    text = page.render([board], {board.name: rows}, {board.name: []}, "now", unit_of)
+    assert "ranked by E_i max over the steps" in RANK_RULE and "time-mean beside it" in RANK_RULE
+    assert text.count(f"both divisions are {RANK_RULE}") == 1  # the header
+    assert text.count(f"Both divisions are {RANK_RULE}") == 1  # the case, above its divisions
+    assert "<th>E_i max (m^3)</th><th>E_i mean</th>" in text
+    summary = document.markdown([board], {board.name: rows}, {board.name: []}, "now")
+    assert f"or against the case's reference where it has none: {RANK_RULE}," in summary
+
+
 # --- in a real browser -------------------------------------------------------------------------
 
 

@@ -12,7 +12,8 @@ case like any other (frontier_rows.py: grey diamonds, their cost the whole run's
 row's); filters by source, mesh size (dofs) and model; each user's row by its own label, in
 its own colour; the error budget as a dot plot; the Closed division (the case's own mesh and
 step) and the Open one (any mesh, step or sub-steps, the frontier's runs included), each
-ranked. The little JavaScript at the end only shows tooltips and applies the filters.
+ranked by E_i max over the steps, the time-mean beside it (rows.RANK_RULE). The little
+JavaScript at the end only shows tooltips and applies the filters.
 
 Made in two steps: the view model (PageView, CaseView, Division, Entry, Box: plain data,
 every text as read and unescaped, computed from the rows here) and the Jinja2 templates
@@ -26,7 +27,6 @@ script. The tooltips are set as text by the script.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
@@ -54,15 +54,16 @@ from tissuebench.workflows.leaderboard.page_words import (
     closed,
     error_of,
     esc,
-    finished,
     g,
     mesh_of,
     model_of,
+    rank_error,
+    rank_key,
     source_of,
     tip_lines,  # noqa: F401 (read here before)
 )
 from tissuebench.workflows.leaderboard.row import Kind
-from tissuebench.workflows.leaderboard.rows import Board, Row, finite
+from tissuebench.workflows.leaderboard.rows import RANK_RULE, Board, Row, finite
 
 TEMPLATES = "templates"  # the package's folder of the template, stylesheet and script
 USERS_LISTED = 20  # users' labels listed above a case's plot; more are folded
@@ -82,7 +83,7 @@ class Entry:
     facet: str  # its source facet (page_words.source_of)
     mesh: str
     dofs: str  # with thousands separators
-    mean: str  # E_i, time-mean and max, in the case's unit
+    mean: str  # E_i, time-mean and max (which it ranks by), in the case's unit
     max: str
     cost: str  # s per simulated s
     real_time: str  # "yes" or "-"
@@ -151,23 +152,23 @@ class PageView:
     sessions: str
     cases: list[CaseView]
     users: list[tuple[str, str]]  # (case, label) of each user's run
+    rule: str = RANK_RULE  # what every division ranks by, in words
 
 
 def division_view(board: Board, rows: list[Row], truth: bool, open_: bool, unit: str) -> Division:
-    """A division's ranked table: the finished rows by time-mean E_i, the best first; the
-    rest listed after. The Closed division: the case's own mesh and step (closed); the Open
-    one: every row, the SPEC 11 frontier's included."""
+    """A division's ranked table (rows.RANK_RULE): the finished rows by E_i max over the
+    steps (against the truth where the case has one: truth), the best first, ties by label;
+    the time-mean a column beside it; the rest listed after. The Closed division: the case's
+    own mesh and step (closed); the Open one: every row, the SPEC 11 frontier's included."""
     dofs = next((r.dofs for r in rows if r.reference), None)
     contact = is_contact(board)  # SPEC 12: two more columns
-    ranked: list[tuple[float, str, Row, bool]] = []
+    ranked: list[tuple[tuple[float, str], str, Row, bool]] = []
     for r in rows:
         if not (open_ or closed(r, board, dofs)):
             continue
-        e = error_of(r, truth)
-        ranks = finished(r) and e is not None and not (r.reference and not truth)
         label = r.label + (" (the reference)" if r.reference else "")
-        ranked.append((e if ranks and e is not None else math.inf, label, r, ranks))
-    ranked.sort(key=lambda x: (x[0], x[1]))
+        ranked.append((rank_key(r, truth, label), label, r, rank_error(r, truth) is not None))
+    ranked.sort(key=lambda x: x[0])
     entries, k = [], 0
     for _, label, r, ranks in ranked:
         k += ranks

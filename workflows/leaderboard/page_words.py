@@ -1,16 +1,17 @@
 """A leaderboard row in the page's words (page.py): its source facet (ours, a simulator,
-users, the frontier), model, mesh, division, what its wall time covers, the error it is drawn
-and ranked by, the lines its tooltip shows, and their colours and marker shapes; esc, the
-escape of every text the page shows."""
+users, the frontier), model, mesh, division, what its wall time covers, the errors it is drawn
+by (time-mean) and ranked by (max over the steps: rows.RANK_RULE), the lines its tooltip
+shows, and their colours and marker shapes; esc, the escape of every text the page shows."""
 
 from __future__ import annotations
 
 import html
+import math
 
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER
 from tissuebench.workflows.leaderboard.row import Kind
-from tissuebench.workflows.leaderboard.rows import E_I, E_N, Board, Row, finite
+from tissuebench.workflows.leaderboard.rows import E_I, E_N, RANKED_BY, Board, Row, finite
 
 OURS = "ours"
 USERS = "users"
@@ -93,8 +94,8 @@ def wall_meaning(row: Row) -> str:
 
 
 def error_of(row: Row, truth: bool, kind: str = "mean") -> float | None:
-    """The E_i (time-mean or max) a row is drawn and ranked by: against the truth, or against
-    the reference (0 for the reference itself); None when it has none."""
+    """A row's E_i (time-mean, which the plot draws, or max, which it ranks by: kind) against
+    the truth, or against the reference (0 for the reference itself); None when it has none."""
     value = (row.truth if truth else row.errors).get(f"{E_I}_{kind}")
     if not truth and row.reference:
         return 0.0
@@ -103,6 +104,23 @@ def error_of(row: Row, truth: bool, kind: str = "mean") -> float | None:
 
 def finished(row: Row) -> bool:
     return row.status == "ok" and finite(row.cost) and row.cost > 0
+
+
+def rank_error(row: Row, truth: bool) -> float | None:
+    """The E_i a row ranks by in a division and among its source's runs (rows.RANK_RULE): its
+    max over the steps against the truth where the case has one (truth), else against the
+    case's reference; None where it does not rank (it did not finish, has no such error, or
+    is the reference graded against itself)."""
+    if not finished(row) or (row.reference and not truth):
+        return None
+    return error_of(row, truth, RANKED_BY)
+
+
+def rank_key(row: Row, truth: bool, label: str | None = None) -> tuple[float, str]:
+    """The order of a ranked table: rank_error (math.inf where the row does not rank), then
+    the label (ties: deterministic)."""
+    e = rank_error(row, truth)
+    return (math.inf if e is None else e, row.label if label is None else label)
 
 
 def g(x) -> str:

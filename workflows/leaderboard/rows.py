@@ -157,6 +157,13 @@ def pareto(points: list[tuple[float, float]]) -> list[bool]:
     return flags
 
 
+RANKED_BY = "max"  # the E_i (over the steps) every board and division ranks by (issue 59)
+RANK_RULE = (
+    "ranked by E_i max over the steps (against the truth where the case has one); "
+    "the time-mean beside it"
+)  # in words: a run right only on average (quasi-static on a dynamic case) does not lead
+
+
 def ranked_error(r: Row, kind: str) -> float | None:
     """The E_i (time-mean or max: kind) by which a row ranks, or None when it does not rank:
     the reference, a run that did not finish, and a NaN, infinite or negative cost or error."""
