@@ -98,6 +98,39 @@ def test_the_contact_columns_in_record_csv_md_and_page(board_out):
     assert f"<td>{depth:.3g}</td>" in page
     png = out / "leaderboard" / "contact-tiny-force.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # every force travels in the record (force_curve.py): mirror's is our reference's
+    curve = ours["force_curve"]
+    assert curve["unit"] == "N/m" and len(curve["times"]) == len(curve["force"]) > 1
+    assert mirror["force_curve"] == curve
+    assert all(r["force_curve"] for r in rows.values() if r.get("force"))
+
+
+def test_the_record_alone_draws_every_force(board_out, tmp_path, monkeypatch):
+    """The record copied alone (no force file beside it), drawn from another folder: every
+    recorded row's force is drawn, none said missing."""
+    from matplotlib.figure import Figure
+
+    from tissuebench.workflows.leaderboard.force_figure import plot_force
+    from tissuebench.workflows.leaderboard.record import read_record
+
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    (copy / "leaderboard.json").write_text((board_out / "leaderboard.json").read_text())
+    monkeypatch.chdir(tmp_path)
+    (board,), rows, _ = read_record(copy)
+    figures = []
+    save = Figure.savefig
+
+    def kept(fig, *args, **kwargs):
+        figures.append(fig)
+        return save(fig, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", kept)
+    plot_force(tmp_path / "force.png", board, rows[board.name])
+    (ax,) = figures[0].axes
+    drawn = {line.get_label() for line in ax.get_lines()}
+    assert {"implicit (reference)", "mirror:copy", "explicit"} <= drawn
+    assert not any("not" in t.get_text() and "force" in t.get_text() for t in ax.texts)
 
 
 def test_a_record_without_contact_rows_has_no_contact_fields(board_out, tmp_path):
@@ -146,3 +179,4 @@ def test_a_users_row_on_a_contact_case(board_out, tmp_path, monkeypatch):
         explicit["interpenetration_max"], abs=1e-12
     )
     assert mine["force_error_how"] == "against our implicit's force"
+    assert rows["mine"]["force_curve"] == rows["explicit"]["force_curve"]  # its file's, kept

@@ -51,6 +51,7 @@ from tissuebench.workflows.leaderboard.record import (
     read_record,
     record_folder,
     record_of,
+    record_text,
 )
 from tissuebench.workflows.leaderboard.row import Kind, kind_of
 from tissuebench.workflows.leaderboard.rows import (
@@ -295,8 +296,7 @@ def main(args: argparse.Namespace) -> int:
                 lambda tmp, board=board: plot_case(tmp, board, rows[board.name]),
             )
             if is_contact(board):  # SPEC 12: the needle force against time, as the case's
-                # figure (its force files are in the case's folder, which git does not keep: a
-                # fresh clone's render keeps the committed figure of the same rows)
+                # figure (drawn from the force curves the record carries: any render draws it)
                 keep_or_draw(
                     files,
                     force_png(out, board),
@@ -306,7 +306,7 @@ def main(args: argparse.Namespace) -> int:
                     lambda tmp, board=board: plot_force(tmp, board, rows[board.name]),
                 )
         every = [r for board in boards for r in rows[board.name]]
-        files[out / RECORD] = lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
+        files[out / RECORD] = lambda tmp: tmp.write_text(record_text(record))
         files[out / "leaderboard.csv"] = lambda tmp: write_csv(tmp, every)
         shown = {b.name: notes.get(b.name, []) + left_out.get(b.name, []) for b in boards}
         text = document.markdown(boards, rows, shown, session)

@@ -21,6 +21,7 @@ from tissuebench.workflows.leaderboard.cases import (
     options_words,
     same_options,
 )
+from tissuebench.workflows.leaderboard.force_curve import read_curve
 from tissuebench.workflows.leaderboard.row import (
     USER_SOURCE,
     Kind,
@@ -298,6 +299,18 @@ def user_rows(
             continue
         assert isinstance(runs, dict)  # a summary with runs: checked above
         given = user_force(summary)  # a contact case's: the force file compare graded
+        curve = None  # its force, read once here (force_curve.py): the record carries it
+        if given is not None:
+            try:
+                curve = read_curve(given)
+                if user_force(summary) != given:  # changed while read: not the one graded
+                    raise ValueError("it changed while it was read")
+            except ValueError as exc:
+                curve = None
+                skipped.append(
+                    f"{where}: its needle force {one_line(given)[:80]} cannot be read "
+                    f"({' '.join(str(exc).split())[:120]}): its runs have no force error"
+                )
         for label, run in runs.items():
             problem = run_problem(label, run)
             if problem:
@@ -324,6 +337,7 @@ def user_rows(
                     "reported by the user",
                     **found,
                     force=given,
+                    force_curve=curve,
                     kind=Kind.USER,  # whatever its label says
                 )
             )

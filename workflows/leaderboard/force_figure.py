@@ -1,8 +1,9 @@
 """A contact case's force figure (SPEC 12, 13): the force on the tool along its push (F_x in
 N/m for the needle in the plane, F_z in N for the capsule in 3D) against time of every
-run that hands its force (ours from contact.csv, a simulator's from its force file), beside the
-truth's with its own error as a band where the truth is computed here (leaderboard/
-CASE-force.png). Rank 0."""
+run that hands its force (ours from contact.csv, a simulator's and a user's from its force
+file), as the curve its row carries (force_curve.py: the record keeps it, so that a render
+anywhere draws it; no file is read here), beside the truth's with its own error as a band where
+the truth is computed here (leaderboard/CASE-force.png). Rank 0."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuebench.workflows.leaderboard.contact import truth_force
+from tissuebench.workflows.leaderboard.force_curve import row_force
 from tissuebench.workflows.leaderboard.rows import Board, Row, plain
 
 _LOADED = Path(__file__).read_text()  # this module as this process loaded it (as figures.py)
@@ -36,13 +38,12 @@ def force_png(out: Path, board: Board) -> Path:
 
 
 def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
-    """The force along the push against t of each row with a readable force file (ours
-    solid, the simulators' dashed, a run that did not finish to where it ended), and the
-    truth's (black, with its own error as a grey band) where it is in the cache; a row whose
-    file is missing is named in the title's note."""
+    """The force along the push against t of each row that carries its force curve (row_force;
+    ours solid, the simulators' dashed, a run that did not finish to where it ended), and the
+    truth's (black, with its own error as a grey band) where it is in the cache; a row that
+    handed a force file whose curve is not recorded is named in the figure's note."""
     from matplotlib.figure import Figure
 
-    from tissuebench.workflows.io.tables import read_force_csv
     from tissuebench.workflows.leaderboard.figures import STAMP
 
     fig = Figure(figsize=(11.5, 5.4), layout="constrained")
@@ -59,14 +60,15 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
         ax.plot(t, fx, "k-", lw=2.2, label=f"truth {board.truth} (band: its own error)")
     missing = []
     # ours with the case's model only (every model of ours on a nonlinear case: 25 curves)
-    shown = [r for r in rows if r.force and (r.source != "tissuebench" or of_model(r, board))]
-    others = sum(1 for r in rows if r.force and r not in shown)
+    handed = [r for r in rows if r.force or r.force_curve is not None]
+    shown = [r for r in handed if r.source != "tissuebench" or of_model(r, board)]
+    others = sum(1 for r in handed if r not in shown)
     for k, row in enumerate(shown):
-        try:
-            times, f = read_force_csv(Path(str(row.force)))
-        except (OSError, ValueError):
+        found = row_force(row)
+        if found is None:
             missing.append(row.label)
             continue
+        times, f = found
         ours = row.source == "tissuebench"
         ax.plot(
             times,
@@ -78,7 +80,7 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
             color=f"C{k % 10}",
             label=plain(row.label) + (" (reference)" if row.reference else ""),
         )
-    untold = [r.label for r in rows if r.contact and not r.force]
+    untold = [r.label for r in rows if r.contact and not (r.force or r.force_curve is not None)]
     ax.set_xlabel("time t (s)")
     ax.set_ylabel(f"force on the tool {name} ({unit})")
     title = f"{board.name}: the force the tissue exerts on the rigid tool, along its push"
@@ -91,9 +93,17 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     if others:
         note.append(f"{others} runs of ours with other models: in leaderboard.csv")
     if missing:
-        note.append("force file not found: " + ", ".join(plain(x) for x in missing))
+        note.append(
+            f"{len(missing)} runs' forces not in the record (run before the record carried "
+            f"them: `tissuebench leaderboard --rerun {board.name}` records them): "
+            + ", ".join(plain(x) for x in missing)
+        )
     if note:
-        ax.text(0.01, 0.01, "; ".join(note)[:200], transform=ax.transAxes, fontsize=7)
+        import textwrap
+
+        lines = textwrap.wrap("; ".join(note), 150)
+        shown = "\n".join(lines[:4]) + (" ..." if len(lines) > 4 else "")
+        ax.text(0.01, 0.01, shown, transform=ax.transAxes, fontsize=7, va="bottom")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside: no curve hidden
     fig.savefig(path, format="png", dpi=110, metadata={STAMP: force_drawing_code()})

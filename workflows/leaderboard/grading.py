@@ -30,6 +30,7 @@ from tissuebench.workflows.leaderboard.caches import (  # noqa: F401 (read here 
     case_reference,
 )
 from tissuebench.workflows.leaderboard.error_budget import complete, error_budget, summarized
+from tissuebench.workflows.leaderboard.force_curve import force_hash
 from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -305,10 +306,12 @@ def grade_users(
 def grade_user_row(board: Board, board_rows: list[Row], row: Row, truth, caches: Caches) -> float:
     """One user's row graded whole from its series: against the case's reference (where it
     is not graded yet), against the truth (where it has none yet and the truth is here), then
-    its error budget; or its grades taken from a row of the same series graded before in this
-    run (Caches.grades, by content hash). The seconds it took."""
+    its error budget; or its grades taken from a row of the same series (and, on a contact
+    case, the same force) graded before in this run (Caches.grades, by content hash). The
+    seconds it took."""
     start = time.perf_counter()
     key = (board.name, row.series_hash, row.series_field, truth is not None, row.model)
+    key += (force_hash(row),)  # a contact case's: the force graded with it, by its content
     done = caches.grades.get(key) if row.series_hash else None
     if done is not None:
         take_grades(row, done)

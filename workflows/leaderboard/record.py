@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
+import secrets
+import sys
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
@@ -19,7 +22,9 @@ RECORD = "leaderboard.json"
 RECORD_SCHEMA = "tissuebench.leaderboard"
 RECORD_VERSION = 1
 OWNED = ["leaderboard.md", "leaderboard.csv", RECORD]
-MAX_RECORD = 64 * 2**20  # bytes: a record larger than this is not ours (ours: under 1 MB)
+# bytes: a record larger than this is not ours (ours: a few MB, most of it the contact rows'
+# force curves)
+MAX_RECORD = 64 * 2**20
 MAX_TEXT = 4000  # characters of any text field of a row or case
 # characters of a row's label: ours are under 60, a user's at most rows.MAX_LABEL and its
 # folder's name when another has the same label (rows.told_apart)
@@ -146,11 +151,27 @@ def board_of(d: Any) -> Board:
     return b
 
 
-def row_of(d: dict) -> Row:
-    """A Row from its record, checked (check_row)."""
+def row_of(d: dict, where: str = "") -> Row:
+    """A Row from its record, checked (check_row). A force curve (force_curve.py) that is
+    malformed is dropped, with one line on stderr naming the row (`where`) and why: the row
+    then has no force, as a row that hands none."""
+    from tissuebench.workflows.leaderboard.force_curve import check_curve
+
     check_row(d)
     known = {f.name for f in fields(Row)} - {"kind"}  # the kind: its recorded source's
-    return Row(**{k: v for k, v in d.items() if k in known})
+    row = Row(**{k: v for k, v in d.items() if k in known})
+    if row.force_curve is not None:
+        try:
+            check_curve(row.force_curve)
+        except (ValueError, TypeError) as exc:
+            at = where or f"row {one_line(row.label)[:60]}"
+            said = " ".join(str(exc).split())[:160]
+            print(
+                f"tissuebench leaderboard: {at}: its force curve dropped ({said})",
+                file=sys.stderr,
+            )
+            row.force_curve = None
+    return row
 
 
 def row_fields(row: Row) -> dict:
@@ -163,8 +184,8 @@ def row_fields(row: Row) -> dict:
 def row_record(row: Row) -> dict:
     """A Row as the record holds it: every field (series_hash only where it has one: a user's
     row, model only where its user stated one, and contact and force only on a contact case's
-    row, so that a record of our rows reads as before; its kind is not kept: its source says
-    it, row_of)."""
+    row, force_curve only where it has one, so that a record of our rows reads as before; its
+    kind is not kept: its source says it, row_of)."""
     d = row_fields(row)
     if d.get("series_hash") is None:
         d.pop("series_hash", None)
@@ -172,6 +193,8 @@ def row_record(row: Row) -> dict:
         d.pop("contact", None)
     if d.get("force") is None:
         d.pop("force", None)
+    if d.get("force_curve") is None:
+        d.pop("force_curve", None)
     if d.get("model") is None:
         d.pop("model", None)
     return d
@@ -181,7 +204,8 @@ def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, 
     """leaderboard.json: every case's Board (what renders it: description, truth, its band and
     note, sizes, session, machine), its notes (the run's; the users' refusals are not kept: they
     are read again) and every Row with all its fields (errors in m^gdim or relative, wall times
-    in s, truth columns, Pareto flags, error budget)."""
+    in s, truth columns, Pareto flags, error budget, a contact case's row's force curve:
+    force_curve.py, so that a render anywhere draws and grades it with no force file)."""
     return {
         "schema": RECORD_SCHEMA,
         "version": RECORD_VERSION,
@@ -194,6 +218,30 @@ def record_of(boards: list[Board], rows: dict[str, list[Row]], notes: dict[str, 
             for b in boards
         ],
     }
+
+
+def record_text(record: dict) -> str:
+    """leaderboard.json's text: the record (record_of) indented by one, but each row's force
+    curve's lists of numbers on one line each (one number a line would double its size)."""
+    nonce = secrets.token_hex(8)
+    held: list[str] = []
+
+    def hold(value) -> str:
+        held.append(json.dumps(value, separators=(",", ":")))
+        return f"{nonce}:{len(held) - 1}"
+
+    cases = []
+    for case in record.get("cases", []):
+        rows = []
+        for r in case.get("rows", []):
+            curve = r.get("force_curve")
+            if isinstance(curve, dict):
+                held_curve = {k: hold(v) if k != "unit" else v for k, v in curve.items()}
+                r = {**r, "force_curve": held_curve}
+            rows.append(r)
+        cases.append({**case, "rows": rows})
+    text = json.dumps({**record, "cases": cases}, indent=1)
+    return re.sub(f'"{nonce}:(\\d+)"', lambda m: held[int(m[1])], text) + "\n"
 
 
 def clone_results() -> Path | None:
@@ -263,7 +311,7 @@ def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
                 where = f"case {one_line(board.name)[:60]}, row {j + 1}"
                 if isinstance(r, dict) and isinstance(r.get("label"), str):
                     where += f" ({one_line(r['label'])[:60]})"
-                rows[board.name].append(row_of(r))
+                rows[board.name].append(row_of(r, where))
             where = f"case {one_line(board.name)[:60]}"
             found = case.get("notes", [])
             if not isinstance(found, list) or not all(isinstance(n, str) for n in found):

@@ -71,7 +71,11 @@ class Row:
     # "interpenetration_max" (m), numbers or None, and "force_error_how" (words: against what,
     # or why none)
     contact: dict = field(default_factory=dict)
-    force: str | None = None  # a contact case's row: its needle force file (write_force_csv)
+    # a contact case's row: its needle force file as its run of this session wrote it
+    # (write_force_csv; kept as where it was, never read back) and the force itself, which the
+    # record carries (force_curve.py: {"times", "force", "unit"}; None: none handed or read)
+    force: str | None = None
+    force_curve: dict | None = None
     model: str | None = None  # a user's row: its model as stated to compare (None: the case's)
     # what the row is: given by the code that makes it (rows.our_rows, rows.external_rows,
     # checks.user_rows, frontier_rows.as_row); where none is given, its source's (kind_of: a

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from tissuebench.workflows.io.manifest import file_hash, read_manifest
 from tissuebench.workflows.io.output import write_owned
+from tissuebench.workflows.leaderboard.force_curve import force_hash
 from tissuebench.workflows.leaderboard.record import FOLDER, Invalid, row_fields, row_of
 from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, misplaced, user_rows
@@ -45,9 +46,12 @@ def user_key(row: Row) -> str:
     """What makes a user's row's grades the same: its case, its series by content hash
     (rows.series_hash: the files themselves, wherever they are) and the field read. The label
     and wall time are the folder's, read again each time; no grade is. A stated model (its
-    error budget's) is part of it where there is one."""
+    error budget's) is part of it where there is one, and so is a contact case's force, by its
+    curve's content hash (force_curve.force_hash), where the row carries one."""
     stated = [row.model] if row.model is not None else []  # none: the key as it always was
-    return json.dumps([row.case, row.series_hash, row.series_field, *stated])
+    force = force_hash(row)
+    forced = [f"force sha256:{force}"] if force is not None else []
+    return json.dumps([row.case, row.series_hash, row.series_field, *stated, *forced])
 
 
 class Progress:
