@@ -201,6 +201,13 @@ def main(args: argparse.Namespace) -> int:
             f"tissuebench leaderboard: rendering the record {source / RECORD} (only read) "
             f"with the user folders under {out / FOLDER}, into {out}"
         )
+    elif comm.rank == 0:  # a render in place says which record it reads too (issue: a second
+        # render read the copy the first wrote, and said nothing)
+        print(
+            f"tissuebench leaderboard: rendering the record {source / RECORD}, the one in "
+            f"{out} (a render writes its record beside it; --results DIR renders another), "
+            f"with the user folders under {out / FOLDER}"
+        )
     if rerun is not None:
         available = set()
         for board in BOARDS:
