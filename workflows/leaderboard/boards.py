@@ -321,6 +321,15 @@ CYLINDER_NOTE = (
     "(re-meshes its input, so that its nodes are not the export's, and its contact-force "
     "query returned 0 on the probe)"
 )
+# at n = 6 MuJoCo and Drake are not run: measured here, MuJoCo's discrete-10 took 638 s for the
+# 10 simulated s at n = 6 (its discrete-30-stiff took 4.2 times its discrete-10 at n = 4), too
+# long for the session that posed them, which then had no time left for Drake's three
+CYLINDER_MAIN_VARIANTS: dict[str, tuple[str, ...]] = {"mujoco": (), "drake": ()}
+CYLINDER_MAIN_NOTE = (
+    "at n = 6 MuJoCo and Drake are not run: MuJoCo's discrete-10 took 638 s for the 10 "
+    "simulated s here (its stiff variant 4.2 times that at n = 4), and Drake's variants were "
+    "not timed at this size; they are graded at n = 3 and 4"
+)
 CYLINDER_COLUMNS = (
     "force error: max over the steps of |F_z - F_z,ref| / max |F_z,ref|, F the force on the "
     "capsule in N; interpenetration: the largest -g_n over the deformed top face and the steps"
@@ -342,7 +351,8 @@ def cylinder_board(case: str, n: int) -> Board:
         model,
         options={"kappa": CONTACT_KAPPA, "load_scale": scale},
         simulators=("sfepy", "newton", "mujoco", "drake"),
-        skip_note=CYLINDER_NOTE,
+        variants=dict(CYLINDER_MAIN_VARIANTS) if n == CYLINDER_MAIN else {},
+        skip_note=CYLINDER_NOTE + ("; " + CYLINDER_MAIN_NOTE if n == CYLINDER_MAIN else ""),
         description=f"{words}; {how}; n = {n} cells along the radius. {CYLINDER_COLUMNS}.",
         mesh_size=None if n == CYLINDER_MAIN else n,
         truth=case,
