@@ -105,7 +105,8 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
         shown = "\n".join(lines[:4]) + (" ..." if len(lines) > 4 else "")
         ax.text(0.01, 0.01, shown, transform=ax.transAxes, fontsize=7, va="bottom")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside: no curve hidden
+    if ax.get_legend_handles_labels()[0]:  # beside: no curve hidden
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.savefig(path, format="png", dpi=110, metadata={STAMP: force_drawing_code()})
 
 
