@@ -140,6 +140,21 @@ def boundary_area(series: Series) -> float:
     return total
 
 
+def _farthest(checks: list, tol: float) -> tuple[float, str, str]:
+    """Of checks (who, points located, the other side's Mesh, the points as shown): the largest
+    distance of a node to the other side's undeformed domain (distances_to_domain within tol),
+    the node as a phrase, and the other side's name."""
+    worst = []
+    for who, points, other, shown in checks:
+        distance = distances_to_domain(points, other, tol)
+        node = farthest_node(distance)
+        other_name = "candidate" if who == "reference" else "reference"
+        worst.append(
+            (float(distance[node]), f"{who} node {node} at {_at(shown, node)}", other_name)
+        )
+    return max(worst, key=lambda w: w[0])
+
+
 def check_same_body(ref: Series, cand: Series, body: dict | None = None) -> tuple[str, float]:
     """Refuse (InputError, one line naming the farthest node and its distance) a candidate mesh
     that is not a mesh of the reference's body (see the module docstring). A body with a
@@ -153,14 +168,10 @@ def check_same_body(ref: Series, cand: Series, body: dict | None = None) -> tupl
     said = f"1e-6 of the reference's extent {extent:.6g}"
     if allowance:
         said += f", plus the curved side's facet sagitta {allowance:.3g}"
-    worst = []
-    for who, series, other in (("reference", ref, cand), ("candidate", cand, ref)):
-        distance = distances_to_domain(series.points, Mesh.of(other), tol)
-        node = farthest_node(distance)
-        other_name = "candidate" if who == "reference" else "reference"
-        phrase = f"{who} node {node} at {_at(series.points, node)}"
-        worst.append((float(distance[node]), phrase, other_name))
-    distance, phrase, other_name = max(worst, key=lambda w: w[0])
+    distance, phrase, other_name = _farthest(
+        [("reference", ref.points, Mesh.of(cand), ref.points),
+         ("candidate", cand.points, Mesh.of(ref), cand.points)], tol
+    )  # fmt: skip
     where = f"{cand.path}: not a mesh of the body of {ref.path}"
     if distance > tol:
         raise InputError(
@@ -196,17 +207,10 @@ def check_same_revolved_body(
     said = f"1e-6 of the reference's extent {extent:.6g}, plus the curved side's facet sagitta "
     said += f"{allowance:.3g}"
     rz = np.column_stack([np.hypot(cand.points[:, 0], cand.points[:, 1]), cand.points[:, 2]])
-    worst = []
-    for who, points, other, shown in (
-        ("candidate", rz, Mesh.of(meridian), cand.points),
-        ("reference", revolved.points, Mesh.of(cand), revolved.points),
-    ):
-        distance = distances_to_domain(points, other, tol)
-        node = farthest_node(distance)
-        other_name = "reference" if who == "candidate" else "candidate"
-        phrase = f"{who} node {node} at {_at(shown, node)}"
-        worst.append((float(distance[node]), phrase, other_name))
-    distance, phrase, other_name = max(worst, key=lambda w: w[0])
+    distance, phrase, other_name = _farthest(
+        [("candidate", rz, Mesh.of(meridian), cand.points),
+         ("reference", revolved.points, Mesh.of(cand), revolved.points)], tol
+    )  # fmt: skip
     where = f"{cand.path}: not a mesh of the body of {revolved.path}"
     if distance > tol:
         raise InputError(

@@ -81,6 +81,13 @@ def _truth_max(row: dict) -> float | None:
     return float(value) if isinstance(value, (int, float)) and math.isfinite(value) else None
 
 
+def _contact(row: dict) -> tuple[str, str]:
+    """A row's force error and its interpenetration in mm, as shown."""
+    contact = row.get("contact") or {}
+    depth = contact.get("interpenetration_max")
+    return fmt(contact.get("force_error")), fmt(None if depth is None else 1e3 * depth)
+
+
 def _table(case: dict) -> list[str]:
     """One board's rows: E_i max against the truth, force error, interpenetration, cost; ranked
     by E_i max, a run that did not finish last."""
@@ -99,12 +106,10 @@ def _table(case: dict) -> list[str]:
         ),
     )
     for r in rows:
-        contact = r.get("contact") or {}
-        depth = contact.get("interpenetration_max")
+        force, depth = _contact(r)
         lines.append(
             f"| {r['label']} | {r['dofs']:,} dofs | {r['status']} | {fmt(_truth_max(r))} | "
-            f"{fmt(contact.get('force_error'))} | "
-            f"{fmt(None if depth is None else 1e3 * depth)} | {fmt(_cost(r))} |"
+            f"{force} | {depth} | {fmt(_cost(r))} |"
         )
     return lines
 
@@ -121,12 +126,10 @@ def _losses(case: dict) -> list[str]:
             by[name] = r
     lines = []
     for name, r in sorted(by.items(), key=lambda kv: _truth_max(kv[1]) or 0.0):
-        contact = r.get("contact") or {}
-        depth = contact.get("interpenetration_max")
+        force, depth = _contact(r)
         lines.append(
             f"- {name} (best: {r['label']}): E_i max {fmt(_truth_max(r))} m^3 against the "
-            f"truth, force error {fmt(contact.get('force_error'))}, the tool "
-            f"{fmt(None if depth is None else 1e3 * depth)} mm inside the tissue at most, "
+            f"truth, force error {force}, the tool {depth} mm inside the tissue at most, "
             f"{fmt(_cost(r))} s per simulated s."
         )
     fast = [r for r in case["rows"] if r["status"] == "ok" and _truth_max(r) is not None]
