@@ -4,8 +4,9 @@ machine with -O3 -march=native (through cffi, as FFCx compiles the forms).
 
 Why: the PETSc in the DOLFINx wheel is built for a generic x86-64 (-O2), and its MatMult runs
 at 3 to 5 GB/s here; this loop reads the same bytes at 7 to 8 GB/s, close to the machine's
-read bandwidth (`tissuebench bench`). The explicit-lumped step fuses its update into the same
-loop, so that one pass over K does the whole step.
+read bandwidth (`tissuebench bench`). The explicit-lumped step fuses its whole update into the
+same loop, the next step's predictor included, so that one pass over K and the vectors does the
+whole step (solvers/explicit_lumped.py).
 
 Products are exact to round-off against PETSc's MatMult (tests/test_system.py); under MPI
 the ghost values of x come from DOLFINx's scatter, as in DOLFINx's own MatrixCSR.mult.
@@ -33,6 +34,8 @@ import numpy as np
 if TYPE_CHECKING:
     from mpi4py import MPI
     from petsc4py import PETSc
+
+    import dolfinx.la
 
 SOURCE = r"""
 #include <stdint.h>
@@ -63,21 +66,27 @@ void mult##BS(int32_t nbr, const int32_t* restrict ai, const int32_t* restrict a
       y[r * BS + i] = add ? y[r * BS + i] + s[i] : s[i];                                   \
   }                                                                                        \
 }                                                                                          \
-/* the explicit-lumped update, row by row with K u:                                        \
-   a = inv_s (f - K u - alpha_ml v),  v += gh a */                                         \
+/* one explicit-lumped step, row by row with K u (u: this step's ubar, ghosts included):   \
+   vt = v + gv a (v's predictor), a = inv_s (f - K u - alpha_ml vt), v = vt + gh a, and   \
+   the next step's predictor u_next = u + (h v + hh a), each vector read and written once */\
 void explicit_lumped##BS(int32_t nbr, const int32_t* restrict ai,                          \
                          const int32_t* restrict aj, const double* restrict K,             \
                          const double* restrict u, const double* restrict f,               \
                          const double* restrict inv_s, const double* restrict alpha_ml,    \
-                         double* restrict v, double* restrict a, double gh)                \
+                         double* restrict v, double* restrict a, double* restrict u_next,  \
+                         double gv, double gh, double h, double hh)                        \
 {                                                                                          \
   for (int32_t r = 0; r < nbr; ++r) {                                                      \
     double s[BS];                                                                          \
     row##BS(r, ai, aj, K, u, s);                                                           \
     for (int i = 0; i < BS; ++i) {                                                         \
       const int64_t d = (int64_t)r * BS + i;                                               \
-      a[d] = inv_s[d] * ((f[d] - s[i]) - alpha_ml[d] * v[d]);                              \
-      v[d] += gh * a[d];                                                                   \
+      const double vt = v[d] + gv * a[d];                                                  \
+      const double an = inv_s[d] * ((f[d] - s[i]) - alpha_ml[d] * vt);                     \
+      const double vn = vt + gh * an;                                                      \
+      a[d] = an;                                                                           \
+      v[d] = vn;                                                                           \
+      u_next[d] = u[d] + (h * vn + hh * an);                                               \
     }                                                                                      \
   }                                                                                        \
 }
@@ -99,7 +108,8 @@ def _declarations():
         )
         lines.append(
             f"void explicit_lumped{bs}(int32_t, const int32_t*, const int32_t*, const double*, "
-            "const double*, const double*, const double*, const double*, double*, double*, double);"
+            "const double*, const double*, const double*, const double*, double*, double*, "
+            "double*, double, double, double, double);"
         )
     return "\n".join(lines)
 
@@ -402,25 +412,43 @@ class BlockCSR:
         xp = self._ghosted(x)
         self._mult(*self._args, xp, self.lib.ffi.from_buffer("double[]", y.array), int(add))
 
+    def vector(self) -> dolfinx.la.Vector:
+        """A new vector over this matrix's columns: the owned dofs (as in a PETSc Vec over the
+        owned dofs), then the ghost dofs that the owned rows reach."""
+        import dolfinx.la
+
+        return dolfinx.la.vector(self._x.index_map, self.bs)
+
     def explicit_lumped(
         self,
-        u: PETSc.Vec,
+        u: dolfinx.la.Vector,
         f: PETSc.Vec,
         inv_s: PETSc.Vec,
         alpha_ml: PETSc.Vec,
         v: PETSc.Vec,
         a: PETSc.Vec,
-        gh: float,
+        u_next: np.ndarray,
+        gamma: float,
+        h: float,
     ) -> None:
-        """With A = K: a = inv_s (f - K u - alpha_ml v), then v += gh a (all owned dofs)."""
+        """One explicit-lumped step with A = K, in one pass over K and the vectors (all owned
+        dofs; u a vector of self.vector() with its owned values set, its ghosts scattered here):
+        v = v + (1 - gamma) h a, a = inv_s (f - K u - alpha_ml v), v += gamma h a, then the next
+        step's predictor u_next = u + h v + h^2/2 a (owned dofs, another array than u's). Units:
+        u in m, f in N, inv_s in 1/kg, alpha_ml in kg/s, v in m/s, a in m/s^2, h in s."""
         ptr = self.lib.ffi.from_buffer
+        u.scatter_forward()
         self._step(
             *self._args,
-            self._ghosted(u),
+            ptr("double[]", u.array),
             ptr("double[]", f.array_r),
             ptr("double[]", inv_s.array_r),
             ptr("double[]", alpha_ml.array_r),
             ptr("double[]", v.array),
             ptr("double[]", a.array),
-            gh,
+            ptr("double[]", u_next),
+            (1 - gamma) * h,
+            gamma * h,
+            h,
+            h * h / 2,
         )

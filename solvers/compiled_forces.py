@@ -37,6 +37,7 @@ from tissuebench.solvers.models.model import QUADRATURE_DEGREE
 if TYPE_CHECKING:
     from mpi4py import MPI
 
+    import dolfinx.la
     from dolfinx import fem
 
     from tissuebench.solvers.models.model import Model
@@ -316,14 +317,21 @@ int32_t forces(int32_t n, const int32_t* restrict dofs, const double* restrict g
 }
 
 /* the explicit-lumped step's update (solvers/nonlinear.py ExplicitLumpedModel) over the
-   owned dofs: a = inv_s (f - fint - alpha_ml v), v += gh a */
+   owned dofs, with u = ubar of this step: vt = v + gv a (v's predictor),
+   a = inv_s (f - fint - alpha_ml vt), v = vt + gh a, and the next step's predictor
+   u_next = u + (h v + hh a), each array read and written once */
 void explicit_update(int64_t n, const double* restrict f, const double* restrict fint,
                      const double* restrict inv_s, const double* restrict alpha_ml,
-                     double* restrict v, double* restrict a, double gh)
+                     double* restrict v, double* restrict a, const double* restrict u,
+                     double* restrict u_next, double gv, double gh, double h, double hh)
 {
   for (int64_t d = 0; d < n; ++d) {
-    a[d] = inv_s[d] * ((f[d] - fint[d]) - alpha_ml[d] * v[d]);
-    v[d] += gh * a[d];
+    const double vt = v[d] + gv * a[d];
+    const double an = inv_s[d] * ((f[d] - fint[d]) - alpha_ml[d] * vt);
+    const double vn = vt + gh * an;
+    a[d] = an;
+    v[d] = vn;
+    u_next[d] = u[d] + (h * vn + hh * an);
   }
 }
 """
@@ -332,7 +340,7 @@ DECLARATIONS = """
 int32_t forces(int32_t, const int32_t*, const double*, const double*, const double*, double*,
                double, double, double*, int32_t, int32_t*, double*, int32_t*);
 void explicit_update(int64_t, const double*, const double*, const double*, const double*,
-                     double*, double*, double);
+                     double*, double*, const double*, double*, double, double, double, double);
 """
 
 
@@ -398,7 +406,8 @@ class CompiledForces:
     Lamé constants mu and lmbda (Pa), by the compiled element loop; F-bar if `fbar`.
 
     `evaluate(u)` takes the owned dof values of u (m) and returns f_int (N) on the owned dofs
-    (a view of an internal array, valid until the next call); `min_det` is then the smallest
+    (a view of an internal array, valid until the next call; `evaluate_vector(x)` the same at
+    a ghosted vector's owned values, without a copy); `min_det` is then the smallest
     det F at a quadrature point of this rank's cells (-inf if one is not finite).
 
     Memory: per owned cell, (D^2 + 1) doubles per quadrature point (640 bytes on a Q1
@@ -458,7 +467,6 @@ class CompiledForces:
         )
         ffi = self.module.ffi
         self._min, self._bad = ffi.new("double*"), ffi.new("int32_t*")
-        self._arrays = (ffi.from_buffer("double[]", self._u.array), self._f.array)
         self.min_det = np.inf
         self.u = self._u.array  # the last evaluation's u, owned and ghost dofs (m)
         self.fallbacks = 0  # evaluations in which some cell's R came from the Python path
@@ -466,14 +474,15 @@ class CompiledForces:
     def _forces(
         self, n: int, dofs: np.ndarray, geo: np.ndarray, R: np.ndarray, given_R: bool
     ) -> tuple[int, float]:
-        """The loop over n cells of batched data: (cells whose R failed, smallest det F)."""
+        """The loop over n cells of batched data at self.u: (cells whose R failed, smallest
+        det F)."""
         ffi, lib = self.module.ffi, self.module.lib
         n_failed = lib.forces(
             n,
             ffi.from_buffer("int32_t[]", dofs),
             ffi.from_buffer("double[]", geo),
             ffi.from_buffer("double[]", self.centre),
-            self._arrays[0],
+            ffi.from_buffer("double[]", self.u),
             ffi.from_buffer("double[]", self._f.array),
             self.mu,
             self.lmbda,
@@ -485,13 +494,26 @@ class CompiledForces:
         )
         return n_failed, (-np.inf if self._bad[0] else self._min[0])
 
+    def vector(self) -> dolfinx.la.Vector:
+        """A new vector over V's dofs (the owned, then the ghosts), for evaluate_vector."""
+        import dolfinx.la
+
+        return dolfinx.la.vector(self._u.index_map, self.gdim)
+
     def evaluate(self, u: np.ndarray) -> np.ndarray:
         """f_int(u) (N) on the owned dofs for the owned dof values u (m): a view of an internal
         array, overwritten by the next call. Collective (ghost updates)."""
+        self._u.array[: self.n_owned] = u
+        return self.evaluate_vector(self._u)
+
+    def evaluate_vector(self, x: dolfinx.la.Vector) -> np.ndarray:
+        """f_int (N) on the owned dofs at the owned values of x (m; a vector of self.vector(),
+        whose ghosts are scattered here, and which self.u then views): as evaluate(), without
+        copying u. Collective (ghost updates)."""
         from dolfinx.la import InsertMode
 
-        self._u.array[: self.n_owned] = u
-        self._u.scatter_forward()
+        x.scatter_forward()
+        self.u = x.array
         self._f.array[:] = 0.0
         n_failed, self.min_det = self._forces(self.n_cells, self.dofs, self.geo, self.R, False)
         if n_failed:  # R by the Python path (the SVD where Newton fails) for those cells
@@ -518,11 +540,16 @@ class CompiledForces:
         alpha_ml: np.ndarray,
         v: np.ndarray,
         a: np.ndarray,
-        gh: float,
+        u: np.ndarray,
+        u_next: np.ndarray,
+        gamma: float,
+        h: float,
     ) -> None:
-        """a = inv_s (f - fint - alpha_ml v), then v += gh a, over the owned dofs (arrays of
-        equal length; f, fint in N, inv_s in 1/kg, alpha_ml in kg/s, v in m/s, a in m/s^2,
-        gh in s)."""
+        """One explicit-lumped update over the owned dofs (arrays of equal length), each read
+        and written once: v = v + (1 - gamma) h a, a = inv_s (f - fint - alpha_ml v), v +=
+        gamma h a, then the next step's predictor u_next = u + h v + h^2/2 a (another array
+        than u). Units: f, fint in N, inv_s in 1/kg, alpha_ml in kg/s, u in m, v in m/s, a in
+        m/s^2, h in s."""
         ffi = self.module.ffi
         self.module.lib.explicit_update(
             len(a),
@@ -532,5 +559,10 @@ class CompiledForces:
             ffi.from_buffer("double[]", alpha_ml),
             ffi.from_buffer("double[]", v),
             ffi.from_buffer("double[]", a),
-            gh,
+            ffi.from_buffer("double[]", u),
+            ffi.from_buffer("double[]", u_next),
+            (1 - gamma) * h,
+            gamma * h,
+            h,
+            h * h / 2,
         )

@@ -14,6 +14,7 @@ from petsc4py import PETSc
 
 import basix
 import dolfinx.fem.petsc
+import dolfinx.la
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -190,11 +191,16 @@ class ElasticForces:
         self.u.x.array[:] = self.compiled.u
         self._update_coefficients()
 
-    def compiled_internal_force(self, u: PETSc.Vec) -> np.ndarray:
+    def compiled_internal_force(self, u: PETSc.Vec | dolfinx.la.Vector) -> np.ndarray:
         """f_int(u) (N) on the owned dofs by the compiled loop (self.compiled): a view of its
-        array, valid until the next evaluation; min_det() is then that loop's own."""
+        array, valid until the next evaluation; min_det() is then that loop's own. u (m) is a
+        Vec over the owned dofs, or a vector of self.compiled.vector() (its owned values set:
+        read in place, its ghosts scattered)."""
         assert self.compiled is not None  # for a model and cells with a compiled loop
-        f = self.compiled.evaluate(u.array_r)
+        if isinstance(u, PETSc.Vec):
+            f = self.compiled.evaluate(u.array_r)
+        else:
+            f = self.compiled.evaluate_vector(u)
         self._min_det = self.compiled.min_det
         self._stale = True  # self.u is the loop's u, copied only if a UFL form needs it
         return f

@@ -30,7 +30,7 @@ from tissuebench.core import interrupt
 from tissuebench.solvers import compiled_forces
 from tissuebench.solvers.algorithm import Algorithm, State
 from tissuebench.solvers.elastic import ElasticForces
-from tissuebench.solvers.explicit_lumped import lumped_factors, predict
+from tissuebench.solvers.explicit_lumped import Predictors, lumped_factors
 from tissuebench.solvers.linear import SolveError, petsc_defaults, petsc_message
 from tissuebench.solvers.models.model import Model
 from tissuebench.solvers.newmark import Newmark
@@ -148,39 +148,53 @@ class ExplicitModel(ModelForces, Newmark):
 class ExplicitLumpedModel(ExplicitModel):
     """`explicit-lumped` with a model whose f_int is compiled: the Newmark step of
     ExplicitModel as the linear scheme's (solvers/explicit_lumped.py) with f_int(ubar) in place
-    of K ubar: pointwise predictors, one compiled element loop (f_int and the smallest det F),
-    then one compiled pass a = (f - f_int - alpha M_L vbar) / S, v += gamma h a (0 on the
-    constrained dofs, which then take their prescribed a and v). The same arithmetic as
-    ExplicitModel's step up to round-off (tests/test_compiled_forces.py)."""
+    of K ubar: one compiled element loop (f_int and the smallest det F) at ubar, the contact's
+    penalty force added to f_int where there is one, then one compiled pass vbar = v + (1 -
+    gamma) h a, a = (f - f_int - alpha M_L vbar) / S, v = vbar + gamma h a (0 on the
+    constrained dofs, which then take their prescribed a and v) that also writes the next
+    step's predictor of u into the other of two buffers (explicit_lumped.Predictors). The same
+    arithmetic as ExplicitModel's step up to round-off (tests/test_compiled_forces.py)."""
 
     def __init__(self, system, h, scheme: Algorithm, model: Model, prefix, solver="direct"):
         super().__init__(system, h, scheme, model, prefix, solver, compiled=True)
-        if self.forces.compiled is None or not scheme.lumped or self.beta:
+        compiled = self.forces.compiled
+        if compiled is None or not scheme.lumped or self.beta:
             raise ValueError("ExplicitLumpedModel needs M_L, no beta K_0 and a compiled f_int")
         self._alpha_ml, self._inv_s = lumped_factors(system, h, self.alpha, self.gamma)
+        self._predictors = Predictors(system, (compiled.vector(), compiled.vector()))
 
     def step(self, state: State) -> State:
         s, h, c = self.system, self.h, self.system.constrained
-        u, v, a = state.u, state.v, state.a
-        i, (uc, vc, ac) = predict(s, state, h, self.gamma)
-        f_int = self.forces.compiled_internal_force(u)  # and the smallest det F
+        i = state.i + 1
+        uc, vc, ac = s.prescribed(i * h)
+        k = self._predictors.ubar(state, h, uc)
+        ubar = self._predictors.vecs[k]
+        f_int = self.forces.compiled_internal_force(self._predictors.buffers[k])  # and min det F
         if self.forces.edge is not None:  # SPEC 12: the contact's penalty force at t_{i+1}
-            f_int = f_int + self.forces.edge(u.array_r, i * h)
+            self.forces.edge.add_to(f_int, ubar.array_r, i * h)
         assert self.forces.compiled is not None  # checked by __init__
         self.forces.compiled.explicit_update(
             s.f.array_r,
             f_int,
             self._inv_s.array_r,
             self._alpha_ml.array_r,
-            v.array,
-            a.array,
-            self.gamma * h,
+            state.v.array,
+            state.a.array,
+            ubar.array_r,
+            self._predictors.vecs[1 - k].array,
+            self.gamma,
+            h,
         )
-        a.array[c] = ac
-        v.array[c] = vc
+        state.a.array[c] = ac
+        state.v.array[c] = vc
         state.i, state.t = i, i * h
+        self._predictors.advance(state, k)
         self.check_inversion(state.t)
         return state
+
+    def destroy(self) -> None:
+        super().destroy()
+        self._predictors.destroy()
 
 
 class NewtonModel(ModelForces, Newmark):

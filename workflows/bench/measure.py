@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from tissuebench.workflows.bench.machine import LOAD_LIMIT, LoadMeter, noisy
 from tissuebench.workflows.io.output import PREFIX, make_temporary, remove_temporary, write_owned
 
 if TYPE_CHECKING:
@@ -179,16 +180,46 @@ def run_worker(kind: str, ranks: int, spec: dict, tmp: Path, tag: str, timeout: 
     if ranks > 1:
         mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
         command = [mpiexec, "-n", str(ranks)] + command
+    meter = LoadMeter()
     try:
         proc = subprocess.run(
             command, env=worker_env(), capture_output=True, text=True, timeout=timeout
         )
     except subprocess.TimeoutExpired:
-        return {"error": f"timed out after {timeout:.0f} s", "cases": {}}
+        return {"error": f"timed out after {timeout:.0f} s", "cases": {}, "load": meter.stop()}
     if proc.returncode != 0 or not result_path.exists():
         tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-        return {"error": f"exit {proc.returncode}: {' | '.join(tail)}", "cases": {}}
-    return json.loads(result_path.read_text())
+        error = f"exit {proc.returncode}: {' | '.join(tail)}"
+        return {"error": error, "cases": {}, "load": meter.stop()}
+    return {**json.loads(result_path.read_text()), "load": meter.stop()}
+
+
+def run_quiet(
+    kind: str,
+    ranks: int,
+    spec: dict,
+    tmp: Path,
+    tag: str,
+    timeout: float,
+    log: Callable[[str], None],
+    run: Callable[..., dict] = run_worker,
+) -> dict:
+    """run_worker, and once more if other processes loaded the machine beyond LOAD_LIMIT
+    during it (machine.noisy): the quieter of the two results, with "reruns": 1 and the first
+    one's load as "first_load"; "reruns": 0 without a rerun. `run` is run_worker (tests give
+    another)."""
+    result = run(kind, ranks, spec, tmp, tag, timeout)
+    if not noisy(result.get("load")):
+        return {**result, "reruns": 0}
+    first = result["load"]
+    log(
+        f"{tag}: other processes kept {first['others_cores']:.2f} cores busy "
+        f"(> {LOAD_LIMIT:g}): measuring it once more"
+    )
+    again = run(kind, ranks, spec, tmp, tag, timeout)
+    if again.get("load", {}).get("others_cores", math.inf) > first["others_cores"]:
+        again = result
+    return {**again, "reruns": 1, "first_load": first}
 
 
 def block_size_for(dofs: int) -> int:
@@ -312,7 +343,7 @@ def measure_explicit(mode: str, out: Path, log: Callable[[str], None]) -> list[d
             "triad": False,
         }
         rec: dict[str, Any] = {"benchmark": benchmark, "size": size, "dofs": dofs}
-        rec["ours1"] = run_worker("explicit", 1, spec, tmp, tag + "-ours1", timeout)
+        rec["ours1"] = run_quiet("explicit", 1, spec, tmp, tag + "-ours1", timeout, log)
         rec["wall_s"] = time.perf_counter() - start
         records.append(rec)
         partial = json.dumps({"mode": mode, "partial": True, "records": records})
@@ -365,12 +396,12 @@ def measure(
             "mesh_out": str(tmp / f"{tag}.mesh.npz"),
             "u_out": str(tmp / f"{tag}.ours1.npz"),
         }
-        rec["ours1"] = run_worker("ours", 1, spec, tmp, tag + "-ours1", timeout)
+        rec["ours1"] = run_quiet("ours", 1, spec, tmp, tag + "-ours1", timeout, log)
         for c in ocases:
             budget.record("ours", benchmark, c[:2], dofs, rec["ours1"]["cases"].get(key(c), {}))
         h = rec["ours1"].get("h", {})
         spec.update(h=h, mesh_out=None, u_out=str(tmp / f"{tag}.ours2.npz"))
-        rec["ours2"] = run_worker("ours", 2, spec, tmp, tag + "-ours2", timeout)
+        rec["ours2"] = run_quiet("ours", 2, spec, tmp, tag + "-ours2", timeout, log)
         pcases = []
         if budget.peer_assembly(benchmark, dofs):
             pcases = [(*c, budget.steps("peer", benchmark, c, dofs)) for c in all_peer_cases]

@@ -8,7 +8,7 @@ Units: seconds, bytes (MiB in the tables), degrees of freedom.
 from collections.abc import Sequence
 from pathlib import Path
 
-from tissuebench.workflows.bench.machine import machine_description
+from tissuebench.workflows.bench.machine import LOAD_LIMIT, machine_description, noisy
 from tissuebench.workflows.bench.measure import (
     BLOCK,
     BLOCK_WARM,
@@ -203,6 +203,22 @@ def paths_section(paths: dict | None) -> list[str]:
     ]
 
 
+def load_text(records: list[dict]) -> str:
+    """What the "others' load" columns mean, and how many of the records' measurements stayed
+    noisy (machine.noisy) after their rerun."""
+    sides = [rec[side] for rec in records for side in ("ours1", "ours2") if side in rec]
+    loud = sum(noisy(side.get("load")) for side in sides)
+    reruns = sum(bool(side.get("reruns")) for side in sides)
+    return (
+        "The machine is shared. others' load = the cores that other processes kept busy on "
+        "average during each worker (all cores' busy time from /proc/stat less the worker's own "
+        f"CPU time, over its wall time); above {LOAD_LIMIT:g} core a measurement is noisy and is "
+        f"taken once more (the quieter kept, marked rerun). Here {reruns} of {len(sides)} "
+        f"measurements were taken again, and {loud} stayed noisy"
+        + (": their rows say so, and their times are not this code's alone." if loud else ".")
+    )
+
+
 def write_report(
     records: list[dict],
     probes: list[dict],
@@ -275,6 +291,8 @@ def write_report(
         "",
         MODEL_STEP_TEXT,
         "",
+        load_text(records),
+        "",
         markdown_table(*model_step_rows(records)),
         "",
         "### Newton iterations per implicit step at the paper's loads",
@@ -300,11 +318,15 @@ def write_report(
         "",
         "## Explicit-lumped step against the memory-bandwidth limit",
         "",
-        "limit = bytes / triad bandwidth; bytes = the stiffness matrix as the step reads it (the "
-        "compiled block-CSR loop of solvers/blockcsr.py: gdim x gdim blocks of values, one 4-byte "
-        "column index per block, row starts) + 8 vectors (u, v, a read and written, f and M_L "
-        "read), a lower bound for any implementation with this storage. The peer's limit uses "
-        "its CSR bytes and the 1-rank triad.",
+        "limit = bytes / triad bandwidth; bytes (MiB moved, and per dof) = the stiffness matrix "
+        "as the step reads it (the compiled block-CSR loop of solvers/blockcsr.py: gdim x gdim "
+        "blocks of values, one 4-byte column index per block, row starts) + 9 vectors (u, f, "
+        "1 / S, alpha M_L, v and a read; v, a and the next step's u written: the step is one "
+        "pass, solvers/explicit_lumped.py), a lower bound for any implementation with this "
+        "storage. step GB/s = bytes / step time, the bandwidth the step achieved, beside the "
+        "triad's of the same worker. The peer's limit uses its CSR bytes and the 1-rank triad.",
+        "",
+        load_text(records),
         "",
         markdown_table(*bandwidth_rows(records)),
         "",
@@ -376,6 +398,8 @@ def write_explicit_report(records: list[dict], mode: str, wall: float, out: Path
         "## Explicit step with a model or a remedy / the linear explicit-lumped step",
         "",
         MODEL_STEP_TEXT,
+        "",
+        load_text(records),
         "",
         markdown_table(*model_step_rows(records)),
         "",

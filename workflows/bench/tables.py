@@ -8,6 +8,7 @@ Units: seconds, bytes (MiB in the tables), degrees of freedom.
 import math
 from collections.abc import Iterable
 
+from tissuebench.workflows.bench.machine import LOAD_LIMIT, noisy
 from tissuebench.workflows.bench.measure import (
     MODEL_CASES,
     NEWTON_MODELS,
@@ -200,8 +201,25 @@ def extra_peer_rows(records: list[dict]) -> Table:
     ], rows
 
 
+def load_cell(side: dict) -> str:
+    """A worker's load in a table cell: the cores other processes kept busy during it
+    (machine.LoadMeter), then "> LIMIT" where that exceeded machine.LOAD_LIMIT (noisy) and
+    "rerun" where it was measured twice (measure.run_quiet: the quieter kept); "-" unknown."""
+    load = side.get("load")
+    if not load or not math.isfinite(load.get("others_cores", math.nan)):
+        return "-"
+    cell = f"{load['others_cores']:.2f}"
+    if noisy(load):
+        cell += f" (> {LOAD_LIMIT:g}: noisy)"
+    if side.get("reruns"):
+        cell += " rerun"
+    return cell
+
+
 def bandwidth_rows(records: list[dict]) -> Table:
-    """The explicit-lumped step against its memory-bandwidth limit (bytes / triad bandwidth)."""
+    """The explicit-lumped step against its memory-bandwidth limit (bytes / triad bandwidth):
+    per size its bytes, the bandwidth it achieved (bytes / step time) next to the triad's, and
+    the load of other processes during each side's measurement (load_cell)."""
     rows = []
     case = ("explicit-lumped", "-")
     for rec in records:
@@ -221,9 +239,12 @@ def bandwidth_rows(records: list[dict]) -> Table:
                 rec["size"],
                 rec["dofs"],
                 get(rec, "ours1", case, "matrix_type"),
+                b / 2**20,
                 b / rec["dofs"],
                 o1["triad_Bps"] / 1e9,
+                b / s1 / 1e9,
                 o2.get("triad_Bps", 0) / 1e9,
+                b / s2 / 1e9 if s2 else None,
                 lim1,
                 s1,
                 ratio(s1, lim1),
@@ -231,6 +252,8 @@ def bandwidth_rows(records: list[dict]) -> Table:
                 ratio(s2, lim2),
                 sp,
                 ratio(sp, limp),
+                load_cell(o1),
+                load_cell(o2) if o2 else "-",
             ]
         )
     return [
@@ -238,9 +261,12 @@ def bandwidth_rows(records: list[dict]) -> Table:
         "size",
         "dofs",
         "matrix",
+        "MiB moved",
         "bytes/dof",
         "triad 1r GB/s",
+        "step 1r GB/s",
         "triad 2r GB/s",
+        "step 2r GB/s",
         "limit 1r s",
         "step 1r s",
         "meas/limit 1r",
@@ -248,6 +274,8 @@ def bandwidth_rows(records: list[dict]) -> Table:
         "meas/limit 2r",
         "peer step s",
         "peer meas/limit (CSR)",
+        "others' load 1r (cores)",
+        "others' load 2r (cores)",
     ], rows
 
 
@@ -312,6 +340,7 @@ def model_step_rows(records: list[dict]) -> Table:
             diffs = [rec.get("diff_2ranks", {}).get(key(c)) for c in MODEL_CASES]
             diffs = [d for d in diffs if d is not None and math.isfinite(d)]
             row += [max(diffs) if diffs else None]
+        row += [load_cell(rec.get("ours1", {}))]
         rows.append(row)
     header = ["bench", "size", "dofs", "h s", "linear 1r s"]
     for c in MODEL_CASES:
@@ -319,6 +348,7 @@ def model_step_rows(records: list[dict]) -> Table:
     if two:
         header += ["linear 2r s"] + [f"{model_name(c)}/linear 2r" for c in MODEL_CASES]
         header += ["u diff 2r vs 1r (models)"]
+    header += ["others' load 1r (cores)"]
     return header, rows
 
 

@@ -1,0 +1,121 @@
+"""Issue 61 item 2: the bench's bandwidth table (bytes moved, the step's achieved bandwidth
+beside the triad's) and the load of other processes during a measurement (the threshold, the
+one rerun of a noisy measurement, what the rows say), on synthetic numbers."""
+
+import math
+import subprocess
+import sys
+
+import pytest
+
+from tissuebench.workflows.bench import machine
+from tissuebench.workflows.bench.measure import run_quiet
+from tissuebench.workflows.bench.report import load_text
+from tissuebench.workflows.bench.tables import bandwidth_rows, load_cell
+from tissuebench.workflows.bench.workers import explicit_lumped_bytes
+
+LIMIT = machine.LOAD_LIMIT
+
+
+def side(step_s, triad_Bps, others, reruns=0, bytes_=None):
+    record = {"step_s": step_s, "matrix_type": "block CSR"}
+    if bytes_ is not None:
+        record["bytes"] = bytes_
+    return {
+        "cases": {"explicit-lumped/-": record},
+        "triad_Bps": triad_Bps,
+        "load": {"others_cores": others, "loadavg_1min": 1.0, "wall_s": 10.0},
+        "reruns": reruns,
+    }
+
+
+def test_bytes_of_one_step():
+    """The matrix once and 9 vectors of doubles (one pass: 6 read, 3 written)."""
+    assert explicit_lumped_bytes(1000, 10) == 1000 + 9 * 8 * 10
+
+
+def test_bandwidth_row_states_bytes_achieved_bandwidth_and_load():
+    dofs, nbytes = 200_000, 400 * 2**20
+    record = {
+        "benchmark": "rod",
+        "size": 32,
+        "dofs": dofs,
+        "ours1": side(0.1, 8e9, 0.05, bytes_=nbytes),
+        "ours2": side(0.08, 9e9, LIMIT + 0.5, reruns=1),
+        "peer": {"cases": {}},
+    }
+    header, rows = bandwidth_rows([record])
+    row = dict(zip(header, rows[0], strict=True))
+    assert row["MiB moved"] == pytest.approx(400)
+    assert row["bytes/dof"] == pytest.approx(nbytes / dofs)
+    assert row["triad 1r GB/s"] == pytest.approx(8.0)
+    assert row["step 1r GB/s"] == pytest.approx(nbytes / 0.1 / 1e9)
+    assert row["step 2r GB/s"] == pytest.approx(nbytes / 0.08 / 1e9)
+    assert row["meas/limit 1r"] == pytest.approx(0.1 / (nbytes / 8e9))
+    assert row["others' load 1r (cores)"] == "0.05"
+    assert row["others' load 2r (cores)"] == f"{LIMIT + 0.5:.2f} (> {LIMIT:g}: noisy) rerun"
+
+
+def test_load_cell_and_threshold():
+    assert not machine.noisy({"others_cores": LIMIT})
+    assert machine.noisy({"others_cores": LIMIT + 1e-9})
+    assert not machine.noisy(None) and not machine.noisy({"others_cores": math.nan})
+    assert load_cell({}) == "-" and load_cell({"load": {"others_cores": math.nan}}) == "-"
+    assert load_cell({"load": {"others_cores": 0.1}, "reruns": 1}) == "0.10 rerun"
+
+
+def fake_runs(loads):
+    """A stand-in for run_worker whose successive results carry these others' loads."""
+    calls = []
+
+    def run(kind, ranks, spec, tmp, tag, timeout):
+        calls.append(tag)
+        others = loads[len(calls) - 1]
+        return {"cases": {}, "n": len(calls), "load": {"others_cores": others}}
+
+    return run, calls
+
+
+@pytest.mark.parametrize(
+    "loads, calls, kept",
+    [
+        ([0.1], 1, 1),  # quiet: once
+        ([LIMIT + 0.3, 0.05], 2, 2),  # noisy, then quiet: the rerun kept
+        ([LIMIT + 0.3, LIMIT + 0.6], 2, 1),  # noisy twice: the quieter kept, and no third run
+    ],
+)
+def test_a_noisy_measurement_is_taken_once_more(loads, calls, kept, tmp_path):
+    run, made = fake_runs(loads)
+    lines = []
+    result = run_quiet("ours", 1, {}, tmp_path, "rod-32-ours1", 60.0, lines.append, run=run)
+    assert len(made) == calls and result["n"] == kept
+    assert result["reruns"] == calls - 1 and len(lines) == calls - 1
+    if calls == 2:
+        assert result["first_load"]["others_cores"] == loads[0]
+        assert "rod-32-ours1" in lines[0] and "once more" in lines[0]
+
+
+def test_load_text_counts_reruns_and_noisy_measurements():
+    records = [
+        {"ours1": side(0.1, 8e9, 0.0), "ours2": side(0.1, 8e9, LIMIT + 1, reruns=1)},
+        {"ours1": side(0.1, 8e9, 0.1, reruns=1)},
+    ]
+    text = load_text(records)
+    assert "2 of 3 measurements were taken again, and 1 stayed noisy" in text
+    assert "rows say so" in text
+    assert load_text([{"ours1": side(0.1, 8e9, 0.0)}]).endswith("0 stayed noisy.")
+
+
+def test_load_meter_numbers():
+    """Around a child process that spins for 0.5 s (its CPU time is the measurement's own, not
+    another process's), the meter's numbers are finite and non-negative where /proc/stat is
+    readable."""
+    if math.isnan(machine.busy_seconds()):
+        pytest.skip("no /proc/stat")
+    meter = machine.LoadMeter()
+    subprocess.run(
+        [sys.executable, "-c", "import time\nt = time.time()\nwhile time.time() - t < 0.5: pass"],
+        check=True,
+    )
+    load = meter.stop()
+    assert load["wall_s"] >= 0.5 and load["others_cores"] >= 0 and load["loadavg_1min"] >= 0
