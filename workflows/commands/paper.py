@@ -53,8 +53,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=int,
         default=min(2, os.cpu_count() or 1),
         help="processes, one core each, that compute the truths not cached while the cases "
-        "run (a linear truth's runs side by side; default: the cores, at most 2; one rank "
-        "only)",
+        "run (a linear truth's runs side by side), or, with every truth cached, that run part "
+        "2's cases beside part 1's (default: the cores, at most 2; one rank only)",
     )
     p.add_argument(
         "--cases",
@@ -63,6 +63,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="run and report only these cases (default: all of them; the truth's two run "
         "together), at least one of part 1",
     )
+    # the second process of a warm paper (workflows/study/beside.py)
+    p.add_argument("--folders-only", action="store_true", help=argparse.SUPPRESS)
+    p.add_argument("--claims", type=Path, help=argparse.SUPPRESS)
     add_common(p)
     p.set_defaults(func=main)
 
@@ -78,5 +81,7 @@ def main(args: argparse.Namespace) -> int:
         force=args.force,
         jobs=args.jobs,
         names=getattr(args, "cases", None),
+        folders_only=args.folders_only,
+        claims=args.claims,
     )
     return 0

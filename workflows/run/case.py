@@ -5,6 +5,7 @@ velocity at every step), and for the case: metrics.csv, summary.json and the fig
 """
 
 import math
+import os
 import platform
 import time
 from collections.abc import Callable
@@ -270,6 +271,8 @@ def compute_case(
     """The runs, metrics, figures (unless not `figures`) and summary of a case, written into
     tmp, which becomes target, with the wall time of each phase. Collective."""
     rank0 = comm.rank == 0
+    # progress bars on rank 0, unless a worker's parent says its own lines (paper's beside)
+    bars = rank0 and os.environ.get("TISSUEBENCH_PROGRESS_BARS") != "0"
     phases = Phases()
     with phases.timed("mesh"):
         bench = get_benchmark(case.benchmark, mesh_size=mesh_size, comm=comm, **case.options)
@@ -300,7 +303,7 @@ def compute_case(
                 desc=f"{case.name} {label}",
                 unit="step",
                 leave=False,
-                disable=not rank0,
+                disable=not bars,
                 mininterval=0.5,
             )
             try:
@@ -364,7 +367,7 @@ def compute_case(
         desc=f"{case.name} metrics",
         unit="step",
         leave=False,
-        disable=not rank0,
+        disable=not bars,
         mininterval=0.5,
         miniters=1,  # not tqdm's guess from the fast first pass, which skipped the slow second
     )

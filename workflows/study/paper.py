@@ -16,10 +16,11 @@ from mpi4py import MPI
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.workflows.io.output import check_owned, check_writable, collective, write_owned
-from tissuebench.workflows.io.summary import CaseSummary
+from tissuebench.workflows.io.summary import CaseSummary, read_case_summary
 from tissuebench.workflows.run.case import Case, run_case
 from tissuebench.workflows.study import report
 from tissuebench.workflows.study import truth as paper_truth
+from tissuebench.workflows.study.beside import CasesWorker, claim
 from tissuebench.workflows.study.cases import cases, model_cases
 from tissuebench.workflows.truth.jobs import TruthJobs
 
@@ -75,10 +76,25 @@ def run_paper(
     jobs: int = 1,
     names: list[str] | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
+    folders_only: bool = False,
+    claims: Path | None = None,
 ) -> None:
     """Run the paper's cases (those of `names`, else all) into `out` and write out/README.md;
-    the truths not cached computed `jobs` processes at a time beside the cases (one rank)."""
+    the truths not cached computed `jobs` processes at a time beside the cases (one rank).
+    With every truth cached and jobs > 1, part 2's cases are shared with a second process
+    beside this one (workflows/study/beside.py). `folders_only`: that process's part, the
+    named cases of part 2 that it claims first in `claims`, into their folders; no report."""
     check_writable(out, comm)
+    if folders_only:  # the second process's part (beside.py)
+        if claims is None:
+            raise UserError("--folders-only needs --claims")
+        # a case it does not know (registered by the paper's caller alone) is left to the paper
+        known = {c.name: c for c in model_cases(solver, petsc)}
+        for name in [n for n in names or [] if n in known]:
+            if claim(claims, name):
+                run_case(known[name], out / LARGE / name, comm, force=force)
+                interrupt.written(out / LARGE / name)
+        return
     collective(comm, lambda: check_owned(out / "README.md"))
     summaries: dict[str, CaseSummary] = {}
     large: dict[str, CaseSummary] = {}
@@ -108,6 +124,13 @@ def run_paper(
     # the paper against the truth (SPEC 10): its runs, then each graded against its truth as
     # soon as that is cached (beside the workers of the others), the rest after them
     graded: dict[str, tuple] = {}  # truth: paper_truth.grade()'s pair
+    # every truth cached: part 2 shared with a second process beside this one (beside.py),
+    # which takes its cases from the first on, this one (after part 1 and the truth's) from
+    # the last on
+    side = None
+    if jobs > 1 and comm.size == 1 and not work.pending and second:
+        say = lambda line: print(line, flush=True)  # noqa: E731
+        side = CasesWorker(out, [c.name for c in second], solver, petsc, force, say)
     try:
         if work.pending:
             work.start()
@@ -115,13 +138,27 @@ def run_paper(
             summaries[case.name] = run_case(case, out / case.name, comm, force=force)
             interrupt.written(out / case.name)
             work.poll()
+        truth = None
+        if side is not None:
+            if truth_cases:  # graded here while part 2 runs beside
+                folders = paper_truth.run_folders(out, comm, solver, petsc, force=force)
+                truth = paper_truth.finish(folders, graded, comm)
+            for case in reversed(second):
+                if claim(side.claims, case.name):
+                    large[case.name] = run_case(case, out / LARGE / case.name, comm, force=force)
+            if side.wait():  # the worker's folders, as it wrote them (those it left: run below)
+                for case in [c for c in second if c.name not in large]:
+                    done = read_case_summary(out / LARGE / case.name)
+                    if done is not None:
+                        large[case.name] = done
         for case in second:
-            large[case.name] = run_case(case, out / LARGE / case.name, comm, force=force)
+            if case.name not in large:
+                large[case.name] = run_case(case, out / LARGE / case.name, comm, force=force)
             limits[case.name] = explicit_limits(case, comm)
             interrupt.written(out / LARGE / case.name)
             work.poll()
         folders = {}
-        if truth_cases:
+        if truth_cases and truth is None:
             folders = paper_truth.run_folders(out, comm, solver, petsc, force=force)
         while work.poll():
             for name in [n for n in work.succeeded if n not in graded]:
@@ -130,8 +167,12 @@ def run_paper(
             interrupt.checkpoint(MPI.COMM_SELF)
     finally:
         work.stop()
+        if side is not None:
+            side.stop()
+    large = {case.name: large[case.name] for case in second}  # the report's order
     # the others graded now (a failed worker's truth computed here), all in the section's order
-    truth = paper_truth.finish(folders, graded, comm) if truth_cases else None
+    if truth_cases and truth is None:
+        truth = paper_truth.finish(folders, graded, comm)
     for case in truth_cases:
         interrupt.written(out / case.name)
 
