@@ -341,3 +341,21 @@ def test_a_failed_computation_is_kept_as_evidence_for_todays_inputs(tmp_path, mo
     path = store.failure_path("rod-nhb-s2")
     path.write_text(path.read_text().replace(got["fingerprint"], "another"))
     assert store.load_failure("rod-nhb-s2") is None
+
+
+def test_each_stage_says_the_whole_cases_time_so_far_and_left():
+    """Issue 59.5: `truth` gave per-level bars, no time left in all. Each stage's line (a
+    level, the time order, the half step) now ends with the whole case's seconds so far, which
+    never fall, and the time left of its estimate (or that it is past it)."""
+    import re
+
+    said: list[str] = []
+    store.compute("rod", quick=True, log=said.append)
+    tail = re.compile(
+        r"\((\d+) s in all, (about \d+ (s|min) left|past its estimate, \d+ (s|min))\)$"
+    )
+    stages = [line for line in said if re.search(r"n=\d+(:| half step)", line)]
+    assert len(stages) >= 3, said  # two levels, the time order, the half step
+    spent = [int(tail.search(line)[1]) for line in stages if tail.search(line)]
+    assert len(spent) == len(stages), stages
+    assert spent == sorted(spent)

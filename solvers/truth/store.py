@@ -667,8 +667,16 @@ def compute(
     (estimate.estimate_error) and sample the finest level at the steps of h. On
     rank 0 the TruthSamples, None elsewhere. Collective. `log` is told each level's cost."""
     check_case(case)
-    say = log or (lambda line: None)
     start = time.perf_counter()
+    estimate = expected_seconds(case, quick)
+
+    def say(line: str) -> None:  # each stage's line with the whole case's time so far and left
+        spent = time.perf_counter() - start
+        left = estimate - spent
+        tail = f"about {words(left)} left" if left > 0 else f"past its estimate, {words(estimate)}"
+        if log is not None:
+            log(f"{line} ({spent:.0f} s in all, {tail})")
+
     given = inputs(case, quick)
     steps, k = given["steps"], given["step_divisor"]  # steps of h; the truth's step is h / k
     info: dict = {"levels": [], "dofs": [], "wall": [], "steps": steps, "level_differences": []}
@@ -770,11 +778,15 @@ def expected_wall(case: str, quick: bool = False, jobs: int = 1) -> float:
     return seconds
 
 
+def words(seconds: float) -> str:
+    """A time in words: "3 min" from 90 s on, else "40 s"."""
+    return f"{seconds / 60:.0f} min" if seconds >= 90 else f"{seconds:.0f} s"
+
+
 def expected_words(case: str, quick: bool = False, jobs: int = 1) -> str:
     """How long the first computation of a case takes here, in words ("about 3 min"), its runs
     `jobs` at a time where it is splittable."""
-    minutes = expected_wall(case, quick, jobs) / 60
-    return f"about {minutes:.0f} min" if minutes >= 1.5 else f"about {60 * minutes:.0f} s"
+    return f"about {words(expected_wall(case, quick, jobs))}"
 
 
 def _check_npz(path: Path) -> None:
