@@ -204,3 +204,44 @@ def test_the_answer_says_why_explicit_lumped_loses_with_the_measured_rows():
     assert "alpha = 1 1/s, beta = 0.1 s" in text
     # without the explicit run (an older frontier.csv) the paragraph is not written
     assert "Explicit-lumped against explicit" not in " ".join(answer(rows[::2]))
+
+
+def test_quick_interrupted_after_its_first_run_resumes_with_the_rest(tmp_path, monkeypatch):
+    """Issue 60: `tissuebench frontier --quick` stopped by a signal after its first run (the
+    second raising KeyboardInterrupt, as SIGINT does), then run again, runs only the configs
+    not yet done, each once, into the same OUT/frontier-quick/frontier.csv; a third run runs
+    none."""
+    import argparse
+
+    from tissuebench.workflows.commands import frontier as command
+
+    calls = []
+
+    def first_only(config, truth, comm):
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(config.key())
+        return fake_row(config)
+
+    monkeypatch.setattr(study, "run_config", first_only)
+    monkeypatch.setattr(study, "load_truth", lambda case, comm: "truth")
+    monkeypatch.setattr(study, "own_error", lambda truth: 6e-7)  # the rows' truth_own_error
+    monkeypatch.setattr(command, "side_by_side", lambda case, repeats: [])  # no timing runs
+    monkeypatch.setattr(command, "plot", lambda path, case, rows: path.write_bytes(b"png"))
+    args = argparse.Namespace(out=tmp_path, cases="rod", quick=True)
+    with pytest.raises(KeyboardInterrupt):
+        command.main(args)
+    every = [c.key() for c in study.configs(("rod",), quick=True)]
+    assert calls == every[:1]
+    table = tmp_path / "frontier-quick" / "frontier.csv"
+    assert [study.row_key(r) for r in study.read_rows(table)] == every[:1]
+    calls.clear()
+    monkeypatch.setattr(
+        study, "run_config", lambda c, t, comm: (calls.append(c.key()), fake_row(c))[1]
+    )
+    assert command.main(args) == 0
+    assert calls == every[1:]
+    assert sorted(study.row_key(r) for r in study.read_rows(table)) == sorted(every)
+    calls.clear()
+    assert command.main(args) == 0 and calls == []
+    assert not (tmp_path / "frontier").exists()  # a quick run never touches the full study's

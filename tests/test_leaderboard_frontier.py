@@ -6,7 +6,7 @@ it); and every row on the page is in leaderboard.csv and leaderboard.json, rende
 from the record without counting them twice.
 
 End to end on test_trust_rows' case (the rod to 5 h, a synthetic truth, one row of ours in
-the record), its frontier.csv written here with the numbers each test needs."""
+the record), its frontier.csv committed in a clone made here with the numbers each test needs."""
 
 import csv
 import html
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 from test_trust_rows import case as case  # the fixture of its case (rod to 5 h, a truth)
-from test_trust_rows import frontier_rows, render, results, write_frontier
+from test_trust_rows import committed_frontier, frontier_rows, render, results
 
 from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER, frontier_row, join_frontier
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, mark_truth_pareto
@@ -93,9 +93,9 @@ def csv_rows(out: Path) -> dict[str, dict]:
 
 
 def test_every_row_on_the_page_is_in_the_csv_and_the_record(case, tmp_path, monkeypatch):
-    """`tissuebench leaderboard` with a frontier.csv of two runs: the page's points are the
-    CSV's rows and the record's, the frontier's included, each costing its whole run; the
-    front (in the CSV) holds the frontier run that beats our row; rendered again from the
+    """`tissuebench leaderboard` with a committed frontier.csv of two runs: the page's points
+    are the CSV's rows and the record's, the frontier's included, each costing its whole run;
+    the front (in the CSV) holds the frontier run that beats our row; rendered again from the
     record, nothing is counted twice."""
     out = results(case, tmp_path)
     good = {
@@ -109,10 +109,10 @@ def test_every_row_on_the_page_is_in_the_csv_and_the_record(case, tmp_path, monk
     }
     slow = {**good, "scheme": "standard", "cost": "0.3", "loop_s": "3.0",
             "interior_error_mean": "0.9"}  # fmt: skip
-    write_frontier(out / "frontier" / "frontier.csv", [good, slow])
+    committed_frontier(tmp_path, monkeypatch, [good, slow])  # the clone's, as committed
     written = []
     for _ in range(2):  # the second: from the record the first wrote
-        assert render(out, case[2], monkeypatch) == 0
+        assert render(out, case[2], monkeypatch, committed=True) == 0
         written.append([(out / n).read_bytes() for n in ("leaderboard.csv", "leaderboard.json")])
         shown = page_labels(out)
         table = csv_rows(out)

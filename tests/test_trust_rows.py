@@ -21,6 +21,7 @@ import json
 import math
 import re
 import shutil
+import subprocess
 from pathlib import Path
 
 from mpi4py import MPI
@@ -41,8 +42,10 @@ from tissuebench.workflows.io.manifest import seal
 from tissuebench.workflows.io.output import write_owned
 from tissuebench.workflows.io.series import read_series
 from tissuebench.workflows.leaderboard import build, grading, page, record
+from tissuebench.workflows.leaderboard import frontier_rows as frontier_module
 from tissuebench.workflows.leaderboard import rows as ranking
 from tissuebench.workflows.leaderboard import users as user_folders
+from tissuebench.workflows.leaderboard.row import md
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys
 
 pytestmark = pytest.mark.serial  # rank 0's files, the command run on them
@@ -121,11 +124,15 @@ def claim_perfect(summary: dict) -> None:
     run.update(dict.fromkeys(error_keys(), 1e-15))
 
 
-def render(out: Path, truth, monkeypatch) -> int:
-    """`tissuebench leaderboard --out OUT` on the one case, its truth the synthetic one."""
+def render(out: Path, truth, monkeypatch, committed: bool = False) -> int:
+    """`tissuebench leaderboard --out OUT` on the one case, its truth the synthetic one; the
+    frontier's rows those committed in the clone made by committed_frontier where `committed`,
+    else none (the project's own are graded against the real truth, not this one)."""
     from tissuebench.solvers.truth import store
 
     monkeypatch.setattr(build, "BOARDS", [BOARD])
+    if not committed:
+        monkeypatch.setattr(frontier_module, "committed_frontier", lambda warn=None, root=None: {})
     monkeypatch.setattr(store, "load_cached", lambda case, quick=False, comm=None: truth)
     args = argparse.Namespace(out=out, solver="direct", petsc="", force=False)
     return build.main(args)
@@ -217,6 +224,38 @@ def test_the_same_label_is_told_apart_and_one_series_graded_once(case, tmp_path,
     assert len({colour for colour, _ in legend}) == 3
     md = (out / "leaderboard.md").read_text()
     assert all(label in md for label in labels)
+
+
+def test_two_folders_of_one_label_are_two_entries_each_tip_naming_its_folder(
+    case, tmp_path, monkeypatch
+):
+    """Issue 60: two users' folders whose names begin with the same 40 characters and more,
+    each labelling its run `my-solver`: two rows, two legend entries in two colours, each
+    point's tooltip naming its folder; leaderboard.md has both labels."""
+    _, _, truth = case
+    out = results(case, tmp_path)
+    common = "a-folder-name-longer-than-forty-characters-from-"
+    names = [common + "alice", common + "bob"]
+    for name, series in zip(names, ("close", "other"), strict=True):
+        graded_by_compare(case, series, users(out) / name, "my-solver", 1.0)
+    assert render(out, case[2], monkeypatch) == 0
+    rows = {label: r for label, r in table(out).items() if label.startswith("my-solver")}
+    assert len(rows) == 2 and "my-solver" not in rows
+    text = (out / "leaderboard" / "index.html").read_text()
+    legend = re.findall(r'<b style="color:([^"]+)">&#9733; ([^<]+)</b>', text)
+    assert sorted(html.unescape(label) for _, label in legend) == sorted(rows)
+    assert len({colour for colour, _ in legend}) == 2
+    tips = {
+        html.unescape(label): json.loads(html.unescape(tip))
+        for label, tip in re.findall(
+            r'class="pt f user"[^>]*data-label="([^"]*)"[^>]*data-tip="([^"]*)"', text
+        )
+    }
+    assert sorted(tips) == sorted(rows)
+    folders = sorted(line for tip in tips.values() for line in tip if line.startswith("folder: "))
+    assert folders == [f"folder: {name}" for name in sorted(names)]
+    text = (out / "leaderboard.md").read_text()
+    assert all(md(label) in text for label in rows)
 
 
 def test_a_symbolic_link_in_a_user_folder_is_refused(case, tmp_path):
@@ -311,6 +350,21 @@ def write_frontier(path: Path, rows: list[dict]) -> None:
         out.writerows(rows)
 
 
+def committed_frontier(where: Path, monkeypatch, rows: list[dict]) -> Path:
+    """A clone (a git repository in `where`) whose HEAD commits `rows` as its
+    results/frontier/frontier.csv, made the clone tissuebench runs from
+    (frontier_rows.clone_root): the frontier rows the leaderboard shows. Its root."""
+    if shutil.which("git") is None:
+        pytest.skip("needs git: the leaderboard reads the committed frontier from it")
+    clone = where / "clone"
+    write_frontier(clone / frontier_module.COMMITTED, rows)
+    git = ["git", "-C", str(clone), "-c", "user.name=test", "-c", "user.email=test@localhost"]
+    for words in (["init", "-q"], ["add", "results"], ["commit", "-q", "-m", "frontier"]):
+        subprocess.run([*git, "-c", "commit.gpgsign=false", *words], check=True)
+    monkeypatch.setattr(frontier_module, "clone_root", lambda: clone)
+    return clone
+
+
 BAD_FRONTIER = {  # scheme (the row's name) -> its bad cells, what the line says
     "negative": ({"interior_error_mean": "-1"}, "interior_error_mean '-1' is not a finite"),
     "nan": ({"interior_error_max": "nan"}, "interior_error_max 'nan' is not a finite number"),
@@ -338,15 +392,57 @@ def test_frontier_rows_are_checked_before_they_rank(tmp_path, case, monkeypatch,
         assert why in lines[k - 3], lines[k - 3]
     assert "scheme 'xxxx" in lines[-1] and "is not printable text of 1 to 80" in lines[-1]
     assert len(lines[-1]) < 400
-    # the leaderboard: the bad rows said on stderr, the good one ranked on the page
+    # the leaderboard: the committed frontier's bad rows said on stderr, the good one ranked
     out = results(case, tmp_path)
-    write_frontier(out / "frontier" / "frontier.csv", frontier_rows(**bad))
+    committed_frontier(tmp_path, monkeypatch, frontier_rows(**bad))
     capsys.readouterr()
-    assert render(out, case[2], monkeypatch) == 0
+    assert render(out, case[2], monkeypatch, committed=True) == 0
     err = capsys.readouterr().err
     assert sum("not a run of the frontier" in line for line in err.splitlines()) == len(bad)
     text = (out / "leaderboard" / "index.html").read_text()
     assert "standard implicit" in text and not any(f">{name} implicit" in text for name in bad)
+
+
+def test_a_frontier_row_planted_by_hand_is_never_ranked(tmp_path, case, monkeypatch, capsys):
+    """Issue 60: a row of E_i 1e-15 added by hand to OUT/frontier/frontier.csv, and another to
+    the clone's own results/frontier/frontier.csv (its working copy, not committed), rank
+    first nowhere: the page and leaderboard.csv have the committed rows only, and each of the
+    two files is said in one line; the committed rows are there as committed."""
+    perfect = {"interior_error_mean": "1e-15", "interior_error_max": "1e-15"}
+    clone = committed_frontier(tmp_path, monkeypatch, frontier_rows(anp={}))
+    out = results(case, tmp_path)
+    write_frontier(out / "frontier" / "frontier.csv", frontier_rows(planted=perfect))
+    write_frontier(clone / frontier_module.COMMITTED, frontier_rows(anp={}, edited=perfect))
+    capsys.readouterr()
+    assert render(out, case[2], monkeypatch, committed=True) == 0
+    err = capsys.readouterr().err
+    committed = {"standard implicit, hexahedron n=2", "anp implicit, hexahedron n=2"}
+    ranked = ranks(out)
+    assert committed <= set(ranked) and committed <= set(table(out))
+    assert not any(s in label for label in [*ranked, *table(out)] for s in ("planted", "edited"))
+    assert ranked["implicit"] == "3"  # ours (E_i 0.5 against this truth) after the two runs
+    assert f"{out / 'frontier' / 'frontier.csv'}: not read" in err
+    assert f"{clone / frontier_module.COMMITTED} is not as committed" in err
+
+
+def test_the_committed_frontier_is_the_clones_as_git_holds_it():
+    """Without a clone of its own, the leaderboard's frontier rows are those of the project's
+    results/frontier/frontier.csv at git's HEAD (as the working copy reads where it is
+    unchanged)."""
+    root = frontier_module.clone_root()
+    if shutil.which("git") is None or not (root / ".git").exists():
+        pytest.skip("needs the project's git checkout")
+    shown = subprocess.run(
+        ["git", "-C", str(root), "show", f"HEAD:{frontier_module.COMMITTED}"],
+        capture_output=True,
+        check=True,
+    ).stdout.decode()
+    lines = []
+    found = frontier_module.committed_frontier(lines.append)
+    assert found == frontier_module.frontier_of(shown, "HEAD")
+    assert sum(len(v) for v in found.values()) == len(shown.splitlines()) - 1 > 0
+    if (root / frontier_module.COMMITTED).read_text() == shown:
+        assert lines == []
 
 
 def test_a_frontier_cut_mid_row_is_one_line(tmp_path):

@@ -239,6 +239,11 @@ def read_rows(path: Path, errors: str = "strict") -> list[dict[str, str]]:
     apostrophe of a guarded cell taken off); a row cut short has None for its missing cells."""
     with open(path, newline="", errors=errors) as f:
         text = f.read()
+    return rows_of(text)
+
+
+def rows_of(text: str) -> list[dict[str, str]]:
+    """A CSV text's rows, as read_rows reads a file's (CSVError for text that is not CSV)."""
     rows = csv.DictReader(io.StringIO(text, newline=""))
     if "'" not in text:  # no cell was guarded (the common case: numbers and names)
         return list(rows)

@@ -20,7 +20,7 @@ from tissuebench.workflows.io.output import (
     write_set,
 )
 from tissuebench.workflows.io.tables import CSVError, read_rows
-from tissuebench.workflows.leaderboard import document, page, users
+from tissuebench.workflows.leaderboard import document, frontier_rows, page, users
 from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.figures import (
     drawing_code,
@@ -35,8 +35,8 @@ from tissuebench.workflows.leaderboard.force_figure import (
     plot_force,
 )
 from tissuebench.workflows.leaderboard.frontier_rows import (
+    COMMITTED,
     join_frontier,
-    read_frontier,
     strip_frontier,
 )
 from tissuebench.workflows.leaderboard.grading import grade_truths, grade_users, study_series
@@ -170,10 +170,17 @@ def check_rerun(names: list[str] | None) -> list[str] | None:
     return list(dict.fromkeys(names)) or known
 
 
-def frontier_table(out: Path, source: Path) -> Path:
-    """The SPEC 11 frontier's table the page shows: OUT's, else the record folder's."""
+def frontier_table(out: Path, warn) -> dict[str, list[dict]]:
+    """The SPEC 11 frontier's runs the page shows: the clone's committed frontier.csv only
+    (frontier_rows.committed_frontier: from git, never a file anyone can write); OUT's own
+    frontier.csv, where it is another file, is not read, and `warn` is told so in one line."""
     mine = out / "frontier" / "frontier.csv"
-    return mine if mine.is_file() else source / "frontier" / "frontier.csv"
+    if mine.is_file() and mine.resolve() != (frontier_rows.clone_root() / COMMITTED).resolve():
+        warn(
+            f"{mine}: not read: the leaderboard shows the committed frontier rows only "
+            f"({COMMITTED} as the clone's git holds it)"
+        )
+    return frontier_rows.committed_frontier(warn)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -222,7 +229,7 @@ def main(args: argparse.Namespace) -> int:
     # what each figure was drawn of: the record's cases as read, the frontier's rows among them
     drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
     drawn = {name: json.dumps(c) for name, c in drawn.items()}
-    kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again from frontier.csv
+    kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again (committed)
     kept = {b.name: b for b in kept_boards}
     rows, notes, boards = {}, {}, []
     fresh = []
@@ -253,8 +260,8 @@ def main(args: argparse.Namespace) -> int:
     # what is read is read and checked before anything runs (rank 0 reads and writes)
     cases = [b for b in boards if b.name in {x.name for x in BOARDS}]  # the study's: no users
     found, left_out = read_users(out, cases) if comm.rank == 0 else ({}, {})
-    frontier = (  # the SPEC 11 frontier's runs, each checked (a bad one: one line)
-        read_frontier(frontier_table(out, source), warn=users.warn) if comm.rank == 0 else {}
+    frontier = (  # the SPEC 11 frontier's committed runs, each checked (a bad one: one line)
+        frontier_table(out, users.warn) if comm.rank == 0 else {}
     )
     interrupt.will_write(  # named on a signal: the old ones stay as they were
         [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]

@@ -6,8 +6,10 @@ folder: the leaderboard grades its series (grading.py)."""
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
+from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
@@ -338,6 +340,7 @@ def user_rows(
                     **found,
                     force=given,
                     force_curve=curve,
+                    folder=sub.name,
                     kind=Kind.USER,  # whatever its label says
                 )
             )
@@ -349,19 +352,38 @@ def user_rows(
 SUFFIX = 40  # characters of a folder's name added to a label that another row has too
 
 
+def suffix_of(name: str) -> str:
+    """A folder's name as told_apart adds it to a label: made one line, and where longer than
+    SUFFIX characters, its first ones and 8 hex digits of its hash (so that two long names
+    that begin alike still differ)."""
+    name = one_line(name)
+    if len(name) <= SUFFIX:
+        return name
+    return f"{name[: SUFFIX - 9]}~{hashlib.sha256(name.encode()).hexdigest()[:8]}"
+
+
 def told_apart(rows: list[Row], folders: list[str]) -> None:
     """Give each row whose label another row has too its folder's name after it, `label
-    (NAME)` (NAME at most SUFFIX characters, made one line), until every label differs (a
-    folder holds one row of a label: the names tell them apart)."""
-    for _ in range(len(rows)):
-        seen: dict[str, int] = {}
-        for r in rows:
-            seen[r.label] = seen.get(r.label, 0) + 1
+    (NAME)` (suffix_of: at most SUFFIX characters, one line), twice at most; a label that is
+    still another's then (a folder whose own labels end in another's name) gets its place
+    among the rows, `label #k`, so that every label differs: each user's run is its own entry
+    of the legend, in its own colour."""
+    for _ in range(2):
+        seen = Counter(r.label for r in rows)
         same = [(r, name) for r, name in zip(rows, folders, strict=True) if seen[r.label] > 1]
         if not same:
             return
         for r, name in same:
-            r.label = f"{r.label} ({one_line(name)[:SUFFIX]})"
+            r.label = f"{r.label} ({suffix_of(name)})"
+    every = {r.label for r in rows}
+    used: set[str] = set()
+    for k, r in enumerate(rows, start=1):
+        if r.label in used:
+            label = f"{r.label} #{k}"
+            while label in every or label in used:
+                label += "'"
+            r.label = label
+        used.add(r.label)
 
 
 def links(folder: Path) -> str | None:

@@ -11,18 +11,28 @@ cost is therefore its whole_s (set-up and loop) over the simulated time, not fro
 beside it. A frontier.csv of an older version, without whole_s, gets it from setup_s and
 loop_s, the same two times.
 
-The rows are made again at every render from frontier.csv (join_frontier): the record keeps
-them as written, and strip_frontier drops them when it is read back.
+The rows are made again at every render from the committed frontier.csv (join_frontier): the
+record keeps them as written, and strip_frontier drops them when it is read back.
+
+Whose frontier.csv. The leaderboard takes no number from a file that anyone can write: not from
+OUT/frontier/frontier.csv (a `tissuebench frontier --out OUT` of one's own, or a row added by
+hand: issue 60), not from the working copy of the clone's results/frontier/frontier.csv (which
+is OUT/frontier/frontier.csv when OUT is the clone's results/), and not from the record it wrote
+itself. Its frontier rows are those of results/frontier/frontier.csv as committed, at git's
+HEAD of the clone tissuebench is installed from (committed_frontier); a copy installed without
+its clone (or without git) shows no frontier rows, and says so in one line. A frontier run of
+one's own is for its own report (frontier.md); it reaches the leaderboard when it is committed.
 """
 
 from __future__ import annotations
 
 import math
+import subprocess
 from pathlib import Path
 from typing import Any
 
 from tissuebench.meshes import get_entry
-from tissuebench.workflows.io.tables import CSVError, ends_whole, read_rows
+from tissuebench.workflows.io.tables import CSVError, rows_of
 from tissuebench.workflows.leaderboard.row import FRONTIER_SOURCE, Kind
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -124,38 +134,104 @@ def frontier_row(r: dict) -> dict[str, Any]:
 
 
 def read_frontier(path: Path, warn=None) -> dict[str, list[dict]]:
-    """results/frontier/frontier.csv by truth case: each run's scheme, algorithm, cell, mesh
-    size, dofs, sub-steps, status, E_i mean and max, loop cost (s/s) and times (s); {}
-    without the file. Nothing in it is trusted: each row is checked before it is drawn or
-    ranked (frontier_row: a negative, infinite or missing error or cost of a finished run,
-    text where a number goes, a text too long or not printable), and a row that fails is left
-    out with one line given to `warn`; so is a row cut mid-row (the file's last line not
-    ended, as a kill or a full disk leaves a file written in place: `tissuebench frontier`
-    runs it again), and a file that cannot be read is one line."""
+    """A frontier.csv file by truth case (frontier_of): {} without the file, and one line to
+    `warn` for a file that cannot be read. The leaderboard reads none of these: its rows are
+    the committed ones (committed_frontier)."""
     say = warn or (lambda line: None)
     try:
         if not path.is_file():
             return {}
-        raw = read_rows(path)
-        cut = not ends_whole(path)
-    except (OSError, CSVError, UnicodeDecodeError) as exc:
+        with open(path, newline="") as f:
+            text = f.read()
+    except (OSError, UnicodeDecodeError) as exc:
         say(f"{path}: cannot be read ({type(exc).__name__}: {one_line(exc)[:120]}), not read")
         return {}
+    return frontier_of(text, str(path), say)
+
+
+def frontier_of(text: str, where: str, warn=None) -> dict[str, list[dict]]:
+    """A frontier.csv's text by truth case: each run's scheme, algorithm, cell, mesh size,
+    dofs, sub-steps, status, E_i mean and max, loop cost (s/s) and times (s). Nothing in it is
+    trusted: each row is checked before it is drawn or ranked (frontier_row: a negative,
+    infinite or missing error or cost of a finished run, text where a number goes, a text too
+    long or not printable), and a row that fails is left out with one line given to `warn`,
+    naming `where` (the file) and its row; so is a row cut mid-row (the text's last line not
+    ended, as a kill or a full disk leaves a file written in place: `tissuebench frontier`
+    runs it again), and a text that is not CSV is one line."""
+    say = warn or (lambda line: None)
+    try:
+        raw = rows_of(text)
+    except CSVError as exc:
+        say(f"{where}: cannot be read ({type(exc).__name__}: {one_line(exc)[:120]}), not read")
+        return {}
+    cut = bool(text) and not text.endswith("\n")
     out: dict[str, list[dict]] = {}
     for i, r in enumerate(raw, start=2):  # the header is line 1
         if cut and i == len(raw) + 1:
             say(
-                f"{path}, row {i}: cut mid-row (the file's last line is not ended), left out: "
+                f"{where}, row {i}: cut mid-row (the file's last line is not ended), left out: "
                 "`tissuebench frontier` runs it again"
             )
             continue
         try:
             row = frontier_row(r)
         except FrontierRowError as exc:
-            say(f"{path}, row {i}: not a run of the frontier ({exc}): left out")
+            say(f"{where}, row {i}: not a run of the frontier ({exc}): left out")
             continue
         out.setdefault(row["case"], []).append(row)
     return out
+
+
+COMMITTED = "results/frontier/frontier.csv"  # the frontier's table, in the clone
+
+
+def clone_root() -> Path:
+    """The folder of the clone tissuebench runs from (an editable install: the package's
+    source tree is the repository), found from the package's own path."""
+    import tissuebench.workflows
+
+    return Path(tissuebench.workflows.__file__).resolve().parent.parent
+
+
+def committed_frontier(warn=None, root: Path | None = None) -> dict[str, list[dict]]:
+    """The frontier's runs the leaderboard shows: results/frontier/frontier.csv as committed at
+    HEAD in the git repository `root` (default: the clone tissuebench runs from, clone_root),
+    read from git itself and checked as any frontier.csv (frontier_of), never from a file that
+    anyone can write (OUT's, the working copy's). {} with one line to `warn` where there is no
+    committed one (an installed copy without its clone, no git); one line too where the working
+    copy differs from it (its rows are not shown until they are committed)."""
+    say = warn or (lambda line: None)
+    root = clone_root() if root is None else root
+    try:
+        done = subprocess.run(
+            ["git", "-C", str(root), "-c", f"safe.directory={root}", "show", f"HEAD:{COMMITTED}"],
+            capture_output=True,
+            timeout=60,
+            check=False,
+        )
+    except (OSError, subprocess.SubprocessError) as exc:
+        done, why = None, f"{type(exc).__name__}: {one_line(exc)[:120]}"
+    else:
+        why = one_line(done.stderr.decode(errors="replace").strip())[:160]
+    if done is None or done.returncode != 0:
+        say(
+            f"no frontier rows: no committed {COMMITTED} in {root} (git show HEAD:{COMMITTED}: "
+            f"{why or 'failed'}); the leaderboard takes them from the clone's git only"
+        )
+        return {}
+    text = done.stdout.decode("utf-8", errors="replace")
+    working = root / COMMITTED
+    try:
+        with open(working, newline="") as f:
+            differs = f.read() != text
+    except (OSError, UnicodeDecodeError):
+        differs = False  # none in the working copy: the committed one is shown
+    if differs:
+        say(
+            f"{working} is not as committed: the leaderboard shows the committed frontier rows "
+            "(git HEAD's), not this file's; commit it for its rows to be shown"
+        )
+    return frontier_of(text, f"{working} (as committed)", say)
 
 
 def _g(x: float) -> str:

@@ -11,7 +11,15 @@ import math
 from tissuebench.workflows.leaderboard.budget import covers
 from tissuebench.workflows.leaderboard.frontier_rows import FRONTIER
 from tissuebench.workflows.leaderboard.row import Kind
-from tissuebench.workflows.leaderboard.rows import E_I, E_N, RANKED_BY, Board, Row, finite
+from tissuebench.workflows.leaderboard.rows import (
+    E_I,
+    E_N,
+    RANKED_BY,
+    Board,
+    Row,
+    finite,
+    one_line,
+)
 
 OURS = "ours"
 USERS = "users"
@@ -134,6 +142,7 @@ def tip_lines(board: Board, row: Row, unit: str) -> list[str]:
     lines = [
         row.label + (" (the reference)" if row.reference else ""),
         f"source: {row.source}" + (" (tissuebench)" if row.kind is Kind.USER else ""),
+        *([f"folder: {one_line(row.folder)}"] if row.kind is Kind.USER and row.folder else []),
         f"mesh: {'the case' + chr(39) + 's own' if row.mesh == 'reference' else row.mesh}; "
         f"{row.dofs:,} dofs",
         f"model: {model_of(board, row)}"

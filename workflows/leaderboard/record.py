@@ -92,7 +92,7 @@ def check_row(d) -> None:
             f"label {one_line(repr(label))[:40]} is not printable text of 1 to {MAX_LABEL} "
             "characters"
         )
-    for key in ("reason", "group", "series", "series_field", "truth_note", "series_hash"):
+    for key in ("reason", "group", "series", "series_field", "truth_note", "series_hash", "folder"):
         _text(d.get(key), key, none=True)
     model = d.get("model")  # a user's row's stated model
     if model is not None and model not in MODELS:
@@ -183,8 +183,9 @@ def row_fields(row: Row) -> dict:
 
 def row_record(row: Row) -> dict:
     """A Row as the record holds it: every field (series_hash only where it has one: a user's
-    row, model only where its user stated one, and contact and force only on a contact case's
-    row, force_curve only where it has one, so that a record of our rows reads as before; its
+    row, model only where its user stated one, folder only on a user's row, and contact and
+    force only on a contact case's row, force_curve only where it has one, so that a record of
+    our rows reads as before; its
     kind is not kept: its source says it, row_of)."""
     d = row_fields(row)
     if d.get("series_hash") is None:
@@ -197,6 +198,8 @@ def row_record(row: Row) -> dict:
         d.pop("force_curve", None)
     if d.get("model") is None:
         d.pop("model", None)
+    if d.get("folder") is None:
+        d.pop("folder", None)
     return d
 
 

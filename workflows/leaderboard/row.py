@@ -77,6 +77,9 @@ class Row:
     force: str | None = None
     force_curve: dict | None = None
     model: str | None = None  # a user's row: its model as stated to compare (None: the case's)
+    folder: str | None = (
+        None  # a user's row: its compare folder's name (OUT/leaderboard/CASE/user/)
+    )
     # what the row is: given by the code that makes it (rows.our_rows, rows.external_rows,
     # checks.user_rows, frontier_rows.as_row); where none is given, its source's (kind_of: a
     # row read back from the record). Not written to the record (record.row_record).
