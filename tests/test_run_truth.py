@@ -52,3 +52,36 @@ def test_run_prints_compare_s_error_against_the_truth(tmp_path: Path):
     summary = json.loads((graded / "summary.json").read_text())
     peak = summary["runs"]["explicit-lumped"]["interior_error_max"]
     assert f"E_i max {peak:.3g}," in line, (line, peak)
+
+
+def test_a_run_whose_truth_does_not_converge_is_told_its_fallback(tmp_path, monkeypatch):
+    """Issue 59, item 7e: a cylinder run at full load (s = 1) was told to compute the truth
+    cylinder-MP1 (about 25 min), whose levels do not converge. A run that poses a case with
+    fallbacks (solvers/truth/fallbacks.py) is told the first of them and the load to run at, at
+    which `run` grades it against that fallback; never to compute its own truth."""
+    from types import SimpleNamespace
+
+    from mpi4py import MPI
+
+    from tissuebench.solvers.truth.cases import CASES
+    from tissuebench.solvers.truth.fallbacks import FALLBACKS
+    from tissuebench.workflows.truth.run import truth_lines
+
+    monkeypatch.setenv("TISSUEBENCH_CACHE", str(tmp_path / "cache"))  # nothing cached
+    origins = {source: case for case, (source, _) in reversed(FALLBACKS.items())}  # the first
+    assert origins["cylinder-MP1"] == "cylinder-MP1-s0.5"
+    for origin, first in origins.items():
+        benchmark, name, model, scale, width = CASES[origin]
+        material = get_material(name)
+        options = {"load_scale": scale} | ({} if width is None else {"needle_width": width})
+        run = SimpleNamespace(plane=None, benchmark=benchmark, options=options,
+                              runs={"implicit": SimpleNamespace(model=model)})  # fmt: skip
+        (line,) = truth_lines(run, tmp_path / "run", material, MPI.COMM_SELF)
+        at = FALLBACKS[first][1]
+        assert line.startswith(f"against the truth {origin}: none, its levels do not converge")
+        assert f"its fallback is {first}, at load scale s = {at:g}: run again with " in line
+        assert f"--load-scale {at:g} (the rest as here)" in line
+        assert f"`tissuebench truth {first}` has computed it" in line
+        assert f"tissuebench truth {origin}`" not in line
+        # run again at that load, the run poses the fallback: it is graded against it
+        assert truth_of(benchmark, material, model, {**options, "load_scale": at}) == first

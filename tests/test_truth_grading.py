@@ -285,6 +285,41 @@ def test_compare_against_the_truth_writes_a_compare_folder(tmp_path, store, caps
     assert "skipped" in again
 
 
+def test_compare_says_what_it_does_and_skips_a_graded_folder_unread(tmp_path, store, capsys):
+    """Issue 59, item 7b: `compare truth:rod` said nothing for 20 s (reading the truth,
+    locating, grading), and read the truth (200 MB, 6 s) before it said that a graded folder
+    is skipped. Now each phase is said as it starts, and a complete folder of the same inputs
+    is skipped without reading the truth."""
+    truth, calls = store
+    mesh = MESHES[3]["tetrahedra"]
+    if COMM.rank == 0:
+        write_xdmf(tmp_path / "cand.xdmf", mesh, candidate(mesh, affine(3)))
+    COMM.barrier()
+    argv = ["compare", "truth:rod", str(tmp_path / "cand.xdmf"), "--out", str(tmp_path / "g")]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert calls == ["rod"]
+    if COMM.rank == 0:
+        said = [
+            f"reading the candidate {tmp_path / 'cand.xdmf'}",
+            f"grading it against the truth rod: locating its {len(mesh[0]):,} nodes "
+            f"({len(mesh[1]):,} tetrahedra) in the truth's mesh, then E_n, E_i and E_s at each "
+            f"of its {len(TIMES)} time steps",
+            f"graded {len(TIMES) - 1} steps against",
+            "E_i interior_error: max",
+        ]
+        at = [next(i for i, line in enumerate(printed) if line.startswith(s)) for s in said]
+        assert at == sorted(at), printed  # in this order, the metrics last
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert calls == ["rod"]  # not read again
+    if COMM.rank == 0:
+        assert printed.splitlines() == [
+            f"{tmp_path / 'g'}: complete results for the same inputs exist, skipped (--force "
+            "grades again)"
+        ]
+
+
 def test_compare_refuses_a_point_needle_case(tmp_path, store, capsys):
     with pytest.raises(SystemExit) as stop:  # refused as the arguments are parsed
         main(["compare", "truth:block-MP1", "x.xdmf", "--out", str(tmp_path / "o")])

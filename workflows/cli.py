@@ -1,7 +1,8 @@
 """The `tissuebench` command line.
 
 Every subcommand is one module in workflows/ with `add_parser(subparsers)`, which registers its
-arguments and sets `func(args)`; it is listed once in COMMANDS below.
+arguments and sets `func(args)`; it is listed in COMMANDS below, and its help line in LISTED
+(the top-level help's, which imports no command).
 
 Exit status: 0 done; 2 bad input (UserError, core/errors.py; one line on stderr); 1 the
 environment failed (disk full, file system read-only, permission lost; one line); 130
@@ -69,6 +70,33 @@ COMMANDS = [
     "tissuebench.workflows.commands.contact",
 ]
 
+# Each command's help line, as its module's add_parser gives it (tests/test_cli_help.py checks):
+# the top-level help lists the commands from here, without importing their modules (DOLFINx,
+# matplotlib, PETSc: 1.5 s of `tissuebench --help`).
+LISTED = {
+    "run": "run one benchmark with the chosen algorithms",
+    "paper": "the paper's study, its figures and report",
+    "compare": "the three metrics of two displacement series, on one mesh or two",
+    "mesh": "save a benchmark's mesh as a gmsh .msh file",
+    "export": "write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
+    "external": "run a benchmark in an outside simulator (CalculiX, SfePy, ...) and grade it",
+    "leaderboard": "accuracy against cost of our algorithms, outside simulators and users' runs",
+    "sensitivity": "mesh-sensitivity study: every algorithm on coarser and other-shaped meshes",
+    "stability": "critical time step of every scheme (eigenvalues + amplification matrix)",
+    "convergence": "observed orders of the errors in time and in space",
+    "bench": "speed against a scikit-fem + SciPy peer, the bandwidth limit and 2 ranks",
+    "truth": "the converged reference of SPEC 10: compute (once, cached) and summarise",
+    "frontier": "the real-time frontier: every scheme against the truth, at its cost (SPEC 11)",
+    "hertz": (
+        "the needle pushed statically into the block, against Hertz's law (SPEC 12; --dim 3: "
+        "the capsule into the cylinder, SPEC 13)"
+    ),
+    "contact": "our algorithms with the needle as contact, graded against its truth (SPEC 12)",
+}
+
+# the launchers' rank variables (MPICH's hydra, Open MPI, PMIx): set under mpiexec
+LAUNCHED = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
+
 
 class Parser(argparse.ArgumentParser):
     """argparse with the command line's style of bad input: one line on stderr, from rank 0
@@ -87,15 +115,39 @@ def parser(command: str | None = None) -> Parser:
     """The command line's parser: every command's, or only `command`'s when it names one (its
     module alone is imported: the others' imports, matplotlib's among them, took 0.8 s of
     every command's start)."""
-    p = Parser(
-        prog="tissuebench",
-        description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.",
-    )
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p, sub = top()
     names = [name for name in COMMANDS if name.rsplit(".", 1)[1] == command] or COMMANDS
     for name in names:
         importlib.import_module(name).add_parser(sub)
     return p
+
+
+def top() -> tuple[Parser, argparse._SubParsersAction]:
+    """The top-level parser and its (empty) subparsers."""
+    p = Parser(
+        prog="tissuebench",
+        description="Benchmarks, algorithms and accuracy metrics for fast soft-tissue simulation.",
+    )
+    return p, p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+
+def listing() -> Parser:
+    """The top-level parser with the commands listed from LISTED, none of their modules
+    imported: its help and its errors are parser()'s, word for word; it parses no command."""
+    p, sub = top()
+    for name in LISTED:
+        sub.add_parser(name, help=LISTED[name])
+    return p
+
+
+def listed_only(argv: list[str] | None) -> bool:
+    """Whether the command line names no command (`tissuebench`, `tissuebench --help`): the
+    listing answers it, before MPI and PETSc are loaded. Not under mpiexec, where only rank 0
+    says an error (Parser.error, which asks MPI)."""
+    words = sys.argv[1:] if argv is None else argv
+    commands = {name.rsplit(".", 1)[1] for name in COMMANDS}
+    launched = any(name in os.environ for name in LAUNCHED)
+    return not launched and not commands.intersection(words)
 
 
 def named(argv: list[str] | None) -> str | None:
@@ -148,6 +200,8 @@ def end(status: int) -> None:
 
 
 def command_line(argv: list[str] | None = None) -> int:
+    if listed_only(argv):  # the help (exit 0) or an error (2): no command is run
+        listing().parse_args(argv)
     import petsc4py
     from mpi4py import MPI  # before petsc4py, which needs libmpi loaded
 

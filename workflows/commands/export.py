@@ -131,7 +131,7 @@ def main(args: argparse.Namespace) -> int:
 def case_line(board: Board | None) -> str:
     """One line: the leaderboard case an export poses and its truth, or that it poses none
     and the options of each case."""
-    from tissuebench.solvers.truth.store import expected_words
+    from tissuebench.solvers.truth.store import cache_path, expected_words
 
     if board is None:
         cases = "; ".join(f"{b.name}: export {export_options(b)}" for b in BOARDS)
@@ -139,8 +139,17 @@ def case_line(board: Board | None) -> str:
             "leaderboard case: none (these options pose none of its cases; a run of them is "
             f"graded by compare alone). The cases: {cases}"
         )
+    from tissuebench.solvers.truth.fallbacks import FALLBACKS
+
     truth = "it has no truth (a point needle)"
-    if board.truth:
+    if board.truth in {origin for origin, _ in FALLBACKS.values()}:  # levels that diverge
+        truth = (
+            f"its truth case {board.truth} has levels that do not converge (`tissuebench truth` "
+            "says why): the leaderboard grades a run against our implicit on your mesh only"
+        )
+    elif board.truth and cache_path(board.truth).is_file():
+        truth = f"its truth {board.truth} is cached here, and the leaderboard grades against it"
+    elif board.truth:
         truth = (
             f"its truth {board.truth} is computed once by `tissuebench truth {board.truth}` "
             f"({expected_words(board.truth)} on one core) before the leaderboard grades against it"

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 from mpi4py import MPI
@@ -37,6 +38,7 @@ import numpy as np
 from tissuebench.core import interrupt
 from tissuebench.core.errors import UserError
 from tissuebench.core.fingerprint import fingerprint
+from tissuebench.metrics.cells import NAMES
 from tissuebench.metrics.compare import Grading, grade_series, metric_units, summarize, unit
 from tissuebench.metrics.table import METRICS, panels
 from tissuebench.metrics.truth import TruthGrading, grade_truth, truth_case
@@ -69,13 +71,23 @@ def load_truth(case: str, comm: MPI.Comm = MPI.COMM_WORLD) -> TruthSamples | Non
     """The truth of a case, computed or loaded from its cache (solvers/truth/store.py;
     collective); rank 0 prints its progress. Rank 0's TruthSamples is the one used: it is
     handed to metrics/truth.py, which grades and computes nothing else."""
-    from tissuebench.solvers.truth.store import truth_samples
+    from tissuebench.solvers.truth.store import cache_path, truth_samples
 
-    def log(*args, **kwargs):
-        if comm.rank == 0:
-            print(*args, **kwargs)
-
+    log = say(comm)
+    if comm.rank == 0 and cache_path(case).is_file():  # its reading takes seconds (200 MB)
+        megabytes = cache_path(case).stat().st_size / 1e6
+        log(f"truth {case}: reading it from the cache ({megabytes:,.0f} MB)")
     return truth_samples(case, comm=comm, log=log)
+
+
+def say(comm: MPI.Comm = MPI.COMM_WORLD) -> Callable[[str], None]:
+    """A line of progress on stdout, at once (flushed), from rank 0; nothing on the others."""
+
+    def line(text: str) -> None:
+        if comm.rank == 0:
+            print(text, flush=True)
+
+    return line
 
 
 class GradingError(UserError):
@@ -192,7 +204,13 @@ def compare(
     def grading() -> Grading:  # against the reference's file, or the truth
         if case is not None:
             g = grade_against_truth(
-                truth, candidate, candidate_field or field, comm, label, keep=in_contact
+                truth,
+                candidate,
+                candidate_field or field,
+                comm,
+                label,
+                keep=in_contact,
+                log=say(comm),
             )
         else:
             g = grade(
@@ -220,8 +238,7 @@ def compare(
         collective(comm, lambda: write_grading(Path(out_dir), g, summary), Path(out_dir))
         return {**{f"note {k + 1}": note for k, note in enumerate(g.notes)}, **g.summaries}
     with RunFolder(out_dir, comm) as folder:
-        truth = load_truth(case, comm) if case is not None else None
-        inputs = collective(
+        inputs = collective(  # a truth's by its inputs' fingerprint: read only if graded
             comm,
             lambda: compare_inputs(
                 reference,
@@ -231,7 +248,7 @@ def compare(
                 candidate_field,
                 label,
                 wall,
-                truth,
+                case,
                 needle_force,
                 model,
             ),
@@ -241,6 +258,7 @@ def compare(
                 "skipped": f"{out_dir}: complete results for the same inputs exist, skipped "
                 "(--force grades again)"
             }
+        truth = load_truth(case, comm) if case is not None else None
         g = grading()
         summary = summary_of(g, reference, candidate, wall)
         if model is not None:  # as stated by the user (absent: the reference's)
@@ -274,18 +292,21 @@ def compare_inputs(
     candidate_field,
     label,
     wall,
-    truth=None,
+    case=None,
     needle_force=None,
     model=None,
 ):
     """Every input that changes a compare folder's numbers (rank 0: it reads the files); for a
-    truth (rank 0's TruthSamples), its case and the fingerprint of its inputs; the candidate's
+    truth (`case`), its case and the fingerprint of its inputs (the cache's key: known without
+    reading the truth, which a complete folder of the same inputs never needs); the candidate's
     needle force file and its stated model when given (absent otherwise, so that other folders
     keep their fingerprint)."""
     from importlib.metadata import version
 
-    if truth is not None:
-        ref = {"truth": truth.case, "fingerprint": fingerprint(truth.inputs)}
+    if case is not None:
+        from tissuebench.solvers.truth.store import inputs as truth_inputs
+
+        ref = {"truth": case, "fingerprint": fingerprint(truth_inputs(case))}
     else:
         ref = {"file": str(Path(reference).resolve()), "files": series_files(reference)}
     given = {}
@@ -508,13 +529,24 @@ def grade_against_truth(
     comm: MPI.Comm = MPI.COMM_WORLD,
     label: str | None = None,
     keep: bool = False,
+    log: Callable[[str], None] | None = None,
 ) -> TruthGrading:
     """Read the candidate series file (XDMF, PVD, CalculiX .frd or .dat; point field `field`,
     else the first of series.DEFAULT_FIELDS it holds) on rank 0 and grade it against the
     truth (rank 0's) with grade_truth. Collective; InputError on every rank as grade_truth,
-    and for an unreadable file. `keep` as grade's."""
+    and for an unreadable file. `keep` as grade's. `log` (rank 0's) hears what is being done
+    as it starts (reading, locating, grading: seconds each on a large candidate) and the time
+    the grading took."""
+    if log is not None:
+        log(f"reading the candidate {candidate}")
     (cand,) = read_on_rank0(comm, (candidate, field))
-    g = grade_truth(truth, cand, comm, label=label)
+    if log is not None and truth is not None and cand is not None:  # rank 0's
+        log(
+            f"grading it against the truth {truth.case}: locating its {len(cand.points):,} nodes "
+            f"({len(cand.cells):,} {NAMES[cand.cell_type]}) in the truth's mesh, then E_n, E_i "
+            f"and E_s at each of its {len(cand.times):,} time steps"
+        )
+    g = grade_truth(truth, cand, comm, label=label, log=log)
     if comm.rank == 0:  # rank 0 writes the summary (its attributes beyond Grading's: getattr)
         assert truth is not None  # rank 0's
         setattr(g, "reference_fingerprint", truth_fingerprint(truth.case))

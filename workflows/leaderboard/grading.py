@@ -93,16 +93,44 @@ def grade_row_reference(board: Board, row: Row, caches: Caches) -> None:
         return
     row.mesh, row.dofs = user_mesh(mesh_of(cand))
     try:
-        g = grade_series(caches.reference(board), cand, MPI.COMM_SELF, label=row.label)
+        reference = caches.reference(board)
+        g = grade_series(reference, cand, MPI.COMM_SELF, label=row.label)
     except Exception as exc:
         row.reason = why("not graded against the case's reference", exc)
         return
+    if row.mesh != "?" and on_case_mesh(cand, reference):
+        row.mesh = f"{row.mesh} ({CASE_MESH})"
     for name in METRICS:
         row.errors[f"{name}_max"], row.errors[f"{name}_mean"] = summarized(g.curves[name])
     row.status = next((s for s in g.status if s != "ok"), "ok")
     row.reason = g.candidate_reason or (
         g.reference_reason if row.status == "reference diverged" else None
     )
+
+
+CASE_MESH = "the case's mesh"  # said after a user's mesh that is the export's (on_case_mesh)
+
+
+def on_case_mesh(cand, reference) -> bool:
+    """Whether a series (metrics.series.Series) is on the case's own mesh, the one `tissuebench
+    export` hands out (the reference's): the same cell type, and the same points (within
+    SAME_NODE of the extent) and cells, in any numbering."""
+    from tissuebench.metrics.cells import match_points
+    from tissuebench.metrics.series import SAME_NODE
+
+    a, b = np.asarray(cand.points, dtype=float), np.asarray(reference.points, dtype=float)
+    cells, theirs = np.asarray(cand.cells), np.asarray(reference.cells)
+    if cand.cell_type != reference.cell_type or a.shape != b.shape or cells.shape != theirs.shape:
+        return False
+    if not len(a) or not len(cells):
+        return False
+    tol = SAME_NODE * float(np.ptp(b, axis=0).max()) or SAME_NODE
+    match = match_points(a, b, tol)  # candidate node i -> the reference's node match[i]
+    if (match < 0).any() or len(np.unique(match)) != len(match):
+        return False
+    mine = np.sort(match[cells], axis=1)  # each cell as its set of the reference's nodes
+    theirs = np.sort(theirs, axis=1)
+    return bool(np.array_equal(np.unique(mine, axis=0), np.unique(theirs, axis=0)))
 
 
 GRADES = ("errors", "status", "reason", "mesh", "dofs", "truth", "truth_note", "budget")

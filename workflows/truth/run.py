@@ -16,7 +16,8 @@ from tissuebench.metrics.series import InputError
 from tissuebench.metrics.truth import grade_truth
 from tissuebench.solvers.materials import Material, get_material
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.solvers.truth.store import expected_words, load_cached, load_failure
+from tissuebench.solvers.truth.fallbacks import FALLBACKS
+from tissuebench.solvers.truth.store import cache_path, expected_words, load_cached, load_failure
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.summary import CaseSummary
 
@@ -64,6 +65,10 @@ def truth_lines(
     for case, labels in by_case.items():
         truth = load_cached(case, comm=comm)
         if comm.allreduce(truth is not None if comm.rank == 0 else False, op=MPI.LOR) is False:
+            instead = fallback_line(case)  # a case that does not converge: its fallback
+            if instead is not None:
+                lines.append(instead)
+                continue
             failure = load_failure(case)
             if failure is not None:
                 lines.append(
@@ -84,6 +89,31 @@ def truth_lines(
             path = folder / f"{label}.xdmf"
             lines.append(_graded(truth, case, path, label, size, comm, located))
     return lines if comm.rank == 0 else []
+
+
+def fallback_line(case: str) -> str | None:
+    """Where `case` is one whose levels do not converge (solvers/truth/fallbacks.py takes it at
+    smaller loads), one line naming its first fallback and the load scale to run at, where
+    `run` grades its runs against that truth (the case the run then poses: truth_of), once it
+    is cached; None for a case without fallbacks (computing its truth is the advice)."""
+    taken = [(c, scale) for c, (source, scale) in FALLBACKS.items() if source == case]
+    if not taken:
+        return None
+    first, scale = taken[0]
+    when = (
+        "its truth is cached here"
+        if cache_path(first).is_file()
+        else f"once `tissuebench truth {first}` has computed it, {expected_words(first)} on one "
+        "core"
+    )
+    others = [f"{c} (s = {s:g})" for c, s in taken[1:]]
+    more = f"; its other fallbacks: {', '.join(others)}" if others else ""
+    return (
+        f"against the truth {case}: none, its levels do not converge "
+        f"(solvers/truth/fallbacks.py); its fallback is {first}, at load scale s = {scale:g}: "
+        f"run again with --load-scale {scale:g} (the rest as here) and its runs are graded "
+        f"against {first} ({when}){more}"
+    )
 
 
 def _graded(
