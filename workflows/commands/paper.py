@@ -81,7 +81,7 @@ def main(args: argparse.Namespace) -> int:
         force=args.force,
         jobs=args.jobs,
         names=getattr(args, "cases", None),
-        folders_only=args.folders_only,
-        claims=args.claims,
+        folders_only=getattr(args, "folders_only", False),
+        claims=getattr(args, "claims", None),
     )
     return 0
