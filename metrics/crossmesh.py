@@ -155,6 +155,18 @@ def _farthest(checks: list, tol: float) -> tuple[float, str, str]:
     return max(worst, key=lambda w: w[0])
 
 
+def _within(pairs: list, tol: float, where: str, said: str) -> tuple[float, str, str]:
+    """_farthest of `pairs`, refused in one line (InputError, `where` first) beyond `tol` (m),
+    `said` saying how tol is made."""
+    distance, phrase, other_name = _farthest(pairs, tol)
+    if distance > tol:
+        raise InputError(
+            f"{where}: {phrase} is {distance:.3g} from the {other_name}'s undeformed domain, "
+            f"beyond {tol:.3g} ({said})"
+        )
+    return distance, phrase, other_name
+
+
 def check_same_body(ref: Series, cand: Series, body: dict | None = None) -> tuple[str, float]:
     """Refuse (InputError, one line naming the farthest node and its distance) a candidate mesh
     that is not a mesh of the reference's body (see the module docstring). A body with a
@@ -168,16 +180,11 @@ def check_same_body(ref: Series, cand: Series, body: dict | None = None) -> tupl
     said = f"1e-6 of the reference's extent {extent:.6g}"
     if allowance:
         said += f", plus the curved side's facet sagitta {allowance:.3g}"
-    distance, phrase, other_name = _farthest(
-        [("reference", ref.points, Mesh.of(cand), ref.points),
-         ("candidate", cand.points, Mesh.of(ref), cand.points)], tol
-    )  # fmt: skip
     where = f"{cand.path}: not a mesh of the body of {ref.path}"
-    if distance > tol:
-        raise InputError(
-            f"{where}: {phrase} is {distance:.3g} from the {other_name}'s undeformed domain, "
-            f"beyond {tol:.3g} ({said})"
-        )
+    distance, phrase, other_name = _within(
+        [("reference", ref.points, Mesh.of(cand), ref.points),
+         ("candidate", cand.points, Mesh.of(ref), cand.points)], tol, where, said
+    )  # fmt: skip
     v_ref = float(measures(ref.points, ref.cells, ref.cell_type).sum())
     v_cand = float(measures(cand.points, cand.cells, cand.cell_type).sum())
     bound = VOLUME_RTOL * v_ref + (allowance * boundary_area(ref) if allowance else 0.0)
@@ -207,16 +214,11 @@ def check_same_revolved_body(
     said = f"1e-6 of the reference's extent {extent:.6g}, plus the curved side's facet sagitta "
     said += f"{allowance:.3g}"
     rz = np.column_stack([np.hypot(cand.points[:, 0], cand.points[:, 1]), cand.points[:, 2]])
-    distance, phrase, other_name = _farthest(
-        [("candidate", rz, Mesh.of(meridian), cand.points),
-         ("reference", revolved.points, Mesh.of(cand), revolved.points)], tol
-    )  # fmt: skip
     where = f"{cand.path}: not a mesh of the body of {revolved.path}"
-    if distance > tol:
-        raise InputError(
-            f"{where}: {phrase} is {distance:.3g} from the {other_name}'s undeformed domain, "
-            f"beyond {tol:.3g} ({said})"
-        )
+    distance, phrase, other_name = _within(
+        [("candidate", rz, Mesh.of(meridian), cand.points),
+         ("reference", revolved.points, Mesh.of(cand), revolved.points)], tol, where, said
+    )  # fmt: skip
     r, z = meridian.points[:, 0], meridian.points[:, 1]
     radius, height = float(r.max()), float(np.ptp(z))
     v_ref = np.pi * radius**2 * height  # the body of revolution: the meridian's box revolved

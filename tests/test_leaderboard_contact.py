@@ -108,9 +108,8 @@ def test_the_contact_columns_in_record_csv_md_and_page(board_out):
 def test_the_record_alone_draws_every_force(board_out, tmp_path, monkeypatch):
     """The record copied alone (no force file beside it), drawn from another folder: every
     recorded row's force is drawn, none said missing."""
-    from matplotlib.figure import Figure
+    from test_leaderboard_force_curve import drawn
 
-    from tissuebench.workflows.leaderboard.force_figure import plot_force
     from tissuebench.workflows.leaderboard.record import read_record
 
     copy = tmp_path / "copy"
@@ -118,19 +117,9 @@ def test_the_record_alone_draws_every_force(board_out, tmp_path, monkeypatch):
     (copy / "leaderboard.json").write_text((board_out / "leaderboard.json").read_text())
     monkeypatch.chdir(tmp_path)
     (board,), rows, _ = read_record(copy)
-    figures = []
-    save = Figure.savefig
-
-    def kept(fig, *args, **kwargs):
-        figures.append(fig)
-        return save(fig, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", kept)
-    plot_force(tmp_path / "force.png", board, rows[board.name])
-    (ax,) = figures[0].axes
-    drawn = {line.get_label() for line in ax.get_lines()}
-    assert {"implicit (reference)", "mirror:copy", "explicit"} <= drawn
-    assert not any("not" in t.get_text() and "force" in t.get_text() for t in ax.texts)
+    lines, texts = drawn(monkeypatch, tmp_path, board, rows[board.name])
+    assert {"implicit (reference)", "mirror:copy", "explicit"} <= set(lines)
+    assert not any("not" in text and "force" in text for text in texts)
 
 
 def test_a_record_without_contact_rows_has_no_contact_fields(board_out, tmp_path):
