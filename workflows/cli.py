@@ -1,8 +1,9 @@
 """The `tissuebench` command line.
 
 Every subcommand is one module in workflows/ with `add_parser(subparsers)`, which registers its
-arguments and sets `func(args)`; it is listed in COMMANDS below, and its help line in LISTED
-(the top-level help's, which imports no command).
+arguments and sets `func(args)`; it is listed once, with its help line, in
+workflows/commands/__init__.py's HELP (which the top-level help reads without importing any
+command).
 
 Exit status: 0 done; 2 bad input (UserError, core/errors.py; one line on stderr); 1 the
 environment failed (disk full, file system read-only, permission lost; one line); 130
@@ -52,47 +53,10 @@ import importlib  # noqa: E402
 import traceback  # noqa: E402
 from typing import NoReturn  # noqa: E402
 
-COMMANDS = [
-    "tissuebench.workflows.commands.run",
-    "tissuebench.workflows.commands.paper",
-    "tissuebench.workflows.commands.compare",
-    "tissuebench.workflows.commands.mesh",
-    "tissuebench.workflows.commands.export",
-    "tissuebench.workflows.commands.external",
-    "tissuebench.workflows.commands.leaderboard",
-    "tissuebench.workflows.commands.sensitivity",
-    "tissuebench.workflows.commands.stability",
-    "tissuebench.workflows.commands.convergence",
-    "tissuebench.workflows.commands.bench",
-    "tissuebench.workflows.commands.truth",
-    "tissuebench.workflows.commands.frontier",
-    "tissuebench.workflows.commands.hertz",
-    "tissuebench.workflows.commands.contact",
-]
+from tissuebench.workflows.commands import HELP  # noqa: E402 (a dict: imports nothing)
 
-# Each command's help line, as its module's add_parser gives it (tests/test_cli_help.py checks):
-# the top-level help lists the commands from here, without importing their modules (DOLFINx,
-# matplotlib, PETSc: 1.5 s of `tissuebench --help`).
-LISTED = {
-    "run": "run one benchmark with the chosen algorithms",
-    "paper": "the paper's study, its figures and report",
-    "compare": "the three metrics of two displacement series, on one mesh or two",
-    "mesh": "save a benchmark's mesh as a gmsh .msh file",
-    "export": "write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
-    "external": "run a benchmark in an outside simulator (CalculiX, SfePy, ...) and grade it",
-    "leaderboard": "accuracy against cost of our algorithms, outside simulators and users' runs",
-    "sensitivity": "mesh-sensitivity study: every algorithm on coarser and other-shaped meshes",
-    "stability": "critical time step of every scheme (eigenvalues + amplification matrix)",
-    "convergence": "observed orders of the errors in time and in space",
-    "bench": "speed against a scikit-fem + SciPy peer, the bandwidth limit and 2 ranks",
-    "truth": "the converged reference of SPEC 10: compute (once, cached) and summarise",
-    "frontier": "the real-time frontier: every scheme against the truth, at its cost (SPEC 11)",
-    "hertz": (
-        "the needle pushed statically into the block, against Hertz's law (SPEC 12; --dim 3: "
-        "the capsule into the cylinder, SPEC 13)"
-    ),
-    "contact": "our algorithms with the needle as contact, graded against its truth (SPEC 12)",
-}
+# the commands, in the order of the help: one module each, workflows/commands/NAME.py
+COMMANDS = [f"tissuebench.workflows.commands.{name}" for name in HELP]
 
 # the launchers' rank variables (MPICH's hydra, Open MPI, PMIx): set under mpiexec
 LAUNCHED = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
@@ -132,11 +96,11 @@ def top() -> tuple[Parser, argparse._SubParsersAction]:
 
 
 def listing() -> Parser:
-    """The top-level parser with the commands listed from LISTED, none of their modules
+    """The top-level parser with the commands listed from HELP, none of their modules
     imported: its help and its errors are parser()'s, word for word; it parses no command."""
     p, sub = top()
-    for name in LISTED:
-        sub.add_parser(name, help=LISTED[name])
+    for name in HELP:
+        sub.add_parser(name, help=HELP[name])
     return p
 
 

@@ -49,6 +49,7 @@ from tissuebench.workflows.bench.measure import measure, measure_explicit
 from tissuebench.workflows.bench.report import plot, write_explicit_report, write_report
 from tissuebench.workflows.bench.tables import model_step_rows, text_table
 from tissuebench.workflows.bench.targets import summary_tables
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.io.output import check_writable, write_owned
 
 FILES = ("performance.json", "performance.png", "performance.md")
@@ -57,7 +58,7 @@ FILES = ("performance.json", "performance.png", "performance.md")
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "bench",
-        help="speed against a scikit-fem + SciPy peer, the bandwidth limit and 2 ranks",
+        help=HELP["bench"],
         description="Measure assembly, setup and step times of every algorithm against a "
         "scikit-fem + SciPy peer, the memory-bandwidth limit and 2 MPI ranks; write "
         "DIR/performance.md, .png and .json. Needs the 'bench' extra.",

@@ -10,6 +10,7 @@ from mpi4py import MPI
 from tissuebench.metrics.truth import PREFIX as TRUTH_PREFIX
 from tissuebench.solvers.models import MODELS
 from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.compare.grading import MAX_LABEL, compare
 from tissuebench.workflows.io.series import DEFAULT_FIELDS, check_input_path
 from tissuebench.workflows.io.summary import read_compare_summary
@@ -20,7 +21,7 @@ REFERENCE_DIVERGED = 3  # exit status: the reference diverged (results written, 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "compare",
-        help="the three metrics of two displacement series, on one mesh or two",
+        help=HELP["compare"],
         description="Compare two displacement time series of the same body, on the same mesh or "
         "each on its own (first-order triangles, quadrilaterals, tetrahedra or hexahedra; SPEC "
         "9: the candidate is evaluated at the reference's nodes and quadrature points): XDMF/HDF5, "

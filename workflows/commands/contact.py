@@ -21,6 +21,7 @@ from mpi4py import MPI
 from tissuebench.core.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
 from tissuebench.solvers.truth.store import is_cached, truth_samples
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.contact import report, study
 from tissuebench.workflows.io.output import check_writable, collective, write_set
 from tissuebench.workflows.io.tables import write_table
@@ -29,7 +30,7 @@ from tissuebench.workflows.io.tables import write_table
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "contact",
-        help="our algorithms with the needle as contact, graded against its truth (SPEC 12)",
+        help=HELP["contact"],
         description=__doc__.split("\n\n")[1],
     )
     p.add_argument("--out", default="results", help="output directory (default: results)")

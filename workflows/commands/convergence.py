@@ -33,6 +33,7 @@ from tissuebench.meshes import BENCHMARKS, get_benchmark
 from tissuebench.metrics import METRICS as ALL_METRICS
 from tissuebench.solvers.stability import explicit_schemes, stability_limits
 from tissuebench.solvers.system import System
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.io.output import check_writable, collective, write_owned
 from tissuebench.workflows.study.convergence import (
     LEVELS,
@@ -217,7 +218,7 @@ def markdown(
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "convergence",
-        help="observed orders of the errors in time and in space",
+        help=HELP["convergence"],
         description=__doc__.split("\n\n")[0],
     )
     p.add_argument("--out", default="results", help="output directory (default: results)")

@@ -7,6 +7,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS, get_entry
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import add_common, add_posed_options
 from tissuebench.workflows.compare.posing import (
     FORMATS,
@@ -27,7 +28,7 @@ from tissuebench.workflows.run.checks import check_common, posed
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export",
-        help="write a benchmark for another simulator (JSON, CalculiX .inp, .vtu, .msh)",
+        help=HELP["export"],
         description="Write a benchmark for another simulator: json (mesh, node sets, the "
         "prescribed motion at every t_i, body force, material, model, h, T; schema "
         f"{SCHEMA} version {SCHEMA_VERSION}, units and regions stated), inp (a CalculiX deck "

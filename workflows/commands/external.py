@@ -7,6 +7,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.meshes import BENCHMARKS
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import add_common, add_posed_options
 from tissuebench.workflows.run.checks import check_common, posed
 from tissuebench.workflows.simulators import SIMULATORS
@@ -16,7 +17,7 @@ from tissuebench.workflows.simulators.runner import run_external
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "external",
-        help="run a benchmark in an outside simulator (CalculiX, SfePy, ...) and grade it",
+        help=HELP["external"],
         description="Export the benchmark, run our reference (implicit, with the model) and "
         "every variant of SIMULATOR that poses it (or those of --variants), each in DIR/VARIANT/"
         "work, and grade each against the reference as `tissuebench compare` does: "

@@ -20,6 +20,7 @@ from mpi4py import MPI
 
 from tissuebench.core.errors import UserError
 from tissuebench.solvers.truth.cases import CASES
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import schemes_described
 from tissuebench.workflows.frontier.report import MARKER, markdown, plot
 from tissuebench.workflows.frontier.runs import (
@@ -39,7 +40,7 @@ from tissuebench.workflows.io.tables import write_rows
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "frontier",
-        help="the real-time frontier: every scheme against the truth, at its cost (SPEC 11)",
+        help=HELP["frontier"],
         description=__doc__.split("\n\n")[1],
         epilog=f"The schemes, each at its defaults: {schemes_described()}. Swept on the middle "
         f"size: {', '.join(s for swept in SWEEPS.values() for s in swept)}.",

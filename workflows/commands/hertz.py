@@ -19,6 +19,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.contact import hertz, hertz3d
 from tissuebench.workflows.io.output import check_writable, collective, write_set
 
@@ -29,8 +30,7 @@ FILES_3D = ("hertz3d.json", "hertz3d.png")
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "hertz",
-        help="the needle pushed statically into the block, against Hertz's law (SPEC 12; "
-        "--dim 3: the capsule into the cylinder, SPEC 13)",
+        help=HELP["hertz"],
         description=__doc__.split("\n\n")[1],
     )
     p.add_argument("--out", default="results", help="output directory (default: results)")

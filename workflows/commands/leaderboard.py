@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import add_common
 from tissuebench.workflows.leaderboard import build
 from tissuebench.workflows.leaderboard.rows import BOARDS
@@ -25,7 +26,7 @@ from tissuebench.workflows.leaderboard.rows import BOARDS
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "leaderboard",
-        help="accuracy against cost of our algorithms, outside simulators and users' runs",
+        help=HELP["leaderboard"],
         description="Render OUT/leaderboard/index.html, OUT/leaderboard.md, "
         "OUT/leaderboard.csv and OUT/leaderboard/CASE.png "
         "from the record OUT/leaderboard.json (or, where OUT has none, the clone's "

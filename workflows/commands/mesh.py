@@ -10,6 +10,7 @@ from mpi4py import MPI
 from tissuebench.meshes import BENCHMARKS, get_benchmark, get_entry
 from tissuebench.meshes.benchmark import shape_options
 from tissuebench.meshes.gmshio import check_positive_int
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import add_shape_options, mesh_size_help
 from tissuebench.workflows.io.limits import check as check_limits
 from tissuebench.workflows.io.limits import estimate
@@ -19,7 +20,7 @@ from tissuebench.workflows.io.output import PREFIX, check_file_target, collectiv
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "mesh",
-        help="save a benchmark's mesh as a gmsh .msh file",
+        help=HELP["mesh"],
         description="Build a benchmark's mesh with gmsh and save it (.msh) for inspection.",
     )
     p.add_argument("benchmark", help=" or ".join(BENCHMARKS))

@@ -31,6 +31,7 @@ import os
 from pathlib import Path
 
 from tissuebench.core.errors import UserError
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import add_common
 from tissuebench.workflows.run.checks import check_common
 from tissuebench.workflows.study.paper import run_paper
@@ -39,7 +40,7 @@ from tissuebench.workflows.study.paper import run_paper
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "paper",
-        help="the paper's study, its figures and report",
+        help=HELP["paper"],
         description="Run the paper's study into OUT (default results/) and write OUT/README.md.",
     )
     p.add_argument(

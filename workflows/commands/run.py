@@ -11,6 +11,7 @@ from tissuebench.meshes import BENCHMARKS, get_entry
 from tissuebench.solvers import ALGORITHMS, MODELS
 from tissuebench.solvers.materials import get_material
 from tissuebench.solvers.models import LINEAR
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import (
     add_benchmark_options,
     add_common,
@@ -33,7 +34,7 @@ from tissuebench.workflows.truth.run import truth_lines
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "run",
-        help="run one benchmark with the chosen algorithms",
+        help=HELP["run"],
         description=(
             "Run one benchmark and write XDMF series, metrics.csv, summary.json and figures to "
             "DIR; say the wall time of each phase (also in summary.json)."

@@ -25,6 +25,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import add_common
 from tissuebench.workflows.io.output import OutputError, check_writable, collective, write_owned
 from tissuebench.workflows.leaderboard.mesh_sensitivity import run_study
@@ -36,7 +37,7 @@ from tissuebench.workflows.run.checks import check_common
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sensitivity",
-        help="mesh-sensitivity study: every algorithm on coarser and other-shaped meshes",
+        help=HELP["sensitivity"],
         description=__doc__.split("\n\n")[1] + " " + __doc__.split("\n\n")[2],
     )
     p.add_argument(

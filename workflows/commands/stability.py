@@ -33,6 +33,7 @@ from tissuebench.solvers.stability import (
     system_end,
     system_for,
 )
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import mesh_size_help
 from tissuebench.workflows.io.output import check_writable, collective, write_owned
 
@@ -42,7 +43,7 @@ EXPLICIT = explicit_schemes()
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "stability",
-        help="critical time step of every scheme (eigenvalues + amplification matrix)",
+        help=HELP["stability"],
         description=__doc__.split("\n\n")[1],
     )
     p.add_argument("benchmark", choices=list(BENCHMARKS))

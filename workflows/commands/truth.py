@@ -44,6 +44,7 @@ from tissuebench.solvers.truth.store import (
     load_failure,
     truth_samples,
 )
+from tissuebench.workflows.commands import HELP
 from tissuebench.workflows.commands.arguments import truth_case
 from tissuebench.workflows.io.output import OutputError, check_writable, collective, write_set
 from tissuebench.workflows.truth.crease import crease_figures
@@ -67,7 +68,7 @@ from tissuebench.workflows.truth.sweep import record as sweep_record
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "truth",
-        help="the converged reference of SPEC 10: compute (once, cached) and summarise",
+        help=HELP["truth"],
         description=__doc__.split("\n\n")[1] + " " + __doc__.split("\n\n")[2],
     )
     p.add_argument(
