@@ -27,15 +27,12 @@ import sys
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from tissuebench.workflows.bench.machine import LOAD_LIMIT, LoadMeter, noisy
 from tissuebench.workflows.io.output import PREFIX, make_temporary, remove_temporary, write_owned
-
-if TYPE_CHECKING:
-    pass
 
 STEPS = 30  # steps of a timed run; the displacements after them are compared
 SHORT = 12  # steps of a run too costly for STEPS (no displacement check)
@@ -147,9 +144,6 @@ def case_scheme(label: str) -> str:
 def get(rec: dict, side: str, case: tuple, field: str) -> Any:
     """One field of one case of one side ("ours1", "ours2", "peer") of a record, or None."""
     return rec.get(side, {}).get("cases", {}).get(key(case), {}).get(field)
-
-
-# --- measurements shared by the workers --------------------------------------------------------
 
 
 # --- the driver --------------------------------------------------------------------------------

@@ -51,7 +51,11 @@ from tissuebench.workflows.compare.contact import (
     is_contact_reference,
     reference_benchmark,
 )
-from tissuebench.workflows.compare.fingerprint import folder_fingerprint
+from tissuebench.workflows.compare.fingerprint import (
+    mesh_of,
+    reference_fingerprint,
+    truth_fingerprint,
+)
 from tissuebench.workflows.io.manifest import file_hash
 from tissuebench.workflows.io.output import RunFolder, collective
 from tissuebench.workflows.io.series import read_on_rank0
@@ -554,65 +558,3 @@ def grade_against_truth(
         if keep:
             setattr(g, "candidate_series", cand)
     return g
-
-
-# --- what was graded against what ---------------------------------------------------------------
-
-
-def mesh_of(series) -> dict | None:
-    """The mesh of a series (metrics.series.Series): {"cell_type", "cells", "nodes",
-    "dimension", "dofs"}, dofs = nodes x dimension (a first-order displacement field)."""
-    if series is None:
-        return None
-    return {
-        "cell_type": str(series.cell_type),
-        "cells": int(len(series.cells)),
-        "nodes": int(len(series.points)),
-        "dimension": int(series.dim),
-        "dofs": int(series.points.size),
-    }
-
-
-def truth_fingerprint(case: str) -> dict:
-    """What the truth case (SPEC 10) poses: benchmark, material, model, options."""
-    from tissuebench.meshes import get_entry
-    from tissuebench.solvers.truth.cases import CASES
-
-    benchmark, material, model, scale, width = CASES[case]
-    options = {"load_scale": scale} | ({} if width is None else {"needle_width": width})
-    return {
-        "source": "truth",
-        "truth": case,
-        "benchmark": benchmark,
-        "case": None,
-        "options": options,
-        "material": material,
-        "model": model,
-        "mesh_size": None,
-        "nodes": None,
-        "dimension": get_entry(benchmark).gdim,
-    }
-
-
-def reference_fingerprint(reference: str | Path, series) -> dict:
-    """What a reference series file is: its dimension and nodes (read), and, as the folder it
-    is in says, its benchmark, case, options, material, model and mesh size: a run folder of
-    ours (summary.json with a run of the file's name) or an export (STEM.json beside
-    STEM.reference.xdmf). "source" names which ("run folder", "export", or "file" when
-    neither: the benchmark is then unknown)."""
-    path = Path(reference)
-    found = {
-        "source": "file",
-        "truth": None,
-        "benchmark": None,
-        "case": None,
-        "options": None,
-        "material": None,
-        "model": None,
-        "mesh_size": None,
-    }
-    try:
-        found |= folder_fingerprint(path)
-    except Exception:  # anything a file can hold: the folder says nothing
-        pass
-    return found | {"nodes": int(len(series.points)), "dimension": int(series.dim)}

@@ -78,7 +78,7 @@ def grade_row_reference(board: Board, row: Row, caches: Caches) -> None:
     row keeps status UNGRADED (it never ranks) and its reason says why in one line."""
     from tissuebench.metrics.compare import grade_series
     from tissuebench.metrics.table import METRICS
-    from tissuebench.workflows.compare.grading import mesh_of
+    from tissuebench.workflows.compare.fingerprint import mesh_of
 
     def why(what: str, exc: Exception) -> str:
         return f"{what}: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
