@@ -88,3 +88,9 @@ for _base in ("cylinder-MP1", "cylinder-MP2", "cylinder-MP1-nhb"):
         FALLBACKS[_case] = (_base, _s)
         register_case(_case, _benchmark, _material, _model, load_scale=_s)
         MERIDIAN_LEVELS[_case] = MERIDIAN_LEVELS[_base]
+
+
+def fallbacks_of(case: str) -> list[tuple[str, float]]:
+    """[(fallback case, its load scale s)] taken in place of `case`, in order of preference;
+    [] for a case whose levels converge (none falls back from it)."""
+    return [(c, scale) for c, (source, scale) in FALLBACKS.items() if source == case]

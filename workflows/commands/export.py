@@ -140,10 +140,10 @@ def case_line(board: Board | None) -> str:
             "leaderboard case: none (these options pose none of its cases; a run of them is "
             f"graded by compare alone). The cases: {cases}"
         )
-    from tissuebench.solvers.truth.fallbacks import FALLBACKS
+    from tissuebench.solvers.truth.fallbacks import fallbacks_of
 
     truth = "it has no truth (a point needle)"
-    if board.truth in {origin for origin, _ in FALLBACKS.values()}:  # levels that diverge
+    if board.truth and fallbacks_of(board.truth):  # its levels do not converge
         truth = (
             f"its truth case {board.truth} has levels that do not converge (`tissuebench truth` "
             "says why): the leaderboard grades a run against our implicit on your mesh only"

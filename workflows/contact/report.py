@@ -13,7 +13,7 @@ import numpy as np
 from tissuebench.meshes import get_entry
 from tissuebench.meshes.tools import Tool
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.solvers.truth.fallbacks import FALLBACKS
+from tissuebench.solvers.truth.fallbacks import fallbacks_of
 from tissuebench.solvers.truth.samples import TruthSamples
 from tissuebench.workflows.contact.study import ALGORITHMS, BENCHMARK, TruthForce, label_of
 from tissuebench.workflows.io.tables import read_rows
@@ -128,8 +128,7 @@ def markdown(
         fallback = "".join(
             f" When last computed its levels did not converge: SPEC 12 takes it at s = "
             f"{scale:g}, {c}, above."
-            for c, (source, scale) in FALLBACKS.items()
-            if source == case
+            for c, scale in fallbacks_of(case)
         )
         lines += [
             f"## {case}",
@@ -144,9 +143,7 @@ def markdown(
             "Its truth's levels do not converge (truth.md: the E_i between levels grows with "
             "refinement), so nothing is graded against it."
             + "".join(
-                f" SPEC 12 takes it at s = {scale:g}: {c}."
-                for c, (source, scale) in FALLBACKS.items()
-                if source == case
+                f" SPEC 12 takes it at s = {scale:g}: {c}." for c, scale in fallbacks_of(case)
             ),
             "",
         ]

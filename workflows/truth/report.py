@@ -25,7 +25,7 @@ from tissuebench.solvers.truth.cases import (
     STEP_DIVISOR,
 )
 from tissuebench.solvers.truth.estimate import estimate_error
-from tissuebench.solvers.truth.fallbacks import FALLBACKS
+from tissuebench.solvers.truth.fallbacks import FALLBACKS, fallbacks_of
 from tissuebench.solvers.truth.store import (
     MEASURED_STEP_SECONDS,
     TARGET_FRACTION,
@@ -265,7 +265,7 @@ def fallback_words(case: str, computed: bool = True) -> list[str]:
     """The cases taken in place of a case that does not converge (solvers/truth/fallbacks.py,
     which records the evidence), in a line, or none; `computed`: whether this report shows that
     evidence itself."""
-    taken = [f"{c} (s = {scale:g})" for c, (source, scale) in FALLBACKS.items() if source == case]
+    taken = [f"{c} (s = {scale:g})" for c, scale in fallbacks_of(case)]
     if not taken:
         return []
     said = "" if computed else "When last computed its levels did not converge (fallbacks.py): "

@@ -16,7 +16,7 @@ from tissuebench.metrics.series import InputError
 from tissuebench.metrics.truth import grade_truth
 from tissuebench.solvers.materials import Material, get_material
 from tissuebench.solvers.truth.cases import CASES
-from tissuebench.solvers.truth.fallbacks import FALLBACKS
+from tissuebench.solvers.truth.fallbacks import fallbacks_of
 from tissuebench.solvers.truth.store import cache_path, expected_words, load_cached, load_failure
 from tissuebench.workflows.io.series import read_on_rank0
 from tissuebench.workflows.io.summary import CaseSummary
@@ -96,7 +96,7 @@ def fallback_line(case: str) -> str | None:
     smaller loads), one line naming its first fallback and the load scale to run at, where
     `run` grades its runs against that truth (the case the run then poses: truth_of), once it
     is cached; None for a case without fallbacks (computing its truth is the advice)."""
-    taken = [(c, scale) for c, (source, scale) in FALLBACKS.items() if source == case]
+    taken = fallbacks_of(case)
     if not taken:
         return None
     first, scale = taken[0]
