@@ -1,19 +1,19 @@
 """results/leaderboard/index.html: the leaderboard as one page that works offline (opened
 straight from disk: no server, no download, no script or stylesheet from anywhere else).
 
-Per case: E_i (time-mean) against the truth, or against the case's reference where the case
-has no truth graded, against the cost (wall time per simulated second), log-log, in inline
-SVG; the Pareto front, the real-time line (1 s per simulated s) and the truth's own error as a
-shaded band; every row of the record is one point (`.pt`, with data attributes: case, source,
-model, mesh, and the lines its tooltip shows), a run that did not finish or has no error in a
-strip above the plot and one below the axis's floor (0 included) in a strip below it; the
-SPEC 11 frontier's runs of the case's truth (results/frontier/frontier.csv) are rows of the
-case like any other (frontier_rows.py: grey diamonds, their cost the whole run's as every
-row's); filters by source, mesh size (dofs) and model; each user's row by its own label, in
-its own colour; the error budget as a dot plot; the Closed division (the case's own mesh and
-step) and the Open one (any mesh, step or sub-steps, the frontier's runs included), each
-ranked by E_i max over the steps, the time-mean beside it (rows.RANK_RULE). The little
-JavaScript at the end only shows tooltips and applies the filters.
+Per case: E_i (its max over the steps, which it ranks by) against the truth, or against the
+case's reference where the case has no truth graded, against the cost (wall time per simulated
+second), log-log, in inline SVG; the Pareto front, the real-time line (1 s per simulated s) and
+the truth's own error as a shaded band; every row of the record is one point (`.pt`, with data
+attributes: case, source, model, mesh, and the lines its tooltip shows), a run that did not
+finish or has no error in a strip above the plot and one below the axis's floor (0 included) in
+a strip below it; the SPEC 11 frontier's runs of the case's truth
+(results/frontier/frontier.csv) are rows of the case like any other (frontier_rows.py: grey
+diamonds, their cost the whole run's as every row's); filters by source, mesh size (dofs) and
+model; each user's row by its own label, in its own colour; the error budget as a dot plot; the
+Closed division (the case's own mesh and step) and the Open one (any mesh, step or sub-steps,
+the frontier's runs included), each ranked by E_i max over the steps, the time-mean beside it
+(rows.RANK_RULE). The little JavaScript at the end only shows tooltips and applies the filters.
 
 Made in two steps: the view model (PageView, CaseView, Division, Entry, Box: plain data,
 every text as read and unescaped, computed from the rows here) and the Jinja2 templates

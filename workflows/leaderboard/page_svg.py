@@ -25,7 +25,7 @@ from tissuebench.workflows.leaderboard.page_words import (
     tip_lines,
 )
 from tissuebench.workflows.leaderboard.row import Kind
-from tissuebench.workflows.leaderboard.rows import Board, Row, finite
+from tissuebench.workflows.leaderboard.rows import RANKED_BY, Board, Row, finite
 
 RT_LABEL = "real time: 1 s per s"  # the real-time line's label
 
@@ -138,11 +138,16 @@ class Axes:
         return out
 
 
+# the E_i a case's plot draws: the one the divisions rank by (its max over the steps), so that
+# a point's height is what its rank says
+PLOTTED = RANKED_BY
+
+
 def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
     """The case's SVG (error against cost) and the colour of each user's label."""
-    truth = any(error_of(r, True) is not None for r in rows)
+    truth = any(error_of(r, True, PLOTTED) is not None for r in rows)
     xs = [r.cost for r in rows if finite(r.cost)]
-    ys = [error_of(r, truth) for r in rows if finished(r)]
+    ys = [error_of(r, truth, PLOTTED) for r in rows if finished(r)]
     ys = [y for y in ys if y is not None]
     if truth and finite(board.truth_band):
         ys.append(board.truth_band)
@@ -152,7 +157,7 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
         f'<svg class="plot" viewBox="0 0 {ax.W} {ax.H}" width="{ax.W}" height="{ax.H}" '
         f'role="img" aria-label="{esc(board.name)}: E_i against cost">'
     ]
-    out += ax.frame(f"time-mean E_i {what} ({unit})")
+    out += ax.frame(f"maximum E_i over the steps {what} ({unit})")
     band = board.truth_band
     if truth and finite(band) and band > 0:
         top = max(min(ax.y(band), ax.BOTTOM), ax.TOP)
@@ -171,14 +176,14 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
     )
     # the Pareto front (from the record's flags)
     front = sorted(
-        (r for r in rows if (r.truth_pareto if truth else r.pareto).get("mean")),
+        (r for r in rows if (r.truth_pareto if truth else r.pareto).get(PLOTTED)),
         key=lambda r: cast(float, r.cost),  # flagged: rows with a finite cost
     )
-    front = [r for r in front if finished(r) and (error_of(r, truth) or 0) > 0]
+    front = [r for r in front if finished(r) and (error_of(r, truth, PLOTTED) or 0) > 0]
     if front:
         pts: list[str] = []
         for k, r in enumerate(front):
-            e = error_of(r, truth)
+            e = error_of(r, truth, PLOTTED)
             assert e is not None and r.cost is not None  # front: finished rows with an error
             px, py = ax.x(r.cost), ax.y(e) if e >= ax.floor else ax.BOTTOM + 16
             if k:
@@ -199,7 +204,7 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
         if user:
             colour = users.setdefault(r.label, USER_COLOURS[len(users) % len(USER_COLOURS)])
         shape = GROUP_SHAPE if r.group else SHAPES.get(src, "circle")
-        e = error_of(r, truth)
+        e = error_of(r, truth, PLOTTED)
         placed = "plotted"
         if finished(r) and e is not None:
             px = ax.x(cast(float, r.cost))  # finished: a finite cost
