@@ -107,3 +107,82 @@ def test_a_render_from_a_copy_of_the_committed_results_leaves_it_unchanged(
     for png in sorted((copy / "leaderboard").glob("*.png")):
         if build.as_drawn_now(png):
             assert (out / "leaderboard" / png.name).read_bytes() == png.read_bytes(), png.name
+
+
+def forged_copy(tmp_path: Path) -> tuple[Path, dict]:
+    """A copy of the committed results/ whose record has rod-MP3's first row of ours made
+    perfect (every error 1e-15) and its first simulator row's wall time 1e-9 s; the rows as
+    committed, by label."""
+    import json
+
+    copy = tmp_path / "copy"
+    committed_results(copy)
+    doc = json.loads((copy / RECORD).read_text())
+    case = next(c for c in doc["cases"] if c["board"]["name"] == "rod-MP3")
+    committed = {r["label"]: dict(r) for r in case["rows"]}
+    ours = next(r for r in case["rows"] if r["source"] == "tissuebench")
+    ours["errors"] = dict.fromkeys(ours["errors"], 1e-15)
+    ours["truth"] = {k: (1e-15 if v is not None else v) for k, v in ours["truth"].items()}
+    theirs = next(r for r in case["rows"] if r["source"] not in ("tissuebench", "user"))
+    theirs["wall_time_s"] = 1e-9
+    (copy / RECORD).write_text(json.dumps(doc))
+    return copy, {"ours": committed[ours["label"]], "theirs": committed[theirs["label"]]}
+
+
+@pytest.mark.serial  # files in tmp_path, which the ranks of mpiexec share
+def test_rows_of_ours_edited_in_a_record_are_rendered_as_committed(tmp_path, capsys, monkeypatch):
+    """Issue 60, item 1: a record read from a folder anyone can write (OUT's own, or one named
+    with --results) does not bring its grades of ours or the simulators to the page: they are
+    the record's as the clone's git holds it, and the case is said in one line."""
+    if not COMMITTED.is_file() or not (ROOT / ".git").exists():
+        pytest.skip("needs the project's git checkout with its committed leaderboard record")
+    copy, committed = forged_copy(tmp_path)
+    drawn = []
+
+    def draw(path, board, rows):  # a figure drawn anew: which, and a file in its place
+        drawn.append(board.name)
+        path.write_bytes(b"a figure")
+
+    monkeypatch.setattr(build, "plot_case", draw)
+    monkeypatch.setattr(build, "plot_force", draw)
+    out = tmp_path / "results"
+    args = argparse.Namespace(
+        out=out, results=copy, solver="direct", petsc="", force=False, rerun=None
+    )
+    assert build.main(args) == 0
+    said = capsys.readouterr().out
+    assert "rod-MP3: the record's rows of ours and the simulators are not as committed" in said
+    assert said.count("not as committed") == 1  # the other cases are as committed
+    assert "rod-MP3" in drawn  # its figure: drawn anew, not the forged record's copied
+    (case,) = [
+        c
+        for c in build.json.loads((out / RECORD).read_text())["cases"]
+        if c["board"]["name"] == "rod-MP3"
+    ]
+    rendered = {r["label"]: r for r in case["rows"]}
+    for row in committed.values():
+        got = rendered[row["label"]]
+        assert got["errors"] == row["errors"] and got["truth"] == row["truth"]
+        assert got["wall_time_s"] == row["wall_time_s"]
+    with open(out / "leaderboard.csv", newline="") as f:
+        values = [v for r in csv.DictReader(f) for v in r.values()]
+    assert values and not [v for v in values if v in ("1e-15", "1e-09")]  # the forged values
+
+
+@pytest.mark.serial  # files in tmp_path
+def test_without_a_committed_record_the_rows_are_said_to_be_shown_as_read(tmp_path, capsys):
+    """An installed copy without its clone (no git): nothing to hold the record against; the
+    record is taken as read, and that is said in one line."""
+    from tissuebench.workflows.leaderboard.record import committed_record, with_committed_rows
+
+    if not COMMITTED.is_file():
+        pytest.skip("needs the committed leaderboard record")
+    copy, _ = forged_copy(tmp_path)
+    committed, why = committed_record(tmp_path)  # not a git repository
+    assert committed is None and "git show HEAD:results/leaderboard.json" in why
+    said: list[str] = []
+    read = record.read_record(copy)
+    assert read is not None
+    held, changed = with_committed_rows(read, committed, why, said.append)
+    assert held is read and changed == []
+    assert len(said) == 1 and "shown as read, not held against a committed record" in said[0]

@@ -48,10 +48,13 @@ from tissuebench.workflows.leaderboard.record import (
     OWNED,
     RECORD,
     LeaderboardError,
+    Record,
+    committed_record,
     read_record,
     record_folder,
     record_of,
     record_text,
+    with_committed_rows,
 )
 from tissuebench.workflows.leaderboard.row import Kind, kind_of
 from tissuebench.workflows.leaderboard.rows import (
@@ -183,6 +186,25 @@ def frontier_table(out: Path, warn) -> dict[str, list[dict]]:
     return frontier_rows.committed_frontier(warn)
 
 
+def committed_rows(record: Record, source: Path, out: Path) -> Record:
+    """The record read from `source` with the rows of ours and the simulators as the clone's
+    git holds them (record.with_committed_rows; each case that was not, one line). Where the
+    record read is the clone's own working copy and is to be written over (`source` is OUT),
+    a copy of it is kept first as OUT/leaderboard.json.uncommitted: a rerun not yet committed
+    is not lost."""
+    committed, why = committed_record()
+    said: list[str] = []
+    held, changed = with_committed_rows(record, committed, why, said.append)
+    for line in said:
+        print(f"tissuebench leaderboard: {line}")
+    clone = frontier_rows.clone_root() / "results"
+    if changed and source == out and source.resolve() == clone.resolve():
+        kept = out / f"{RECORD}.uncommitted"
+        shutil.copyfile(out / RECORD, kept)
+        print(f"tissuebench leaderboard: the working copy's record kept as {kept}")
+    return held
+
+
 def main(args: argparse.Namespace) -> int:
     """Render the leaderboard from its record with the users' rows, or rerun (--rerun) the
     cases named; write OUT/leaderboard.md, .csv, .json and the figures (rank 0)."""
@@ -229,6 +251,9 @@ def main(args: argparse.Namespace) -> int:
     # what each figure was drawn of: the record's cases as read, the frontier's rows among them
     drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
     drawn = {name: json.dumps(c) for name, c in drawn.items()}
+    if record is not None and comm.rank == 0:  # ours and the simulators': as committed only
+        record = kept_boards, kept_rows, kept_notes = committed_rows(record, source, out)
+    kept_boards, kept_rows, kept_notes = comm.bcast((kept_boards, kept_rows, kept_notes), root=0)
     kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again (committed)
     kept = {b.name: b for b in kept_boards}
     rows, notes, boards = {}, {}, []

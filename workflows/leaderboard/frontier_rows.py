@@ -27,12 +27,12 @@ one's own is for its own report (frontier.md); it reaches the leaderboard when i
 from __future__ import annotations
 
 import math
-import subprocess
 from pathlib import Path
 from typing import Any
 
 from tissuebench.meshes import get_entry
 from tissuebench.workflows.io.tables import CSVError, rows_of
+from tissuebench.workflows.leaderboard.committed import clone_root, head_text
 from tissuebench.workflows.leaderboard.row import FRONTIER_SOURCE, Kind
 from tissuebench.workflows.leaderboard.rows import (
     E_I,
@@ -185,14 +185,6 @@ def frontier_of(text: str, where: str, warn=None) -> dict[str, list[dict]]:
 COMMITTED = "results/frontier/frontier.csv"  # the frontier's table, in the clone
 
 
-def clone_root() -> Path:
-    """The folder of the clone tissuebench runs from (an editable install: the package's
-    source tree is the repository), found from the package's own path."""
-    import tissuebench.workflows
-
-    return Path(tissuebench.workflows.__file__).resolve().parent.parent
-
-
 def committed_frontier(warn=None, root: Path | None = None) -> dict[str, list[dict]]:
     """The frontier's runs the leaderboard shows: results/frontier/frontier.csv as committed at
     HEAD in the git repository `root` (default: the clone tissuebench runs from, clone_root),
@@ -202,24 +194,13 @@ def committed_frontier(warn=None, root: Path | None = None) -> dict[str, list[di
     copy differs from it (its rows are not shown until they are committed)."""
     say = warn or (lambda line: None)
     root = clone_root() if root is None else root
-    try:
-        done = subprocess.run(
-            ["git", "-C", str(root), "-c", f"safe.directory={root}", "show", f"HEAD:{COMMITTED}"],
-            capture_output=True,
-            timeout=60,
-            check=False,
-        )
-    except (OSError, subprocess.SubprocessError) as exc:
-        done, why = None, f"{type(exc).__name__}: {one_line(exc)[:120]}"
-    else:
-        why = one_line(done.stderr.decode(errors="replace").strip())[:160]
-    if done is None or done.returncode != 0:
+    text, why = head_text(COMMITTED, root)
+    if text is None:
         say(
-            f"no frontier rows: no committed {COMMITTED} in {root} (git show HEAD:{COMMITTED}: "
-            f"{why or 'failed'}); the leaderboard takes them from the clone's git only"
+            f"no frontier rows: no committed {COMMITTED} in {root} ({why}); the leaderboard "
+            "takes them from the clone's git only"
         )
         return {}
-    text = done.stdout.decode("utf-8", errors="replace")
     working = root / COMMITTED
     try:
         with open(working, newline="") as f:

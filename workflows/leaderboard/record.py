@@ -14,6 +14,7 @@ from typing import Any
 
 from tissuebench.core.errors import UserError
 from tissuebench.solvers.models import MODELS
+from tissuebench.workflows.leaderboard.row import Kind
 from tissuebench.workflows.leaderboard.rows import Board, Row, error_keys, one_line, real
 
 FOLDER = "leaderboard"
@@ -277,7 +278,10 @@ def record_folder(out: Path, results: Path | None = None) -> Path:
     return clone if clone is not None else out
 
 
-def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
+Record = tuple[list[Board], dict[str, list[Row]], dict[str, list[str]]]
+
+
+def read_record(out: Path) -> Record | None:
     """The record OUT/leaderboard.json as (boards, {case: rows}, {case: notes}); None when there
     is none. Every case and row is checked for type and range (check_board, check_row) before
     anything is made of it: LeaderboardError, one line naming the first field that fails, when
@@ -286,11 +290,45 @@ def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
     if not path.is_file():
         return None
     redo = f"`tissuebench leaderboard --out {out} --rerun` writes a new one"
-    where = ""
     try:
         if path.stat().st_size > MAX_RECORD:
             raise ValueError(f"larger than {MAX_RECORD // 2**20} MB")
-        doc = json.loads(path.read_text())
+        text = path.read_text()
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        said = " ".join(str(exc).split())[:200]
+        raise LeaderboardError(
+            f"{path}: cannot be read ({type(exc).__name__}: {said}); {redo}"
+        ) from None
+    return parse_record(text, str(path), redo)
+
+
+COMMITTED_RECORD = f"results/{RECORD}"  # the record as the clone's git holds it
+
+
+def committed_record(root: Path | None = None) -> tuple[Record | None, str]:
+    """(the record results/leaderboard.json as committed at git's HEAD of the clone `root`
+    (default: the one tissuebench runs from), checked as any record (parse_record), "") or
+    (None, why there is none, one line: no git, not a clone, none committed, not readable)."""
+    from tissuebench.workflows.leaderboard.committed import clone_root, head_text
+
+    root = clone_root() if root is None else root
+    text, why = head_text(COMMITTED_RECORD, root)
+    if text is None:
+        return None, why
+    try:
+        return parse_record(text, f"{root / COMMITTED_RECORD} (as committed)", "commit one"), ""
+    except LeaderboardError as exc:
+        return None, str(exc)
+
+
+def parse_record(text: str, path: str, redo: str) -> Record:
+    """The record in `text` (read from `path`, named in errors; `redo`: how to write a new
+    one) as read_record returns it."""
+    where = ""
+    try:
+        if len(text) > MAX_RECORD:
+            raise ValueError(f"larger than {MAX_RECORD // 2**20} MB")
+        doc = json.loads(text)
         if not isinstance(doc, dict):
             raise ValueError("not an object")
         if doc.get("schema") != RECORD_SCHEMA or doc.get("version") != RECORD_VERSION:
@@ -329,3 +367,62 @@ def read_record(out: Path) -> tuple[list[Board], dict, dict] | None:
             f"{path}: cannot be read ({at}{type(exc).__name__}: {said}); {redo}"
         ) from None
     return boards, rows, notes
+
+
+# a row's fields that a render sets anew over all the rows of its case (users' included)
+REMARKED = ("pareto", "truth_pareto")
+
+
+def _as_graded(board: Board, rows: list[Row], notes: list[str]) -> str:
+    """A case's board, notes and rows that are not a user's or the frontier's (which a render
+    grades or reads again), but for the flags a render marks anew (REMARKED), as one text."""
+    kept = [
+        {k: v for k, v in row_record(r).items() if k not in REMARKED}
+        for r in rows
+        if r.kind in (Kind.OURS, Kind.SIMULATOR)
+    ]
+    return json.dumps([asdict(board), notes, kept], sort_keys=True)
+
+
+def with_committed_rows(
+    record: Record, committed: Record | None, why: str, say
+) -> tuple[Record, list[str]]:
+    """`record` (read from OUT or --results) with the board, notes and rows of ours and the
+    simulators of each case taken from `committed` (the record as the clone's git holds it:
+    committed_record), so that no grade, force or time of ours or a simulator's comes from a
+    file anyone can write (issue 60); a user's rows stay (a render grades them again from their
+    series) and the frontier's are read again anyway. A case whose rows were not as committed
+    is said in one line to `say`; so is a case `committed` lacks (not committed yet: its rows
+    as read), and a record read with no committed one to hold it against (`why`). Returns the
+    record and the cases whose rows were not as committed."""
+    if committed is None:
+        say(
+            f"the record's rows of ours and the simulators are shown as read, not held against "
+            f"a committed record ({why})"
+        )
+        return record, []
+    boards, rows, notes = record
+    held_boards, held_rows, held_notes = committed
+    held = {b.name: b for b in held_boards}
+    out_boards, out_rows, out_notes, changed = [], {}, {}, []
+    for board in boards:
+        name = board.name
+        if name not in held:
+            say(f"{name}: not in the committed record; its rows of ours are shown as read")
+            out_boards.append(board)
+            out_rows[name], out_notes[name] = rows[name], notes[name]
+            continue
+        if _as_graded(board, rows[name], notes[name]) != _as_graded(
+            held[name], held_rows[name], held_notes[name]
+        ):
+            changed.append(name)
+            say(
+                f"{name}: the record's rows of ours and the simulators are not as committed; "
+                f"shown as committed (git HEAD's {COMMITTED_RECORD}: commit a rerun's record "
+                "for its rows to be shown)"
+            )
+        users = [r for r in rows[name] if r.kind is Kind.USER]
+        theirs = [r for r in held_rows[name] if r.kind in (Kind.OURS, Kind.SIMULATOR)]
+        out_boards.append(held[name])
+        out_rows[name], out_notes[name] = theirs + users, list(held_notes[name])
+    return (out_boards, out_rows, out_notes), changed
