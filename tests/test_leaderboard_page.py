@@ -320,3 +320,45 @@ def test_a_missing_browser_fails_where_required_and_skips_elsewhere(monkeypatch)
             monkeypatch.setenv(REQUIRED, value)
         with pytest.raises(pytest.skip.Exception, match="chromium is gone"):
             missing("chromium is gone")
+
+
+def test_the_real_time_label_covers_no_point():
+    """The real-time line's label goes to the first of its places that covers no point (on
+    contact-MP1-n10's page it hid Drake's point): with points just left of the line at the top
+    of the plot it moves; with none there it stays at the top, left of the line."""
+    from tissuebench.workflows.leaderboard.page_svg import RT_LABEL, case_plot
+
+    board = Board("rod-MP3", "rod", "MP3", "linear", description="the rod")
+
+    def label_and_points(rows):
+        svg, _ = case_plot(board, rows, "m^3")
+        x, y, anchor = re.search(
+            r'<text x="([\d.]+)" y="([\d.]+)" class="rtlabel" text-anchor="(\w+)"', svg
+        ).groups()
+        width = 6.2 * len(RT_LABEL)
+        x0 = float(x) - width if anchor == "end" else float(x)
+        centres = [  # a circle's path starts at its left edge, 5 to the left of its centre
+            (float(a) + 5, float(b)) for a, b in re.findall(r'd="M([\d.]+),([\d.]+)a5', svg)
+        ]
+        assert len(centres) == len(rows)
+        return (x0, float(y), width, anchor), centres
+
+    def covers(box, centres):
+        x0, y, width, _ = box
+        return [
+            (px, py) for px, py in centres if x0 - 5 < px < x0 + width + 5 and y - 14 < py < y + 5
+        ]
+
+    # six decades of error: the largest sits high, as high as the label's first place
+    spread = [
+        row(f"r{k}", "tissuebench", 10.0 ** (k - 3), 10.0 ** (-9 + 1.5 * k)) for k in range(5)
+    ]
+    box, centres = label_and_points(spread)
+    assert not covers(box, centres) and box[3] == "end"  # its first place: left of the line
+    top = max(r.truth["interior_error_max"] for r in spread)
+    crowded = spread + [  # at the top of the plot, just left of the line, under that place
+        row(f"c{k}", "tissuebench", c, top / 2) for k, c in enumerate((0.2, 0.35, 0.55, 0.8))
+    ]
+    moved, centres = label_and_points(crowded)
+    assert moved[:2] != box[:2]
+    assert not covers(moved, centres)

@@ -192,9 +192,38 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
         pts.append(f"{ax.W - ax.RIGHT},{pts[-1].split(',')[1]}")
         out.append(f'<polyline class="front" points="{" ".join(pts)}"/>')
     users: dict[str, str] = {}
-    # placed labels (x, y, width): the real-time line's first, so that no point's sits on it
+
+    def where(r: Row) -> tuple[float, float, str]:
+        """A row's point (px, py) and where it is: "plotted", "below" the axis or in the
+        top "strip" (unfinished, or no error)."""
+        e = error_of(r, truth, PLOTTED)
+        if finished(r) and e is not None:
+            px = ax.x(cast(float, r.cost))  # finished: a finite cost
+            if e >= ax.floor:
+                return px, ax.y(e), "plotted"
+            return px, ax.BOTTOM + 16, "below"
+        px = ax.x(r.cost) if finite(r.cost) and r.cost > 0 else ax.W - ax.RIGHT - 8
+        return px, ax.TOP - 14, "strip"
+
+    # the real-time line's label: at the first of its places (left or right of the line, at
+    # the top or the bottom) that covers no point and stays inside the plot
     rt_width = 6.2 * len(RT_LABEL)
-    labels: list[tuple[float, float, float]] = [(rt - 4 - rt_width, ax.TOP + 14, rt_width)]
+    points = [where(r)[:2] for r in rows]
+    spots = [(rt - 4, ax.TOP + 14, "end"), (rt + 4, ax.TOP + 14, "start")]
+    spots += [(rt - 4, ax.BOTTOM - 6, "end"), (rt + 4, ax.BOTTOM - 6, "start")]
+
+    def clear(x: float, y: float, anchor: str) -> bool:
+        x0 = x - rt_width if anchor == "end" else x
+        inside = ax.LEFT <= x0 and x0 + rt_width <= ax.W - ax.RIGHT
+        return inside and not any(
+            x0 - 7 < px < x0 + rt_width + 7 and y - 18 < py < y + 8 for px, py in points
+        )
+
+    rt_x, rt_y, rt_anchor = next((s for s in spots if clear(*s)), spots[0])
+    # placed labels (x, y, width): the real-time line's first, so that no point's sits on it
+    labels: list[tuple[float, float, float]] = [
+        (rt_x - rt_width if rt_anchor == "end" else rt_x, rt_y, rt_width)
+    ]
     # the frontier's runs first (under the others), users last (on top)
     order = sorted(rows, key=lambda r: (r.kind is not Kind.FRONTIER, r.kind is Kind.USER))
     for r in order:
@@ -204,15 +233,7 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
         if user:
             colour = users.setdefault(r.label, USER_COLOURS[len(users) % len(USER_COLOURS)])
         shape = GROUP_SHAPE if r.group else SHAPES.get(src, "circle")
-        e = error_of(r, truth, PLOTTED)
-        placed = "plotted"
-        if finished(r) and e is not None:
-            px = ax.x(cast(float, r.cost))  # finished: a finite cost
-            py = ax.y(e) if e >= ax.floor else ax.BOTTOM + 16
-            placed = "plotted" if e >= ax.floor else "below"
-        else:
-            px = ax.x(r.cost) if finite(r.cost) and r.cost > 0 else ax.W - ax.RIGHT - 8
-            py, placed = ax.TOP - 14, "strip"
+        px, py, placed = where(r)
         size = 6.5 if user else 5.0
         hollow = placed != "plotted" or not r.status == "ok"
         style = f'fill="{"none" if hollow else colour}" stroke="{colour}"'
@@ -263,7 +284,7 @@ def case_plot(board: Board, rows: list[Row], unit: str) -> tuple[str, dict]:
                 f"{esc(text)}</text>"
             )
     out.append(  # last: over the points, which would cover it
-        f'<text x="{rt - 4:.1f}" y="{ax.TOP + 14}" class="rtlabel" text-anchor="end">'
+        f'<text x="{rt_x:.1f}" y="{rt_y:.1f}" class="rtlabel" text-anchor="{rt_anchor}">'
         f"{RT_LABEL}</text>"
     )
     out.append("</svg>")
