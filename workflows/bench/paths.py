@@ -4,7 +4,8 @@
 In order, each in a process of its own (the venv's tissuebench), its output read line by line
 with the time each line came:
 
-1. `truth rod` from an empty truth cache (a folder of the run's own);
+1. `truth rod` and `truth contact-MP1` (SPEC 12: its levels, its half step and its penalty
+   check, about 13 min) from an empty truth cache (a folder of the run's own);
 2. `paper` from an empty truth cache (another), as a first `make paper` is: its truths
    computed first, --jobs at a time, then the study; and `paper` again into a new folder, warm
    (its truths cached, its forms compiled);
@@ -51,6 +52,7 @@ ABOUT = re.compile(r"about (\d+(?:\.\d+)?) (s|min)\b")
 STARTED = re.compile(r"truth: started (\S+) \(about (\d+(?:\.\d+)?) s")
 DONE = re.compile(r"truth: (\S+) done in (\d+(?:\.\d+)?) s")
 CANDIDATE_N = 36  # the rod's mesh size of the 1e5-node candidate: (2n+1)(n+1)^2 = 99,937 nodes
+CONTACT_TRUTH = "contact-MP1"  # the contact truth whose estimate is checked (issue 59)
 PARALLEL_N = 12  # the rod's mesh size run on one rank and on two (the README's mpiexec line)
 PAPER_BENCHMARKS = ("rod", "block")  # run at their defaults: what the run target is of
 USERS = 200
@@ -193,6 +195,11 @@ def measure(work: Path, log: Callable[[str], None]) -> dict:
     second = {**env, "TISSUEBENCH_CACHE": str(work / "cache-paper")}
     commands = [
         ("truth rod, empty cache", [tb, "truth", "rod", "--out", str(work / "truth")], first),
+        (  # a contact truth (SPEC 12): its levels, half step and penalty check in one estimate
+            f"truth {CONTACT_TRUTH}, empty cache",
+            [tb, "truth", CONTACT_TRUTH, "--out", str(work / "truth-contact")],
+            first,
+        ),
         ("paper, empty truth cache", [tb, "paper", "--out", str(work / "paper-1")], second),
         ("paper, warm", [tb, "paper", "--out", str(work / "paper-2")], second),
     ]

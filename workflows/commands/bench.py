@@ -75,10 +75,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "and .json; contact: only the explicit-lumped step with the needle as contact against "
         "it glued (SPEC 12), into DIR/performance-contact.md and .json; contact-3d: the same "
         "step of the cylinder with the capsule against it with no tool (SPEC 13), into "
-        "DIR/performance-contact-3d.md and .json; paths: the commands "
-        "a user waits on, each timed whole (a first and a warm `paper`, `truth rod`, `run`'s "
+        "DIR/performance-contact-3d.md and .json; paths: the commands a user waits on, each "
+        "timed whole (a first and a warm `paper`, `truth rod` and `truth contact-MP1`, `run`'s "
         "phases, a 1e5-node `compare`, a 200-user leaderboard) with their printed estimates, "
-        "into DIR/performance-paths.md and .json (about 10 min)",
+        "into DIR/performance-paths.md and .json (about 25 min)",
     )
     p.add_argument(
         "--users",
