@@ -252,7 +252,7 @@ def main(args: argparse.Namespace) -> int:
     drawn = {c["board"]["name"]: c for c in record_of(kept_boards, kept_rows, kept_notes)["cases"]}
     drawn = {name: json.dumps(c) for name, c in drawn.items()}
     if record is not None and comm.rank == 0:  # ours and the simulators': as committed only
-        record = kept_boards, kept_rows, kept_notes = committed_rows(record, source, out)
+        kept_boards, kept_rows, kept_notes = committed_rows(record, source, out)
     kept_boards, kept_rows, kept_notes = comm.bcast((kept_boards, kept_rows, kept_notes), root=0)
     kept_rows = strip_frontier(kept_rows)  # the frontier's rows: read again (committed)
     kept = {b.name: b for b in kept_boards}

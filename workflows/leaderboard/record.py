@@ -253,9 +253,9 @@ def clone_results() -> Path | None:
     setup` or `pip install -e .`: the package's source tree is the repository, whose
     results/ holds the committed leaderboard.json), found from the package's own path; None
     when it holds no record (an installed copy of the package)."""
-    import tissuebench.workflows
+    from tissuebench.workflows.leaderboard.committed import clone_root
 
-    found = Path(tissuebench.workflows.__file__).resolve().parent.parent / "results"
+    found = clone_root() / "results"
     return found if (found / RECORD).is_file() else None
 
 
