@@ -119,3 +119,48 @@ def test_load_meter_numbers():
     )
     load = meter.stop()
     assert load["wall_s"] >= 0.5 and load["others_cores"] >= 0 and load["loadavg_1min"] >= 0
+
+
+def test_limit_uses_the_triad_sampled_between_the_steps():
+    """Where a side's step carries triad samples, its limit and the peer comparison at equal
+    bandwidth use their median, not the worker's one triad taken before (issue 61: that one
+    swung 14.5-20.1 GB/s within an hour)."""
+    nbytes, peer_bytes = 400 * 2**20, 500 * 2**20
+    ours1 = side(0.1, 20e9, 0.0, bytes_=nbytes)
+    ours1["cases"]["explicit-lumped/-"].update(triad_Bps=5e9, triad_samples_Bps=[4e9, 5e9, 7e9])
+    peer = {
+        "cases": {"explicit-lumped/-": {"step_s": 0.2, "triad_Bps": 10e9}},
+        "explicit_lumped_bytes": peer_bytes,
+    }
+    record = {"benchmark": "rod", "size": 48, "dofs": 200_000, "ours1": ours1, "peer": peer}
+    header, rows = bandwidth_rows([record])
+    row = dict(zip(header, rows[0], strict=True))
+    assert row["triad 1r GB/s"] == pytest.approx(5.0)
+    assert row["triad 1r spread GB/s"] == "4.0-7.0"
+    assert row["meas/limit 1r"] == pytest.approx(0.1 / (nbytes / 5e9))
+    assert row["peer meas/limit (CSR)"] == pytest.approx(0.2 / (peer_bytes / 10e9))
+    assert row["ours/peer"] == pytest.approx(0.5)
+    assert row["ours/peer at equal triad"] == pytest.approx(0.1 * 5e9 / (0.2 * 10e9))
+
+
+def test_triad_is_sampled_before_the_first_step_and_after_every_fifth():
+    """workers.timed_steps on a real triad: 1 + steps // TRIAD_EVERY samples, each a finite
+    positive bandwidth, the steps timed in order and the state carried through."""
+    from mpi4py import MPI
+
+    from tissuebench.workflows.bench.measure import TRIAD_EVERY
+    from tissuebench.workflows.bench.workers import Triad, timed_steps
+
+    triad = Triad(MPI.COMM_WORLD, size=2**16)
+    times: list[float] = []
+    seen = []
+    try:
+        state, samples = timed_steps(
+            lambda s: s + 1, 0, 12, MPI.COMM_WORLD, times, triad, after=lambda: seen.append(1)
+        )
+    finally:
+        triad.destroy()
+    assert state == 12 and len(times) == 12 and len(seen) == 12
+    assert len(samples) == 1 + 12 // TRIAD_EVERY
+    assert all(math.isfinite(b) and b > 0 for b in samples)
+    assert triad.nbytes == 3 * 8 * 2**16

@@ -324,7 +324,14 @@ def write_report(
         "1 / S, alpha M_L, v and a read; v, a and the next step's u written: the step is one "
         "pass, solvers/explicit_lumped.py), a lower bound for any implementation with this "
         "storage. step GB/s = bytes / step time, the bandwidth the step achieved, beside the "
-        "triad's of the same worker. The peer's limit uses its CSR bytes and the 1-rank triad.",
+        "triad's. Where the matrix holds 64 MiB or more, the triad is sampled between the "
+        "steps (before the first and after every 5th, each sample the best of 3) and the limit "
+        "uses the median of these samples, their range given as the spread: step and triad are "
+        "then measured under the same conditions, which a shared machine's bandwidth, swinging "
+        "within minutes, would not otherwise give. Elsewhere the triad is the worker's one, "
+        "before its cases. The peer is held against its CSR bytes and its own triad samples; "
+        "ours/peer at equal triad = (our step x our triad) / (the peer's step x its triad), the "
+        "ratio the two would have at one bandwidth.",
         "",
         load_text(records),
         "",

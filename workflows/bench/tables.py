@@ -216,10 +216,28 @@ def load_cell(side: dict) -> str:
     return cell
 
 
+def step_triad(rec: dict, side: str, case: tuple[str, str] = ("explicit-lumped", "-")) -> float:
+    """The triad bandwidth (bytes/s) a side's step is held against: the median of the samples
+    taken between its steps (workers.timed_steps) where it has them, else its worker's one
+    triad (the peer's: the 1-rank worker's)."""
+    own = get(rec, side, case, "triad_Bps")
+    if own:
+        return own
+    return rec.get("ours1" if side == "peer" else side, {}).get("triad_Bps") or math.nan
+
+
+def spread(rec: dict, side: str, case: tuple[str, str] = ("explicit-lumped", "-")) -> str:
+    """The lowest and highest triad sample between a side's steps, GB/s ("-" without them)."""
+    samples = get(rec, side, case, "triad_samples_Bps")
+    return f"{min(samples) / 1e9:.1f}-{max(samples) / 1e9:.1f}" if samples else "-"
+
+
 def bandwidth_rows(records: list[dict]) -> Table:
-    """The explicit-lumped step against its memory-bandwidth limit (bytes / triad bandwidth):
-    per size its bytes, the bandwidth it achieved (bytes / step time) next to the triad's, and
-    the load of other processes during each side's measurement (load_cell)."""
+    """The explicit-lumped step against its memory-bandwidth limit (bytes / triad bandwidth,
+    the triad sampled between the steps: step_triad): per size its bytes, the bandwidth it
+    achieved (bytes / step time) next to the triad's and the triad's spread, ours against the
+    peer both as measured and at equal bandwidth (each step times its own triad), and the
+    load of other processes during each side's measurement (load_cell)."""
     rows = []
     case = ("explicit-lumped", "-")
     for rec in records:
@@ -228,11 +246,11 @@ def bandwidth_rows(records: list[dict]) -> Table:
         if s1 is None:
             continue
         b = get(rec, "ours1", case, "bytes")
-        lim1 = b / o1["triad_Bps"]
-        lim2 = b / o2["triad_Bps"] if o2.get("triad_Bps") else None
-        limp = (
-            p["explicit_lumped_bytes"] / o1["triad_Bps"] if p.get("explicit_lumped_bytes") else None
-        )
+        t1, tp = step_triad(rec, "ours1"), step_triad(rec, "peer")
+        t2 = step_triad(rec, "ours2") if o2 else math.nan
+        lim1 = b / t1
+        lim2 = b / t2 if math.isfinite(t2) else None
+        limp = p["explicit_lumped_bytes"] / tp if p.get("explicit_lumped_bytes") else None
         rows.append(
             [
                 rec["benchmark"],
@@ -241,9 +259,10 @@ def bandwidth_rows(records: list[dict]) -> Table:
                 get(rec, "ours1", case, "matrix_type"),
                 b / 2**20,
                 b / rec["dofs"],
-                o1["triad_Bps"] / 1e9,
+                t1 / 1e9,
+                spread(rec, "ours1"),
                 b / s1 / 1e9,
-                o2.get("triad_Bps", 0) / 1e9,
+                t2 / 1e9 if math.isfinite(t2) else 0,
                 b / s2 / 1e9 if s2 else None,
                 lim1,
                 s1,
@@ -252,6 +271,8 @@ def bandwidth_rows(records: list[dict]) -> Table:
                 ratio(s2, lim2),
                 sp,
                 ratio(sp, limp),
+                ratio(s1, sp),
+                ratio(s1 * t1, sp * tp) if sp and math.isfinite(tp) else None,
                 load_cell(o1),
                 load_cell(o2) if o2 else "-",
             ]
@@ -264,6 +285,7 @@ def bandwidth_rows(records: list[dict]) -> Table:
         "MiB moved",
         "bytes/dof",
         "triad 1r GB/s",
+        "triad 1r spread GB/s",
         "step 1r GB/s",
         "triad 2r GB/s",
         "step 2r GB/s",
@@ -274,6 +296,8 @@ def bandwidth_rows(records: list[dict]) -> Table:
         "meas/limit 2r",
         "peer step s",
         "peer meas/limit (CSR)",
+        "ours/peer",
+        "ours/peer at equal triad",
         "others' load 1r (cores)",
         "others' load 2r (cores)",
     ], rows

@@ -18,7 +18,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +32,9 @@ from tissuebench.workflows.bench.measure import (
     ROUNDS,
     SAFETY,
     STEPS,
+    TRIAD_AROUND_BYTES,
+    TRIAD_EVERY,
+    TRIAD_REPEATS,
     TRIAD_SIZE,
     WARMUP,
     case_scheme,
@@ -72,26 +75,76 @@ def median_step(times: list[float]) -> float:
 # --- the worker for tissuebench (ours), 1 or 2 ranks ------------------------------------------
 
 
-def triad_bandwidth(comm: MPI.Comm, size: int = TRIAD_SIZE, repeats: int = 10) -> float:
-    """Best STREAM-like triad bandwidth w = 3 x + y over all ranks at once, bytes/s (24 bytes
-    per entry: two reads, one write)."""
-    from petsc4py import PETSc
+class Triad:
+    """The STREAM-like triad w = 3 x + y on `size` entries spread over comm's ranks (24 bytes
+    per entry: two reads, one write), its vectors made once; sample() is one measurement."""
 
-    x = PETSc.Vec().createMPI((PETSc.DECIDE, size), comm=comm)  # type: ignore[arg-type]  # petsc4py's stubs: it takes an mpi4py Comm
-    y, w = x.duplicate(), x.duplicate()
-    x.set(1.0)
-    y.set(2.0)
-    w.set(0.0)
-    best = math.inf
-    for _ in range(repeats):
+    def __init__(self, comm: MPI.Comm, size: int = TRIAD_SIZE) -> None:
+        from petsc4py import PETSc
+
+        self.comm, self.size = comm, size
+        self.x = PETSc.Vec().createMPI((PETSc.DECIDE, size), comm=comm)  # type: ignore[arg-type]  # petsc4py's stubs: it takes an mpi4py Comm
+        self.y, self.w = self.x.duplicate(), self.x.duplicate()
+        self.x.set(1.0)
+        self.y.set(2.0)
+        self.w.set(0.0)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes its three vectors hold on all ranks together."""
+        return 3 * 8 * self.size
+
+    def sample(self, repeats: int = 10) -> float:
+        """Best bandwidth over `repeats` triads on all ranks at once, bytes/s."""
+        best = math.inf
+        for _ in range(repeats):
+            self.comm.Barrier()
+            start = time.perf_counter()
+            self.w.waxpy(3.0, self.x, self.y)
+            self.comm.Barrier()
+            best = min(best, time.perf_counter() - start)
+        return 24 * self.size / best
+
+    def destroy(self) -> None:
+        for v in (self.x, self.y, self.w):
+            v.destroy()
+
+
+def triad_bandwidth(comm: MPI.Comm, size: int = TRIAD_SIZE, repeats: int = 10) -> float:
+    """Best STREAM-like triad bandwidth over all ranks at once, bytes/s (Triad.sample)."""
+    triad = Triad(comm, size)
+    try:
+        return triad.sample(repeats)
+    finally:
+        triad.destroy()
+
+
+def timed_steps(
+    step: Callable[[Any], Any],
+    state: Any,
+    steps: int,
+    comm: MPI.Comm,
+    times: list[float],
+    triad: Triad | None = None,
+    after: Callable[[], None] | None = None,
+) -> tuple[Any, list[float]]:
+    """`steps` steps of `step` from `state`, each timed (s) between barriers into `times` (kept
+    up to a step that raises), `after` called after each outside the timing; with `triad`, a
+    triad sample (bytes/s) before the first step and after every TRIAD_EVERY steps, so that the
+    step and the bandwidth it is held against are measured under the same conditions (a
+    shared machine's bandwidth swings within minutes). Returns (state, samples)."""
+    samples = [triad.sample(TRIAD_REPEATS)] if triad else []
+    for i in range(steps):
         comm.Barrier()
         start = time.perf_counter()
-        w.waxpy(3.0, x, y)
+        state = step(state)
         comm.Barrier()
-        best = min(best, time.perf_counter() - start)
-    for v in (x, y, w):
-        v.destroy()
-    return 24 * size / best
+        times.append(time.perf_counter() - start)
+        if after:
+            after()
+        if triad and (i + 1) % TRIAD_EVERY == 0:
+            samples.append(triad.sample(TRIAD_REPEATS))
+    return state, samples
 
 
 def explicit_lumped_bytes(matrix_bytes: int, n: int) -> int:
@@ -195,7 +248,11 @@ def ours_worker(spec: dict) -> dict:
             systems[scheme] = System(bench, scheme=scheme)
             out.setdefault("assembly_s", {})[f"system {scheme}"] = time.perf_counter() - start
         record = {"h": h[label], "steps": steps}
-        times, iterations = [], []
+        times: list[float] = []
+        iterations: list[int] = []
+        triad = None
+        if label == "explicit-lumped" and comm.allreduce(system.K_csr.nbytes) >= TRIAD_AROUND_BYTES:
+            triad = Triad(comm)  # made before the peak-memory reset; its bytes are taken off
         gc.collect()
         reset_peak_memory()
         try:
@@ -215,14 +272,23 @@ def ours_worker(spec: dict) -> dict:
                 A = system.K_csr  # solvers/blockcsr.py: blocks, block columns, row starts
                 record["matrix_type"] = "block CSR"
                 record["bytes"] = explicit_lumped_bytes(comm.allreduce(A.nbytes), system.num_dofs())
-            for _ in range(steps):
-                comm.Barrier()
-                start = time.perf_counter()
-                state = integrator.step(state)
-                comm.Barrier()
-                times.append(time.perf_counter() - start)
-                if solver in OURS_ITERATIVE or newton:
-                    iterations.append(integrator.iterations())
+            count = solver in OURS_ITERATIVE or newton
+
+            def count_iterations(it: Any = integrator) -> None:
+                iterations.append(it.iterations())
+
+            state, samples = timed_steps(
+                integrator.step,
+                state,
+                steps,
+                comm,
+                times,
+                triad,
+                after=count_iterations if count else None,
+            )
+            if samples:
+                record["triad_Bps"] = float(np.median(samples))
+                record["triad_samples_Bps"] = samples
             record["step_s"] = median_step(times)
             record["steps_s"] = times
             finite = bool(np.isfinite(state.u.array_r).all())
@@ -246,7 +312,9 @@ def ours_worker(spec: dict) -> dict:
             record["iterations"] = float(np.mean(iterations))
         if newton:  # Newton iterations of each step that converged
             record["newton_iterations"] = iterations
-        record["peak_bytes"] = comm.allreduce(peak_memory())
+        record["peak_bytes"] = comm.allreduce(peak_memory()) - (triad.nbytes if triad else 0)
+        if triad:
+            triad.destroy()
         out["cases"][key((label, solver))] = record
     if comm.rank == 0 and spec.get("u_out"):
         np.savez(spec["u_out"], **displacements)  # type: ignore[arg-type]  # numpy's stubs: ** may hold allow_pickle
@@ -331,7 +399,10 @@ def explicit_worker(spec: dict) -> dict:
 
 
 def peer_worker(spec: dict) -> dict:
-    """Assembly and every case of `spec` with the scikit-fem + SciPy peer, on the saved mesh."""
+    """Assembly and every case of `spec` with the scikit-fem + SciPy peer, on the saved mesh
+    (its explicit-lumped step timed between triad samples, as ours_worker's)."""
+    from mpi4py import MPI
+
     from tissuebench.workflows.bench import peer_skfem as peer
 
     data = np.load(spec["mesh_in"])
@@ -347,6 +418,9 @@ def peer_worker(spec: dict) -> dict:
     for algorithm, solver, steps in spec["cases"]:
         h = spec["h"][algorithm]
         record = {"h": h, "steps": steps}
+        triad = None
+        if algorithm == "explicit-lumped" and out["matrix_bytes"] >= TRIAD_AROUND_BYTES:
+            triad = Triad(MPI.COMM_SELF)  # as ours_worker's
         gc.collect()
         reset_peak_memory()
         try:
@@ -354,11 +428,11 @@ def peer_worker(spec: dict) -> dict:
             integrator = peer.get_peer_integrator(algorithm, system, h, solver)
             state = integrator.start()
             record["setup_s"] = time.perf_counter() - start
-            times = []
-            for _ in range(steps):
-                start = time.perf_counter()
-                state = integrator.step(state)
-                times.append(time.perf_counter() - start)
+            times: list[float] = []
+            state, samples = timed_steps(integrator.step, state, steps, MPI.COMM_SELF, times, triad)
+            if samples:
+                record["triad_Bps"] = float(np.median(samples))
+                record["triad_samples_Bps"] = samples
             record["step_s"] = median_step(times)
             record["steps_s"] = times
             if isinstance(integrator.solve, peer.PyamgCG):
@@ -373,7 +447,9 @@ def peer_worker(spec: dict) -> dict:
             del integrator, state
         except (RuntimeError, MemoryError, ValueError) as err:
             record["error"] = str(err)[:200]
-        record["peak_bytes"] = peak_memory()
+        record["peak_bytes"] = peak_memory() - (triad.nbytes if triad else 0)
+        if triad:
+            triad.destroy()
         out["cases"][key((algorithm, solver))] = record
     np.savez(spec["u_out"], **displacements)  # type: ignore[arg-type]  # numpy's stubs: ** may hold allow_pickle
     return out
