@@ -324,12 +324,13 @@ def write_report(
         "1 / S, alpha M_L, v and a read; v, a and the next step's u written: the step is one "
         "pass, solvers/explicit_lumped.py), a lower bound for any implementation with this "
         "storage. step GB/s = bytes / step time, the bandwidth the step achieved, beside the "
-        "triad's. Where the matrix holds 64 MiB or more, the triad is sampled between the "
+        "triad's. Where a row gives the triad's spread, the triad was sampled between the "
         "steps (before the first and after every 5th, each sample the best of 3) and the limit "
-        "uses the median of these samples, their range given as the spread: step and triad are "
-        "then measured under the same conditions, which a shared machine's bandwidth, swinging "
-        "within minutes, would not otherwise give. Elsewhere the triad is the worker's one, "
-        "before its cases. The peer is held against its CSR bytes and its own triad samples; "
+        "uses the median of these samples: step and triad are then measured under the same "
+        "conditions, which a shared machine's bandwidth, swinging within minutes, would not "
+        "otherwise give. Where it gives none ('-'), the triad is the worker's one, taken before "
+        "its cases. The peer is held against its CSR bytes and its own triad samples where it "
+        "has them (else ours' 1-rank triad); "
         "ours/peer at equal triad = (our step x our triad) / (the peer's step x its triad), the "
         "ratio the two would have at one bandwidth.",
         "",

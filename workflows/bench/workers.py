@@ -251,7 +251,8 @@ def ours_worker(spec: dict) -> dict:
         times: list[float] = []
         iterations: list[int] = []
         triad = None
-        if label == "explicit-lumped" and comm.allreduce(system.K_csr.nbytes) >= TRIAD_AROUND_BYTES:
+        step_bytes = explicit_lumped_bytes(comm.allreduce(system.K_csr.nbytes), system.num_dofs())
+        if label == "explicit-lumped" and step_bytes >= TRIAD_AROUND_BYTES:
             triad = Triad(comm)  # made before the peak-memory reset; its bytes are taken off
         gc.collect()
         reset_peak_memory()
@@ -419,7 +420,7 @@ def peer_worker(spec: dict) -> dict:
         h = spec["h"][algorithm]
         record = {"h": h, "steps": steps}
         triad = None
-        if algorithm == "explicit-lumped" and out["matrix_bytes"] >= TRIAD_AROUND_BYTES:
+        if algorithm == "explicit-lumped" and out["explicit_lumped_bytes"] >= TRIAD_AROUND_BYTES:
             triad = Triad(MPI.COMM_SELF)  # as ours_worker's
         gc.collect()
         reset_peak_memory()

@@ -78,7 +78,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "DIR/performance-contact-3d.md and .json; paths: the commands a user waits on, each "
         "timed whole (a first and a warm `paper`, `truth rod` and `truth contact-MP1`, `run`'s "
         "phases, a 1e5-node `compare`, a 200-user leaderboard) with their printed estimates, "
-        "into DIR/performance-paths.md and .json (about 25 min)",
+        "into DIR/performance-paths.md and .json (about 30 min)",
     )
     p.add_argument(
         "--users",
