@@ -24,7 +24,7 @@ substitutions (`small`), which keep the whole block to a few minutes on one core
   beyond this test's few minutes); without it the line is not run and a warning says so;
 - `make bench`: `tissuebench bench --quick` (what it runs), where the bench extra is installed;
   `bench --only explicit-models`: its `--quick`; `bench --only paths` times the user's commands
-  whole (a first `paper` among them: about 10 minutes, no quick form) and is not run.
+  whole (a first `paper` among them: about 30 minutes, no quick form) and is not run.
 
 A line whose tool is missing here (ccx for the CalculiX line, the bench extra for `make bench`)
 or whose truths are not computed here (`paper`, `frontier` and `compare truth:rod` grade
@@ -176,7 +176,7 @@ def small(argv: list[str], folder: Path) -> tuple[list[str] | None, str | None]:
     if command == "bench" and "paths" in argv:
         return None, (
             "bench --only paths: the user's commands timed whole, a first paper among them (about "
-            "10 minutes; no quick form: its committed run is results/performance-paths.md)"
+            "30 minutes; no quick form: its committed run is results/performance-paths.md)"
         )
     if command == "bench":
         return option(argv, "--quick", None), None
