@@ -144,12 +144,11 @@ def test_limit_uses_the_triad_sampled_between_the_steps():
 
 
 def test_triad_is_sampled_before_the_first_step_and_after_every_fifth():
-    """workers.timed_steps on a real triad: 1 + steps // TRIAD_EVERY samples, each a finite
+    """triad.timed_steps on a real triad: 1 + steps // TRIAD_EVERY samples, each a finite
     positive bandwidth, the steps timed in order and the state carried through."""
     from mpi4py import MPI
 
-    from tissuebench.workflows.bench.measure import TRIAD_EVERY
-    from tissuebench.workflows.bench.workers import Triad, timed_steps
+    from tissuebench.workflows.bench.triad import TRIAD_EVERY, Triad, timed_steps
 
     triad = Triad(MPI.COMM_WORLD, size=2**16)
     times: list[float] = []

@@ -37,15 +37,6 @@ from tissuebench.workflows.io.output import PREFIX, make_temporary, remove_tempo
 STEPS = 30  # steps of a timed run; the displacements after them are compared
 SHORT = 12  # steps of a run too costly for STEPS (no displacement check)
 WARMUP = {STEPS: 5, SHORT: 2}  # first steps left out of the per-step median (25 or 10 remain)
-TRIAD_SIZE = 2**24  # entries of each triad vector (128 MiB): far beyond the caches
-# The explicit-lumped step that moves at least TRIAD_AROUND_BYTES a step (this machine's 32 MiB
-# L3: its data passes through memory every step, so a triad between its steps evicts nothing it
-# would have kept) is timed between triad samples: one before its first step and one after
-# every TRIAD_EVERY steps, each the best of TRIAD_REPEATS triads; its limit uses their median
-# (workers.timed_steps). The sweep's sizes of 2e5 dofs and more are all above it.
-TRIAD_AROUND_BYTES = 32 * 2**20
-TRIAD_EVERY = 5
-TRIAD_REPEATS = 3
 SAFETY = 0.9  # explicit schemes run at SAFETY x their critical step 2 / omega_max (<= 1/30 s)
 DIRECT_TOL = 1e-10  # relative displacement difference allowed between direct solvers
 THREAD_VARS = (

@@ -218,7 +218,7 @@ def load_cell(side: dict) -> str:
 
 def step_triad(rec: dict, side: str, case: tuple[str, str] = ("explicit-lumped", "-")) -> float:
     """The triad bandwidth (bytes/s) a side's step is held against: the median of the samples
-    taken between its steps (workers.timed_steps) where it has them, else its worker's one
+    taken between its steps (triad.timed_steps) where it has them, else its worker's one
     triad (the peer's: the 1-rank worker's)."""
     own = get(rec, side, case, "triad_Bps")
     if own:

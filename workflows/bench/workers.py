@@ -18,7 +18,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -32,19 +32,14 @@ from tissuebench.workflows.bench.measure import (
     ROUNDS,
     SAFETY,
     STEPS,
-    TRIAD_AROUND_BYTES,
-    TRIAD_EVERY,
-    TRIAD_REPEATS,
-    TRIAD_SIZE,
     WARMUP,
     case_scheme,
     key,
     split_case_label,
 )
+from tissuebench.workflows.bench.triad import keep_samples, sampler, timed_steps, triad_bandwidth
 
 if TYPE_CHECKING:
-    from mpi4py import MPI
-
     from tissuebench.solvers.system import System
 
 
@@ -73,78 +68,6 @@ def median_step(times: list[float]) -> float:
 
 
 # --- the worker for tissuebench (ours), 1 or 2 ranks ------------------------------------------
-
-
-class Triad:
-    """The STREAM-like triad w = 3 x + y on `size` entries spread over comm's ranks (24 bytes
-    per entry: two reads, one write), its vectors made once; sample() is one measurement."""
-
-    def __init__(self, comm: MPI.Comm, size: int = TRIAD_SIZE) -> None:
-        from petsc4py import PETSc
-
-        self.comm, self.size = comm, size
-        self.x = PETSc.Vec().createMPI((PETSc.DECIDE, size), comm=comm)  # type: ignore[arg-type]  # petsc4py's stubs: it takes an mpi4py Comm
-        self.y, self.w = self.x.duplicate(), self.x.duplicate()
-        self.x.set(1.0)
-        self.y.set(2.0)
-        self.w.set(0.0)
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes its three vectors hold on all ranks together."""
-        return 3 * 8 * self.size
-
-    def sample(self, repeats: int = 10) -> float:
-        """Best bandwidth over `repeats` triads on all ranks at once, bytes/s."""
-        best = math.inf
-        for _ in range(repeats):
-            self.comm.Barrier()
-            start = time.perf_counter()
-            self.w.waxpy(3.0, self.x, self.y)
-            self.comm.Barrier()
-            best = min(best, time.perf_counter() - start)
-        return 24 * self.size / best
-
-    def destroy(self) -> None:
-        for v in (self.x, self.y, self.w):
-            v.destroy()
-
-
-def triad_bandwidth(comm: MPI.Comm, size: int = TRIAD_SIZE, repeats: int = 10) -> float:
-    """Best STREAM-like triad bandwidth over all ranks at once, bytes/s (Triad.sample)."""
-    triad = Triad(comm, size)
-    try:
-        return triad.sample(repeats)
-    finally:
-        triad.destroy()
-
-
-def timed_steps(
-    step: Callable[[Any], Any],
-    state: Any,
-    steps: int,
-    comm: MPI.Comm,
-    times: list[float],
-    triad: Triad | None = None,
-    after: Callable[[], None] | None = None,
-) -> tuple[Any, list[float]]:
-    """`steps` steps of `step` from `state`, each timed (s) between barriers into `times` (kept
-    up to a step that raises), `after` called after each outside the timing; with `triad`, a
-    triad sample (bytes/s) before the first step and after every TRIAD_EVERY steps, so that the
-    step and the bandwidth it is held against are measured under the same conditions (a
-    shared machine's bandwidth swings within minutes). Returns (state, samples)."""
-    samples = [triad.sample(TRIAD_REPEATS)] if triad else []
-    for i in range(steps):
-        comm.Barrier()
-        start = time.perf_counter()
-        state = step(state)
-        comm.Barrier()
-        times.append(time.perf_counter() - start)
-        if after:
-            after()
-        if triad and (i + 1) % TRIAD_EVERY == 0:
-            samples.append(triad.sample(TRIAD_REPEATS))
-    return state, samples
 
 
 def explicit_lumped_bytes(matrix_bytes: int, n: int) -> int:
@@ -250,10 +173,8 @@ def ours_worker(spec: dict) -> dict:
         record = {"h": h[label], "steps": steps}
         times: list[float] = []
         iterations: list[int] = []
-        triad = None
         step_bytes = explicit_lumped_bytes(comm.allreduce(system.K_csr.nbytes), system.num_dofs())
-        if label == "explicit-lumped" and step_bytes >= TRIAD_AROUND_BYTES:
-            triad = Triad(comm)  # made before the peak-memory reset; its bytes are taken off
+        triad = sampler(label == "explicit-lumped", step_bytes, comm)  # before the peak's reset
         gc.collect()
         reset_peak_memory()
         try:
@@ -287,9 +208,7 @@ def ours_worker(spec: dict) -> dict:
                 triad,
                 after=count_iterations if count else None,
             )
-            if samples:
-                record["triad_Bps"] = float(np.median(samples))
-                record["triad_samples_Bps"] = samples
+            keep_samples(record, samples)
             record["step_s"] = median_step(times)
             record["steps_s"] = times
             finite = bool(np.isfinite(state.u.array_r).all())
@@ -419,9 +338,7 @@ def peer_worker(spec: dict) -> dict:
     for algorithm, solver, steps in spec["cases"]:
         h = spec["h"][algorithm]
         record = {"h": h, "steps": steps}
-        triad = None
-        if algorithm == "explicit-lumped" and out["explicit_lumped_bytes"] >= TRIAD_AROUND_BYTES:
-            triad = Triad(MPI.COMM_SELF)  # as ours_worker's
+        triad = sampler(algorithm == "explicit-lumped", out["explicit_lumped_bytes"], MPI.COMM_SELF)
         gc.collect()
         reset_peak_memory()
         try:
@@ -431,9 +348,7 @@ def peer_worker(spec: dict) -> dict:
             record["setup_s"] = time.perf_counter() - start
             times: list[float] = []
             state, samples = timed_steps(integrator.step, state, steps, MPI.COMM_SELF, times, triad)
-            if samples:
-                record["triad_Bps"] = float(np.median(samples))
-                record["triad_samples_Bps"] = samples
+            keep_samples(record, samples)
             record["step_s"] = median_step(times)
             record["steps_s"] = times
             if isinstance(integrator.solve, peer.PyamgCG):
