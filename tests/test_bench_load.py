@@ -163,3 +163,48 @@ def test_triad_is_sampled_before_the_first_step_and_after_every_fifth():
     assert len(samples) == 1 + 12 // TRIAD_EVERY
     assert all(math.isfinite(b) and b > 0 for b in samples)
     assert triad.nbytes == 3 * 8 * 2**16
+
+
+def test_a_target_the_triad_forbids_says_so():
+    """Issue 61's done-when: a missed explicit-lumped target says where the bandwidth measured
+    beside the step forbids it. Ours/peer: forbidden where 0.7 x the peer's step is shorter
+    than our own limit (bytes / our triad); the 2-rank speed-up: where the 2-rank triad is
+    less than 1.7 x the 1-rank one. Synthetic numbers: one size of each kind."""
+    from tissuebench.workflows.bench.targets import targets
+
+    nbytes = 100e6
+
+    def record(size, ours_s, ours_triad, peer_s, ours2_s, triad2):
+        ours1 = side(ours_s, ours_triad, 0.0, bytes_=nbytes)
+        ours2 = side(ours2_s, triad2, 0.0, bytes_=nbytes)
+        for ours in (ours1, ours2):
+            ours["cases"]["explicit-lumped/-"]["h"] = 1 / 30  # s
+        peer = {"cases": {"explicit-lumped/-": {"step_s": peer_s, "triad_Bps": 20e9}}}
+        return {
+            "benchmark": "rod",
+            "size": size,
+            "dofs": 300_000,
+            "ours1": ours1,
+            "ours2": ours2,
+            "peer": peer,
+        }
+
+    # rod 32: our limit 100e6 / 10e9 = 10 ms > 0.7 x 12 ms: forbidden; its 2 ranks 1.8x
+    # rod 48: our limit 5 ms, ours 10 ms, peer 12 ms (0.83): not forbidden; 2 ranks 1.25x on
+    # triads 30/20 = 1.5 < 1.7: forbidden
+    recs = [
+        record(32, 0.011, 10e9, 0.012, 0.011 / 1.8, 30e9),
+        record(48, 0.010, 20e9, 0.012, 0.008, 30e9),
+    ]
+    header, rows = targets(recs)
+    status = {row[0]: row[header.index("status")] for row in rows}
+    assert status["explicit-lumped step: ours/peer"] == (
+        "NOT met; the triad forbids it at rod 32, not at rod 48"
+    )
+    speed_up = status["2 ranks vs 1: explicit-lumped - step speed-up"]
+    assert speed_up == "NOT met; the triad forbids it at rod 48"
+    # the 2-rank triad at 1.7 x the 1-rank one: no longer forbidden
+    recs[1]["ours2"]["triad_Bps"] = 34e9
+    header, rows = targets(recs)
+    status = {row[0]: row[header.index("status")] for row in rows}
+    assert status["2 ranks vs 1: explicit-lumped - step speed-up"] == "NOT met"
