@@ -20,7 +20,7 @@ from tissuebench.workflows.io.output import (
     write_set,
 )
 from tissuebench.workflows.io.tables import CSVError, read_rows
-from tissuebench.workflows.leaderboard import document, frontier_rows, page, users
+from tissuebench.workflows.leaderboard import document, frontier_rows, page, resume, users
 from tissuebench.workflows.leaderboard.boards import is_contact
 from tissuebench.workflows.leaderboard.figures import (
     drawing_code,
@@ -291,10 +291,24 @@ def main(args: argparse.Namespace) -> int:
     interrupt.will_write(  # named on a signal: the old ones stay as they were
         [out / name for name in OWNED] + [out / FOLDER / "*.png", out / FOLDER / "index.html"]
     )
-    for board in fresh:
+    # each case rerun is graded against its truth as it ends and kept (resume.Finished), so that
+    # a rerun stopped part way resumes from the cases it finished
+    finished = resume.Finished(out) if comm.rank == 0 and fresh else None
+    for i, board in enumerate(fresh):
+        taken = finished.take(board) if finished is not None else None
+        if comm.bcast(taken is not None, root=0):
+            if taken is not None:  # rank 0: the case as that run left it
+                fresh[i] = boards[boards.index(board)] = taken[0]
+                rows[board.name], notes[board.name] = taken[1], taken[2]
+            else:  # the other ranks: rank 0's rows are the ones read
+                rows[board.name], notes[board.name] = [], []
+            continue
         start = load_average()
         rows[board.name], notes[board.name] = run_board(board, out, args.solver, args.petsc, comm)
         board.load = (start, load_average())
+        if finished is not None:  # rank 0: against the truth (serial), then kept
+            grade_truths([board], rows)
+            finished.keep(board, rows[board.name], notes[board.name])
     for board, board_rows in studied:
         mark_pareto(board_rows)  # the mesh-sensitivity study's runs
         study_series(out, board, board_rows)
@@ -303,7 +317,7 @@ def main(args: argparse.Namespace) -> int:
         rows[board.name], notes[board.name] = board_rows, []
     graded, progress = {}, None
     if comm.rank == 0:  # against the truth: serial, on rank 0, which writes
-        grade_truths(fresh + [b for b, _ in studied], rows)
+        grade_truths([b for b, _ in studied], rows)  # the reruns': graded as each ended
         graded = {  # users' rows of the record graded against the truth of a case not rerun
             user_key(r): r
             for b in kept_boards
@@ -358,6 +372,8 @@ def main(args: argparse.Namespace) -> int:
     if comm.rank == 0:
         assert progress is not None  # rank 0's
         progress.done()
+    if finished is not None:
+        finished.done()
     interrupt.will_write([])  # all written
     if comm.rank == 0:
         what = "rerun " + ", ".join(rerun) if rerun else f"from the record {source / RECORD}"
