@@ -221,7 +221,7 @@ def test_the_cache_key_follows_the_code_not_its_text(tmp_path, monkeypatch):
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text((store.PACKAGE / name).read_text())
     monkeypatch.setattr(store, "PACKAGE", tmp_path)
-    before = store._code()
+    before = store.code_hash()
     solver = tmp_path / "solvers/truth/solver.py"
     text = solver.read_text()
     edited = text.replace('"""', '"""An edited docstring. ', 1)
@@ -229,13 +229,13 @@ def test_the_cache_key_follows_the_code_not_its_text(tmp_path, monkeypatch):
     edited = edited.replace("-> None:", "-> 'None':")
     assert edited != text
     solver.write_text(edited)
-    assert store._code() == before
+    assert store.code_hash() == before
     numbers = store.SOURCES.index("solvers/materials.py")
     materials = tmp_path / store.SOURCES[numbers]
     changed = materials.read_text().replace("0.47", "0.471", 1)
     assert changed != materials.read_text()
     materials.write_text(changed)
-    assert store._code() != before
+    assert store.code_hash() != before
 
 
 def test_the_report_says_what_the_smallest_jacobian_means():

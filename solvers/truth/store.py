@@ -229,7 +229,7 @@ def _tree(path: Path) -> str:
     return _TREES[key]
 
 
-def _code(sources: tuple[str, ...] | None = None) -> str:
+def code_hash(sources: tuple[str, ...] | None = None) -> str:
     """The SHA-256 of the truth's sources (`sources`, default SOURCES), in order: of their
     code, not of their text, so that moving an import, a docstring, a type hint or the layout
     keeps the cache."""
@@ -261,13 +261,14 @@ def inputs(case: str, quick: bool = False) -> dict:
     # step h to the half step: in the key of the contact cases alone, whose truths it is part of
     checks = {"penalty_check": {"times": PENALTY_CHECK, "step": "h / 2k"}} if entry.tool else {}
     if case in FLOOR_CASES:  # its Newton may stop at the round-off floor (floor.py): its key alone
-        checks["newton_floor"] = {"rtol": FLOOR_RTOL, "code": _code(("solvers/truth/floor.py",))}
+        floor = code_hash(("solvers/truth/floor.py",))
+        checks["newton_floor"] = {"rtol": FLOOR_RTOL, "code": floor}
     if case in MERIDIAN_LEVELS:  # SPEC 13: computed on the meridian; graders revolve it
         form = f"axisymmetric {form} on the meridian (r, z), dV = 2 pi r dr dz"
         checks["axisymmetric"] = {
             "axis": "z",
             "meridian": "(r, z) in [0, R_B] x [0, H]",
-            "code": _code(AXISYMMETRIC_SOURCES),
+            "code": code_hash(AXISYMMETRIC_SOURCES),
         }
     return {
         **checks,
@@ -289,7 +290,7 @@ def inputs(case: str, quick: bool = False) -> dict:
         "sampling": SAMPLING,
         "quick": quick,
         "versions": _versions(),
-        "code": _code(),
+        "code": code_hash(),
     }
 
 

@@ -12,12 +12,11 @@ whole rerun is written. The series files the rows point at stay where the first 
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import asdict
-from importlib import import_module
 from pathlib import Path
 
+from tissuebench.solvers.truth.store import PACKAGE, code_hash
 from tissuebench.workflows.io.manifest import file_hash, read_manifest
 from tissuebench.workflows.io.output import check_owned, write_owned
 from tissuebench.workflows.leaderboard.record import (
@@ -34,17 +33,10 @@ PACKAGES = ("core", "meshes", "metrics", "solvers", "workflows")  # tissuebench'
 
 
 def source_code() -> str:
-    """SHA-256 of every tissuebench source file (.py, and the page's templates), by path
-    relative to its package and content: what ran a case."""
-    digest = hashlib.sha256()
-    for name in PACKAGES:
-        root = Path(import_module(f"tissuebench.{name}").__file__).parent  # type: ignore[arg-type]
-        for path in sorted(p for p in root.rglob("*") if p.suffix in (".py", ".j2", ".css", ".js")):
-            if "__pycache__" in path.parts:
-                continue
-            digest.update(f"{name}/{path.relative_to(root).as_posix()}\0".encode())
-            digest.update(path.read_bytes())
-    return digest.hexdigest()
+    """SHA-256 of the code of every tissuebench source (.py), as the truth's cache key hashes
+    its own (store.code_hash: docstrings, type hints and layout aside): what ran a case."""
+    files = (p.relative_to(PACKAGE) for name in PACKAGES for p in (PACKAGE / name).rglob("*.py"))
+    return code_hash(tuple(sorted(f.as_posix() for f in files)))
 
 
 def definition(board: Board) -> str:
