@@ -165,3 +165,55 @@ def test_a_full_bench_reports_the_paths_it_timed(tmp_path, monkeypatch):
     assert row in section and row in written
     assert "--no-figures: NOT met (at most 2.5 s)." in section
     assert "Not timed in a quick run" in "\n".join(paths_section(None))
+
+
+def test_the_warm_papers_time_by_part_and_kind(tmp_path):
+    """paper_parts sums each case's phases by part of the study and kind of phase, from the
+    folders of the study's own cases (others in OUT, and cases not run, are not counted); the
+    report gives the table with its sum and the paper's wall time beside it, and leaves the
+    section out of a run that did not measure it."""
+    from tissuebench.workflows.bench import paper_parts
+    from tissuebench.workflows.study.common import LARGE_DEFORMATION
+
+    def case(folder, runs, phases_s):
+        folder.mkdir(parents=True)
+        summary = {"runs": dict.fromkeys(runs, {}), "phases_s": phases_s}
+        (folder / "summary.json").write_text(json.dumps(summary))
+        return folder
+
+    large = tmp_path / LARGE_DEFORMATION
+    big = {"run a+svk": 10.0, "run b+svk": 20.0, "metrics": 30.0, "figures": 5.0}
+    parts = {
+        paper_parts.PART_1: [
+            case(tmp_path / "rod", "ab", {"mesh": 0.5, "run a": 1.0, "run b": 2.0, "metrics": 3.0}),
+            tmp_path / "not-run",
+        ],
+        paper_parts.TRUTH: [
+            case(tmp_path / "t", "a", {"run a": 0.25, "figures": 4.0, "output": 1.0})
+        ],
+        paper_parts.PART_2: [
+            case(large / "rod-s3", "abcd", big),
+            case(large / "block-s2", "ab", {"run a": 1.0, "forms": 0.5}),
+        ],
+    }
+    case(tmp_path / "leaderboard", "abc", {"run a": 100.0})  # not the paper's
+    found = paper_parts.paper_parts(tmp_path, parts)
+    one, two, truth = (
+        found[p] for p in (paper_parts.PART_1, paper_parts.PART_2, paper_parts.TRUTH)
+    )
+    assert (one["cases"], one["runs"], one["time loops"], one["metrics"], one["the rest"]) == (
+        1, 2, 3.0, 3.0, 0.5)  # fmt: skip
+    assert (two["cases"], two["runs"], two["time loops"], two["metrics"], two["the rest"]) == (
+        2, 6, 31.0, 30.0, 0.5)  # fmt: skip
+    assert (truth["time loops"], truth["figures"], truth["output"]) == (0.25, 4.0, 1.0)
+    lines = paper_parts.table(found, wall_s=40.0)
+    total = 6.5 + 66.5 + 5.25
+    all_row = f"| all the cases | 4 | 9 | 34.2 | 33.0 | 9.0 | 1.0 | 1.0 | {total:.1f} | 100% |"
+    assert all_row in lines
+    assert lines[-1].endswith(f"add up to {total:.1f} s of one core's time (1.96 x the wall time).")
+    assert paper_parts.paper_parts(tmp_path / "leaderboard") == {}  # no case of the study
+    record = paper_record(300.0) | {"name": "paper, warm", "wall_s": 40.0}
+    result = {"when": "now", "slowdown": 1.0, "records": [record], "estimates": [], "runs": {}}
+    assert "## Where the warm `paper`" not in report(result, "m")
+    text = report(result | {"paper_parts": found}, "m")
+    assert "## Where the warm `paper` spends its time" in text and lines[-1] in text

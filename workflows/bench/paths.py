@@ -8,7 +8,8 @@ with the time each line came:
    check, about 13 min) from an empty truth cache (a folder of the run's own);
 2. `paper` from an empty truth cache (another), as a first `make paper` is: its truths
    computed first, --jobs at a time, then the study; and `paper` again into a new folder, warm
-   (its truths cached, its forms compiled);
+   (its truths cached, its forms compiled), with where its time goes by part of the study
+   and kind of phase (workflows/bench/paper_parts.py);
 3. `run rod` and `run block` (the paper's rod and block, their defaults), warm: with
    --no-figures and with figures, their phases (summary.json's phases_s) split into the time
    loops ("run ...") and the rest; and `run rod --mesh-size PARALLEL_N --no-figures` on one
@@ -185,7 +186,7 @@ def candidate(folder: Path) -> Path:
 def measure(work: Path, log: Callable[[str], None]) -> dict:
     """Every path, timed in work (caches and outputs there)."""
     from tissuebench.core.speed import slowdown
-    from tissuebench.workflows.bench import leaderboard_users
+    from tissuebench.workflows.bench import leaderboard_users, paper_parts
 
     tb = tissuebench()
     slow = slowdown()
@@ -204,6 +205,8 @@ def measure(work: Path, log: Callable[[str], None]) -> dict:
         ("paper, warm", [tb, "paper", "--out", str(work / "paper-2")], second),
     ]
     records = [timed(name, argv, cache, log) for name, argv, cache in commands]
+    warm = records[-1]  # where its time goes, by part of the study and kind of phase
+    parts = paper_parts.paper_parts(work / "paper-2") if warm.code == 0 else None
     runs = {}
     for benchmark in PAPER_BENCHMARKS:
         for figures in (False, True):
@@ -245,6 +248,7 @@ def measure(work: Path, log: Callable[[str], None]) -> dict:
         "records": [asdict(r) for r in records],
         "estimates": [e for r in records for e in estimates(r)],
         "runs": runs,
+        "paper_parts": parts,
     }
 
 
@@ -285,6 +289,8 @@ def outside_target(result: dict) -> str | None:
 
 def report(result: dict, machine: str) -> str:
     """performance-paths.md from measure()'s result."""
+    from tissuebench.workflows.bench import paper_parts
+
     lines = [
         "# The paths a user waits on",
         "",
@@ -330,6 +336,21 @@ def report(result: dict, machine: str) -> str:
     sentence = outside_target(result)
     if sentence is not None:
         lines += ["", sentence]
+    if result.get("paper_parts"):  # measured since issue 59 item 8: absent from older runs
+        wall = next((r["wall_s"] for r in result["records"] if r["name"] == "paper, warm"), None)
+        lines += [
+            "",
+            "## Where the warm `paper` spends its time",
+            "",
+            "Its cases' phases (summary.json's phases_s, s of one core) summed by part of the "
+            "study and kind of phase (workflows/bench/paper_parts.py). A warm paper shares part "
+            "2's cases with a second process beside its own, so the cases' sum can exceed the "
+            "wall time; what no case "
+            "holds (Python's start, the grading against the truth after the cases, the report) "
+            "is the rest of the wall time.",
+            "",
+            *paper_parts.table(result["paper_parts"], wall),
+        ]
     lines += [
         "",
         "## Estimates against the times they estimated",
