@@ -123,6 +123,29 @@ def test_a_row_without_a_curve_reads_no_file(tmp_path, monkeypatch):
     assert "its force is not recorded" in row.contact["force_error_how"]
 
 
+def test_a_run_that_ended_early_is_marked_where_it_ended(tmp_path, monkeypatch):
+    """A row that failed at its first step carries one sample: its curve draws no line, so
+    it is marked with an x at its last sample and its status and time are in the legend; a
+    row that finished is drawn as before, unmarked."""
+    ended = curve(steps=1)
+    rows = [
+        contact_row(force_curve=curve()),
+        replace(contact_row("sim:one", "sim", force_curve=ended), status="failed"),
+    ]
+    lines, _ = drawn(monkeypatch, tmp_path, replace(BOARD, truth=None), rows)
+    x, y = lines["sim:one (failed at t = 0 s: x)"]
+    assert np.array_equal(x, ended["times"]) and np.array_equal(y, [ended["force"][0][0]])
+    assert "implicit (reference)" in lines
+
+    from matplotlib.figure import Figure
+
+    figures = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, *a, **k: figures.append(fig))
+    force_figure.plot_force(tmp_path / "again.png", replace(BOARD, truth=None), rows)
+    marks = {line.get_label(): line.get_marker() for line in figures[0].axes[0].get_lines()}
+    assert marks == {"implicit (reference)": "None", "sim:one (failed at t = 0 s: x)": "x"}
+
+
 @pytest.mark.parametrize(
     "bad",
     [

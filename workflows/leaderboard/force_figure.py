@@ -39,7 +39,9 @@ def force_png(out: Path, board: Board) -> Path:
 
 def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     """The force along the push against t of each row that carries its force curve (row_force;
-    ours solid, the simulators' dashed, a run that did not finish to where it ended), and the
+    ours solid, the simulators' dashed, a run that did not finish to where it ended, marked
+    there with x and its status in the legend, so that one that ended at its first step is
+    seen), and the
     truth's (black, with its own error as a grey band) where it is in the cache; a row that
     handed a force file whose curve is not recorded is named in the figure's note."""
     from matplotlib.figure import Figure
@@ -70,15 +72,20 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
             continue
         times, f = found
         ours = row.source == "tissuebench"
+        ended = row.status != "ok"  # its curve stops where the run did: marked there
         ax.plot(
             times,
             f[:, tool] if f.shape[1] > tool else np.full(len(times), np.nan),
             "-" if ours else "--",
+            marker="x" if ended else None,
+            markevery=[len(times) - 1] if ended else None,
             lw=2.4 if row.reference else (1.0 if ours else 0.8),
             zorder=3 if row.reference else 2,  # on top: the others are graded against it
             alpha=0.75 if row.reference or not ours else 1.0,  # a simulator's may chatter
             color=f"C{k % 10}",
-            label=plain(row.label) + (" (reference)" if row.reference else ""),
+            label=plain(row.label)
+            + (" (reference)" if row.reference else "")
+            + (f" ({row.status} at t = {times[-1]:.3g} s: x)" if ended else ""),
         )
     untold = [r.label for r in rows if r.contact and not (r.force or r.force_curve is not None)]
     ax.set_xlabel("time t (s)")
