@@ -6,10 +6,10 @@ the paper against the truth (SPEC 10) and part 2 (the large-deformation cases, S
 OUT/large-deformation/), each case the study's own (workflows/study/); the other folders of
 OUT (results/ holds the leaderboard's, the frontier's, ...) are not read. The kinds: the time
 loops (the phases "run ..."), the metrics, the figures, the output (XDMF) and the rest (mesh,
-forms). What no case's summary holds (Python's
-start, the grading against the truth after the cases, the report) is the paper's wall time
-less its cases' share of it: on two processes (a warm paper shares part 2's cases with a
-second process beside its own) the cases' sum can exceed the wall time.
+forms). What no case's summary holds (Python's start, the grading against the truth after the
+cases, the report) is the paper's wall time less its cases' share of it: on two processes (a
+warm paper shares part 2's cases with a second process beside its own) the cases' sum can
+exceed the wall time.
 
 `python -m tissuebench.workflows.bench.paper_parts OUT` prints the table of a paper's folder.
 """
@@ -21,6 +21,9 @@ import sys
 from pathlib import Path
 
 KINDS = ("time loops", "metrics", "figures", "output", "the rest")
+PART_1 = "part 1: the paper's cases and claims (SPEC 4, 5, 7)"
+TRUTH = "the paper against the truth (SPEC 10)"
+PART_2 = "part 2: large deformation (SPEC 8)"
 
 
 def kind(phase: str) -> str:
@@ -28,11 +31,6 @@ def kind(phase: str) -> str:
     if phase.startswith("run "):
         return "time loops"
     return phase if phase in KINDS else "the rest"
-
-
-PART_1 = "part 1: the paper's cases and claims (SPEC 4, 5, 7)"
-TRUTH = "the paper against the truth (SPEC 10)"
-PART_2 = "part 2: large deformation (SPEC 8)"
 
 
 def folders(out: Path) -> dict[str, list[Path]]:

@@ -345,9 +345,8 @@ def report(result: dict, machine: str) -> str:
             "Its cases' phases (summary.json's phases_s, s of one core) summed by part of the "
             "study and kind of phase (workflows/bench/paper_parts.py). A warm paper shares part "
             "2's cases with a second process beside its own, so the cases' sum can exceed the "
-            "wall time; what no case "
-            "holds (Python's start, the grading against the truth after the cases, the report) "
-            "is the rest of the wall time.",
+            "wall time; what no case holds (Python's start, the grading against the truth after "
+            "the cases, the report) is the rest of the wall time.",
             "",
             *paper_parts.table(result["paper_parts"], wall),
         ]

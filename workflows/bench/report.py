@@ -224,9 +224,8 @@ FORBIDS_TEXT = (
     "target, a step at its memory-bandwidth limit (its bytes read once at the triad measured "
     "beside it: the bandwidth table below) would miss it too. Ours/peer: 0.7 x the peer's step "
     "is shorter than our step's own limit there (its bytes at the triad sampled between its "
-    "steps). The 2-rank "
-    "speed-up: the 2-rank triad was less than 1.7 x the 1-rank one; a step at its limit on 1 and "
-    "on 2 ranks moves the same bytes, so it speeds up by the triads' ratio."
+    "steps). The 2-rank speed-up: the 2-rank triad was less than 1.7 x the 1-rank one; a step "
+    "at its limit on 1 and on 2 ranks moves the same bytes, so it speeds up by the triads' ratio."
 )
 
 

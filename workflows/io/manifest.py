@@ -96,6 +96,13 @@ def changes(folder: Path) -> tuple[list[str], list[str], list[str]] | None:
     return added, modified, sorted(set(listed) - seen)
 
 
+def unchanged(path: Path) -> bool:
+    """Whether a loose file of ours is in place as we wrote it (listed in its folder's
+    manifest of files with its present hash)."""
+    listed = read_manifest(path.parent, "files") or {}
+    return path.is_file() and listed.get(path.name) == file_hash(path)
+
+
 def is_ours(folder: Path) -> bool:
     """True if the folder carries our manifest and nothing in it was added or changed."""
     found = changes(folder)

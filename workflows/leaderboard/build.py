@@ -12,7 +12,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from tissuebench.core import interrupt
-from tissuebench.workflows.io.manifest import file_hash, read_manifest
+from tissuebench.workflows.io.manifest import unchanged
 from tissuebench.workflows.io.output import (
     OutputError,
     check_writable,
@@ -132,13 +132,6 @@ def load_average() -> float:
         return round(os.getloadavg()[0], 2)
     except (OSError, AttributeError):
         return float("nan")
-
-
-def unchanged(path: Path) -> bool:
-    """Whether a file of ours is in place as we wrote it (listed in its folder's manifest with
-    its present hash)."""
-    listed = read_manifest(path.parent, "files") or {}
-    return path.is_file() and listed.get(path.name) == file_hash(path)
 
 
 def as_drawn_now(png: Path, code: str | None = None) -> bool:

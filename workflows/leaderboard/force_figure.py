@@ -41,9 +41,8 @@ def plot_force(path: Path, board: Board, rows: list[Row]) -> None:
     """The force along the push against t of each row that carries its force curve (row_force;
     ours solid, the simulators' dashed, a run that did not finish to where it ended, marked
     there with x and its status in the legend, so that one that ended at its first step is
-    seen), and the
-    truth's (black, with its own error as a grey band) where it is in the cache; a row that
-    handed a force file whose curve is not recorded is named in the figure's note."""
+    seen), and the truth's (black, with its own error as a grey band) where it is in the cache;
+    a row that handed a force file whose curve is not recorded is named in the figure's note."""
     from matplotlib.figure import Figure
 
     from tissuebench.workflows.leaderboard.figures import STAMP

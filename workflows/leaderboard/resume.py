@@ -17,7 +17,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from tissuebench.solvers.truth.store import PACKAGE, code_hash
-from tissuebench.workflows.io.manifest import file_hash, read_manifest
+from tissuebench.workflows.io.manifest import unchanged
 from tissuebench.workflows.io.output import check_owned, write_owned
 from tissuebench.workflows.leaderboard.record import (
     FOLDER,
@@ -62,8 +62,7 @@ class Finished:
     def _read(self) -> dict[str, tuple[Board, list[Row], list[str]]]:
         """The file as we wrote it (its hash in the folder's manifest) and of today's sources;
         {} otherwise (a file of other sources: one line says it is not taken)."""
-        listed = read_manifest(self.path.parent, "files") or {}
-        if not self.path.is_file() or listed.get(DONE) != file_hash(self.path):
+        if not unchanged(self.path):
             return {}
         try:
             text = self.path.read_text()
